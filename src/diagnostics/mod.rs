@@ -1,0 +1,189 @@
+//! What a run reports: time-series rows, snapshots of particle and grid
+//! fields, progress, and the final summary. The engine fills these; the
+//! output writers and (later) the job runner consume them through
+//! [`Observer`].
+
+use serde::Serialize;
+
+/// One row of the time series (`series.csv`). Energies are per the analysis
+/// thickness (J for plane stress with a thickness, J/m for plane strain with
+/// the default 1 m).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct SeriesRow {
+    pub step: u64,
+    /// Simulated time, s.
+    pub time: f64,
+    /// Σ ½ m_p |v_p|², J.
+    pub kinetic_energy: f64,
+    /// Σ V_p ψ_p (stored elastic energy), J.
+    pub strain_energy: f64,
+    /// Work done on the system by body forces, tractions and prescribed
+    /// velocities since t = 0, J.
+    pub external_work: f64,
+    /// kinetic + strain − initial (kinetic + strain) − external work, J:
+    /// zero for a conservative scheme, negative when energy is dissipated.
+    pub energy_error: f64,
+    /// Σ m_p, kg.
+    pub total_mass: f64,
+    /// Σ m_p v_p, kg·m/s.
+    pub momentum_x: f64,
+    pub momentum_y: f64,
+    /// Σ m_p (x_p × v_p) about the origin (plus the APIC affine spin term
+    /// with B-splines), kg·m²/s.
+    pub angular_momentum: f64,
+    /// The time step used for the last step, s.
+    pub dt: f64,
+}
+
+impl SeriesRow {
+    /// Column names in the order of [`SeriesRow::values`].
+    pub const COLUMNS: [&'static str; 11] = [
+        "step",
+        "time",
+        "kinetic_energy",
+        "strain_energy",
+        "external_work",
+        "energy_error",
+        "total_mass",
+        "momentum_x",
+        "momentum_y",
+        "angular_momentum",
+        "dt",
+    ];
+
+    /// The row's values in the order of [`SeriesRow::COLUMNS`].
+    pub fn values(&self) -> [f64; 11] {
+        [
+            self.step as f64,
+            self.time,
+            self.kinetic_energy,
+            self.strain_energy,
+            self.external_work,
+            self.energy_error,
+            self.total_mass,
+            self.momentum_x,
+            self.momentum_y,
+            self.angular_momentum,
+            self.dt,
+        ]
+    }
+}
+
+/// Values of one named field, `components` numbers per point, point-major.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FieldData {
+    F64(Vec<f64>),
+    U32(Vec<u32>),
+}
+
+impl FieldData {
+    pub fn len(&self) -> usize {
+        match self {
+            FieldData::F64(v) => v.len(),
+            FieldData::U32(v) => v.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A named field on particles or grid nodes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Field {
+    /// e.g. `velocity`, `stress` (xx, yy, xy, zz), `particle_id`.
+    pub name: String,
+    /// Numbers per point: 1 scalar, 2 vector, 4 for the in-plane symmetric
+    /// tensors written as (xx, yy, xy, zz).
+    pub components: usize,
+    pub data: FieldData,
+}
+
+/// Grid fields of a snapshot on the uniform node lattice.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridSnapshot {
+    /// Coordinates of node (0, 0), m.
+    pub origin: [f64; 2],
+    /// Node spacing, m.
+    pub spacing: f64,
+    /// Nodes along x and y; node (i, j) has index i + j·dims[0].
+    pub dims: [usize; 2],
+    /// Nodal fields (e.g. `mass`, `velocity`), summed over velocity fields.
+    pub fields: Vec<Field>,
+}
+
+/// Particle (and optionally grid) fields at one instant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    /// 0, 1, 2, ... in the order written.
+    pub index: u32,
+    pub step: u64,
+    pub time: f64,
+    /// Particle positions, m (x, y per particle).
+    pub positions: Vec<[f64; 2]>,
+    /// Particle fields: velocity, stress, strain, mass, volume, material_id,
+    /// body_id, particle_id, ...
+    pub fields: Vec<Field>,
+    pub grid: Option<GridSnapshot>,
+}
+
+/// Progress of a running simulation, reported at least every few steps.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Progress {
+    pub step: u64,
+    pub time: f64,
+    pub end_time: f64,
+    /// Latest series values.
+    pub kinetic_energy: f64,
+    pub strain_energy: f64,
+}
+
+impl Progress {
+    pub fn fraction(&self) -> f64 {
+        if self.end_time > 0.0 {
+            (self.time / self.end_time).clamp(0.0, 1.0)
+        } else {
+            1.0
+        }
+    }
+}
+
+/// What an observer asks the engine to do next.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Control {
+    Continue,
+    /// Stop at the end of this step (cancellation).
+    Stop,
+}
+
+/// Receives what a run produces. Errors from an observer (e.g. a full disk)
+/// stop the run and are reported as such.
+pub trait Observer {
+    fn series_row(&mut self, row: &SeriesRow) -> Result<(), String>;
+    fn snapshot(&mut self, snapshot: &Snapshot) -> Result<(), String>;
+    /// Called after every step; return [`Control::Stop`] to cancel.
+    fn progress(&mut self, _progress: &Progress) -> Control {
+        Control::Continue
+    }
+}
+
+/// An observer that keeps everything in memory (tests, studies).
+#[derive(Debug, Default)]
+pub struct Recorder {
+    pub rows: Vec<SeriesRow>,
+    pub snapshots: Vec<Snapshot>,
+}
+
+impl Observer for Recorder {
+    fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
+        self.rows.push(*row);
+        Ok(())
+    }
+    fn snapshot(&mut self, snapshot: &Snapshot) -> Result<(), String> {
+        self.snapshots.push(snapshot.clone());
+        Ok(())
+    }
+}
+
+pub mod measure;

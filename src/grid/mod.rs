@@ -1,0 +1,242 @@
+//! The uniform background grid: geometry, nodal field arrays, multi-field
+//! bookkeeping, and the tile colouring that makes the scatter parallel and
+//! deterministic.
+//!
+//! Nodes are stored for the user's domain plus [`PAD`] ghost nodes on each
+//! side, so that every kernel's support stays inside the arrays for any
+//! particle inside the domain. Boundary conditions act on the wall node and
+//! the ghost nodes beyond it.
+//!
+//! **Velocity fields.** Every node has one field (slot = node index). When a
+//! scene has several contact groups, a node touched by `k > 1` groups gets
+//! `k − 1` extra slots appended after the node slots; the first field of a
+//! node belongs to its lowest group present. Single-field nodes pay nothing.
+
+pub mod shape;
+
+/// Ghost nodes beyond the domain on each side.
+pub const PAD: usize = 2;
+/// Tile edge in cells for the coloured scatter. Tiles of one colour are two
+/// tiles apart, so their stencils (at most cells c−1..c+2) never overlap as
+/// long as TILE ≥ 3.
+pub const TILE: usize = 8;
+
+/// Geometry of the padded node lattice.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridGeom {
+    /// Cell size, m.
+    pub h: f64,
+    pub inv_h: f64,
+    /// Coordinates of node (0, 0) (a ghost node), m.
+    pub origin: [f64; 2],
+    /// Node counts along x and y, including ghosts.
+    pub nodes: [usize; 2],
+    /// The user's domain, m (particles must stay inside).
+    pub domain_min: [f64; 2],
+    pub domain_max: [f64; 2],
+    /// Tiles along x and y.
+    pub tiles: [usize; 2],
+}
+
+impl GridGeom {
+    pub fn new(min: [f64; 2], h: f64, cells: [usize; 2]) -> GridGeom {
+        let nodes = [cells[0] + 1 + 2 * PAD, cells[1] + 1 + 2 * PAD];
+        let origin = [min[0] - PAD as f64 * h, min[1] - PAD as f64 * h];
+        GridGeom {
+            h,
+            inv_h: 1.0 / h,
+            origin,
+            nodes,
+            domain_min: min,
+            domain_max: [min[0] + cells[0] as f64 * h, min[1] + cells[1] as f64 * h],
+            tiles: [nodes[0].div_ceil(TILE), nodes[1].div_ceil(TILE)],
+        }
+    }
+
+    pub fn node_count(&self) -> usize {
+        self.nodes[0] * self.nodes[1]
+    }
+
+    /// Position in node units.
+    #[inline(always)]
+    pub fn xi(&self, x: [f64; 2]) -> [f64; 2] {
+        [(x[0] - self.origin[0]) * self.inv_h, (x[1] - self.origin[1]) * self.inv_h]
+    }
+
+    #[inline(always)]
+    pub fn node(&self, i: usize, j: usize) -> usize {
+        i + j * self.nodes[0]
+    }
+
+    pub fn node_position(&self, n: usize) -> [f64; 2] {
+        let (i, j) = (n % self.nodes[0], n / self.nodes[0]);
+        [self.origin[0] + i as f64 * self.h, self.origin[1] + j as f64 * self.h]
+    }
+
+    /// Tile of a particle at node-unit position `xi` (clamped into the grid).
+    #[inline(always)]
+    pub fn tile_of(&self, xi: [f64; 2]) -> u32 {
+        let cx = (xi[0].max(0.0) as usize).min(self.nodes[0] - 1) / TILE;
+        let cy = (xi[1].max(0.0) as usize).min(self.nodes[1] - 1) / TILE;
+        (cx + cy * self.tiles[0]) as u32
+    }
+
+    pub fn inside_domain(&self, x: [f64; 2]) -> bool {
+        x[0] >= self.domain_min[0] && x[0] <= self.domain_max[0] && x[1] >= self.domain_min[1] && x[1] <= self.domain_max[1]
+    }
+}
+
+/// Nodal quantities per velocity-field slot.
+#[derive(Debug, Clone, Default)]
+pub struct GridFields {
+    /// Σ N m_p, kg.
+    pub mass: Vec<f64>,
+    /// Σ N m_p v_p (APIC: plus the affine term), kg·m/s.
+    pub momentum: Vec<[f64; 2]>,
+    /// Internal + external force, N.
+    pub force: Vec<[f64; 2]>,
+    /// Velocity at the start of the step (momentum / mass), m/s.
+    pub vel_old: Vec<[f64; 2]>,
+    /// Velocity at the end of the step (after forces, contact, BCs), m/s.
+    pub vel: Vec<[f64; 2]>,
+    /// Σ m_p ∇N (contact normals); empty without contact.
+    pub mass_grad: Vec<[f64; 2]>,
+}
+
+impl GridFields {
+    /// Resizes to `slots` and zeroes the accumulated quantities.
+    pub fn reset(&mut self, slots: usize, with_mass_grad: bool) {
+        fn clear<T: Copy>(v: &mut Vec<T>, n: usize, zero: T) {
+            v.clear();
+            v.resize(n, zero);
+        }
+        clear(&mut self.mass, slots, 0.0);
+        clear(&mut self.momentum, slots, [0.0; 2]);
+        clear(&mut self.force, slots, [0.0; 2]);
+        self.vel_old.resize(slots, [0.0; 2]);
+        self.vel.resize(slots, [0.0; 2]);
+        if with_mass_grad {
+            clear(&mut self.mass_grad, slots, [0.0; 2]);
+        }
+    }
+}
+
+/// Which velocity fields exist at each node this step (contact scenes only).
+#[derive(Debug, Clone, Default)]
+pub struct MultiField {
+    /// Bit g set if contact group g has mass at the node.
+    pub mask: Vec<u32>,
+    /// For node n, its extra slots are `nodes + offset[n] .. nodes + offset[n+1]`.
+    pub offset: Vec<u32>,
+    /// The node of every extra slot.
+    pub extra_node: Vec<u32>,
+    /// Nodes with more than one field.
+    pub multi_nodes: Vec<u32>,
+}
+
+/// Maps (node, contact group) to a velocity-field slot.
+pub trait FieldSlots: Sync {
+    fn slot(&self, node: usize, group: u8) -> usize;
+}
+
+/// Every particle in one field: the slot is the node.
+pub struct SingleField;
+
+impl FieldSlots for SingleField {
+    #[inline(always)]
+    fn slot(&self, node: usize, _group: u8) -> usize {
+        node
+    }
+}
+
+/// One field per contact group present at a node.
+pub struct GroupFields<'a> {
+    pub nodes: usize,
+    pub multi: &'a MultiField,
+}
+
+impl FieldSlots for GroupFields<'_> {
+    #[inline(always)]
+    fn slot(&self, node: usize, group: u8) -> usize {
+        let mask = self.multi.mask[node];
+        let rank = (mask & ((1u32 << group) - 1)).count_ones() as usize;
+        if rank == 0 {
+            node
+        } else {
+            self.nodes + self.multi.offset[node] as usize + rank - 1
+        }
+    }
+}
+
+/// Particles binned by tile, and the tiles of each of the four colours.
+#[derive(Debug, Clone, Default)]
+pub struct Bins {
+    /// Tile of each particle.
+    pub tile_of: Vec<u32>,
+    /// Particle indices sorted by tile (stable: ascending index in a tile).
+    pub order: Vec<u32>,
+    /// `order[start[t]..start[t+1]]` are the particles of tile t.
+    pub start: Vec<u32>,
+    /// Non-empty tiles of each colour (tile x parity + 2·(y parity)).
+    pub colours: [Vec<u32>; 4],
+}
+
+impl Bins {
+    /// Counting sort of particles by `tile_of` (serial, stable, so the
+    /// order is the same for any thread count).
+    pub fn rebuild(&mut self, geom: &GridGeom) {
+        let ntiles = geom.tiles[0] * geom.tiles[1];
+        self.start.clear();
+        self.start.resize(ntiles + 1, 0);
+        for &t in &self.tile_of {
+            self.start[t as usize + 1] += 1;
+        }
+        for t in 0..ntiles {
+            self.start[t + 1] += self.start[t];
+        }
+        self.order.resize(self.tile_of.len(), 0);
+        let mut cursor: Vec<u32> = self.start[..ntiles].to_vec();
+        for (p, &t) in self.tile_of.iter().enumerate() {
+            let c = &mut cursor[t as usize];
+            self.order[*c as usize] = p as u32;
+            *c += 1;
+        }
+        for c in &mut self.colours {
+            c.clear();
+        }
+        for t in 0..ntiles {
+            if self.start[t + 1] > self.start[t] {
+                let (tx, ty) = (t % geom.tiles[0], t / geom.tiles[0]);
+                self.colours[(tx % 2) + 2 * (ty % 2)].push(t as u32);
+            }
+        }
+    }
+
+    pub fn particles_of(&self, tile: u32) -> &[u32] {
+        &self.order[self.start[tile as usize] as usize..self.start[tile as usize + 1] as usize]
+    }
+}
+
+/// A raw pointer that may be shared between rayon tasks. Used only where the
+/// colouring (or disjoint index ranges) guarantees that no two tasks touch
+/// the same element.
+#[derive(Clone, Copy)]
+pub struct SyncPtr<T>(pub *mut T);
+
+// SAFETY: callers guarantee that concurrent tasks access disjoint elements.
+unsafe impl<T> Send for SyncPtr<T> {}
+unsafe impl<T> Sync for SyncPtr<T> {}
+
+impl<T> SyncPtr<T> {
+    pub fn new(v: &mut [T]) -> Self {
+        SyncPtr(v.as_mut_ptr())
+    }
+
+    /// # Safety
+    /// `i` is in bounds and no other task accesses element `i` concurrently.
+    #[inline(always)]
+    #[allow(clippy::mut_from_ref)]
+    pub unsafe fn at(&self, i: usize) -> &mut T {
+        unsafe { &mut *self.0.add(i) }
+    }
+}

@@ -1,0 +1,18 @@
+//! cleave: dynamic fracture with the material point method.
+//!
+//! Start with [`scene::Scene::from_path`] (parse and validate a scene),
+//! then [`mpm::Simulation::new`] and [`mpm::Simulation::run`] with an
+//! [`diagnostics::Observer`] such as [`output::OutputWriter`].
+//! `DESIGN.md` in the shared folder maps the modules.
+
+pub mod contact;
+pub mod diagnostics;
+pub mod geometry;
+pub mod grid;
+pub mod material;
+pub mod mpm;
+pub mod particles;
+pub mod scene;
+
+/// The crate version, as reported by the binaries.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

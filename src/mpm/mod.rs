@@ -1,0 +1,454 @@
+//! The explicit MPM step (update-stress-last) and the run loop.
+//!
+//! One step, as the [`Plan`](crate::scene::Plan) lists it:
+//! 1. `field_partition` (contact scenes only): which groups meet at a node;
+//! 2. `p2g`: mass, momentum, internal force ([`p2g`]);
+//! 3. `traction`: surface tractions on boundary particles;
+//! 4. `grid_update`: nodal velocities, body force, boundary conditions;
+//! 5. `contact` (contact scenes only): frictional contact ([`crate::contact`]);
+//! 6. `g2p`: particle velocities, positions, stresses ([`g2p`]).
+//!
+//! Entry points: [`Simulation::new`] then [`Simulation::run`].
+
+mod g2p;
+mod grid_update;
+mod p2g;
+mod setup;
+
+pub use g2p::BadKind;
+
+use crate::contact::{self, ContactLaw};
+use crate::diagnostics::{measure, Control, Observer, Progress, SeriesRow};
+use crate::grid::shape::{CubicBspline, Gimp, Kernel, Linear, QuadraticBspline};
+use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
+use crate::material::Elastic;
+use crate::particles::Particles;
+use crate::scene::{Scene, ShapeFunctionKind};
+use grid_update::Boundary;
+use serde::Serialize;
+use std::time::Instant;
+
+/// Why a run stopped early.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    #[error("step {step}, t = {time:.6e} s: particle {particle} has a non-finite {quantity}")]
+    NonFinite { step: u64, time: f64, particle: u32, quantity: &'static str },
+    #[error("step {step}, t = {time:.6e} s: particle {particle} left the grid at ({x:.6e}, {y:.6e}) m")]
+    LeftGrid { step: u64, time: f64, particle: u32, x: f64, y: f64 },
+    #[error("step {step}, t = {time:.6e} s: particle {particle} volume vanished or inverted (J = {j:.3e})")]
+    VolumeVanished { step: u64, time: f64, particle: u32, j: f64 },
+    #[error("step {step}, t = {time:.6e} s: negative nodal mass {mass:.3e} kg at node {node} ({x:.6e}, {y:.6e}) m")]
+    NegativeMass { step: u64, time: f64, node: usize, mass: f64, x: f64, y: f64 },
+    #[error(
+        "step {step}, t = {time:.6e} s: runaway energy: kinetic + strain = {energy:.6e} J exceeds {bound:.6e} J \
+         (guards.energy_growth × (initial energy + |external work|))"
+    )]
+    EnergyRunaway { step: u64, time: f64, energy: f64, bound: f64 },
+    #[error(
+        "step {step}, t = {time:.6e} s: time.dt = {dt:.3e} s exceeds the CFL stability limit {limit:.3e} s \
+         (h / max(c + |v|), reached at particle {particle})"
+    )]
+    CflViolated { step: u64, time: f64, dt: f64, limit: f64, particle: u32 },
+    #[error("step {step}, t = {time:.6e} s: reached time.max_steps = {step} before time.end")]
+    MaxSteps { step: u64, time: f64 },
+    #[error("writing results failed: {0}")]
+    Observer(String),
+}
+
+/// Wall time spent in each stage, s.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct StageTimes {
+    pub field_partition: f64,
+    pub p2g: f64,
+    pub traction: f64,
+    pub grid_update: f64,
+    pub contact: f64,
+    pub g2p: f64,
+    pub bins: f64,
+    pub diagnostics: f64,
+}
+
+/// What a finished (or cancelled) run reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct RunSummary {
+    pub steps: u64,
+    /// Simulated time reached, s.
+    pub time: f64,
+    pub wall_seconds: f64,
+    pub particles: usize,
+    /// The plan's stage names.
+    pub stages: Vec<&'static str>,
+    pub cancelled: bool,
+    pub last_row: SeriesRow,
+    pub stage_seconds: StageTimes,
+    /// Steps in which at least one node had fields in contact.
+    pub contact_steps: u64,
+}
+
+/// A simulation in progress: the particles, the grid, and the clock.
+pub struct Simulation {
+    scene: Scene,
+    geom: GridGeom,
+    mats: Vec<Elastic>,
+    parts: Particles,
+    grid: GridFields,
+    /// Present iff the plan has contact.
+    multi: Option<MultiField>,
+    friction: ContactLaw,
+    bins: Bins,
+    boundary: Boundary,
+    tractions: setup::Tractions,
+    apic: bool,
+    /// Modified update-stress-last (a second scatter and gather).
+    musl: bool,
+    /// MUSL scratch: where the particles move this step.
+    x_next: Vec<[f64; 2]>,
+    flip: f64,
+    body_force: [f64; 2],
+    m_min: f64,
+    time: f64,
+    step: u64,
+    /// The last step's Δt.
+    dt: f64,
+    /// max (c + |v|) after the last G2P.
+    max_signal: f64,
+    external_work: f64,
+    abs_work: f64,
+    initial_energy: f64,
+    energy_floor: f64,
+    times: StageTimes,
+    contact_steps: u64,
+    snapshot_index: u32,
+    grid_valid: bool,
+}
+
+impl Simulation {
+    /// Seeds the particles and builds the grid for a validated scene.
+    pub fn new(scene: &Scene) -> Simulation {
+        setup::build(scene)
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    pub fn particles(&self) -> &Particles {
+        &self.parts
+    }
+
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    pub fn steps(&self) -> u64 {
+        self.step
+    }
+
+    /// Runs to `time.end`, reporting rows, snapshots and progress to `obs`.
+    /// Returns early (with `cancelled`) when the observer asks to stop.
+    pub fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {
+        let wall = Instant::now();
+        let end = self.scene.file.time.end;
+        let rows = self.scene.file.output.series_rows.max(2) as u64;
+        let snaps = self.scene.file.output.snapshots as u64;
+        let max_steps = self.scene.file.time.max_steps.unwrap_or(10_000_000);
+        let row_time = |k: u64| end * k as f64 / (rows - 1) as f64;
+        let snap_time = |k: u64| if snaps <= 1 { end } else { end * k as f64 / (snaps - 1) as f64 };
+
+        let mut last = self.row();
+        self.initial_energy = last.kinetic_energy + last.strain_energy;
+        obs.series_row(&last).map_err(SimError::Observer)?;
+        let (mut next_row, mut next_snap) = (1u64, 0u64);
+        if snaps > 0 && snap_time(0) <= 0.0 {
+            self.emit_snapshot(obs)?;
+            next_snap = 1;
+        }
+        let mut cancelled = false;
+        while self.time < end * (1.0 - 1e-12) {
+            if self.step >= max_steps {
+                return Err(SimError::MaxSteps { step: self.step, time: self.time });
+            }
+            let dt = self.next_dt(end)?;
+            self.advance(dt)?;
+            let at_end = self.time >= end * (1.0 - 1e-12);
+            if next_row < rows && (self.time >= row_time(next_row) * (1.0 - 1e-12) || at_end) {
+                while next_row < rows && row_time(next_row) <= self.time * (1.0 + 1e-12) {
+                    next_row += 1;
+                }
+                last = self.row();
+                self.check_energy(&last)?;
+                obs.series_row(&last).map_err(SimError::Observer)?;
+            }
+            if next_snap < snaps && (self.time >= snap_time(next_snap) * (1.0 - 1e-12) || at_end) {
+                while next_snap < snaps && snap_time(next_snap) <= self.time * (1.0 + 1e-12) {
+                    next_snap += 1;
+                }
+                self.emit_snapshot(obs)?;
+            }
+            let progress = Progress {
+                step: self.step,
+                time: self.time,
+                end_time: end,
+                kinetic_energy: last.kinetic_energy,
+                strain_energy: last.strain_energy,
+            };
+            if obs.progress(&progress) == Control::Stop {
+                cancelled = true;
+                break;
+            }
+        }
+        if !cancelled && last.step != self.step {
+            last = self.row();
+            obs.series_row(&last).map_err(SimError::Observer)?;
+        }
+        Ok(RunSummary {
+            steps: self.step,
+            time: self.time,
+            wall_seconds: wall.elapsed().as_secs_f64(),
+            particles: self.parts.len(),
+            stages: self.scene.plan.names(),
+            cancelled,
+            last_row: last,
+            stage_seconds: self.times.clone(),
+            contact_steps: self.contact_steps,
+        })
+    }
+
+    /// The next time step: fixed (checked against the CFL limit) or
+    /// α·h / max(c + |v|), clipped to land on `end`.
+    fn next_dt(&self, end: f64) -> Result<f64, SimError> {
+        let limit = self.geom.h / self.max_signal.max(1e-300);
+        let dt = match self.scene.file.time.dt {
+            Some(dt) => {
+                if dt > limit {
+                    return Err(SimError::CflViolated {
+                        step: self.step,
+                        time: self.time,
+                        dt,
+                        limit,
+                        particle: self.fastest_particle(),
+                    });
+                }
+                dt
+            }
+            None => self.scene.cfl() * limit,
+        };
+        let left = end - self.time;
+        Ok(if dt > left || left - dt < 1e-9 * dt { left } else { dt })
+    }
+
+    fn fastest_particle(&self) -> u32 {
+        let mut best = (0usize, -1.0);
+        for p in 0..self.parts.len() {
+            let m = &self.mats[self.parts.material[p] as usize];
+            let v = self.parts.v[p];
+            let s = m.wave_speed + (v[0] * v[0] + v[1] * v[1]).sqrt();
+            if s > best.1 {
+                best = (p, s);
+            }
+        }
+        self.parts.id.get(best.0).copied().unwrap_or(0)
+    }
+
+    /// One step of the size the scene asks for (fixed or CFL), clipped to
+    /// land on `time.end`; returns the Δt taken. Does not report to an
+    /// observer nor check the energy guard (see [`Simulation::run`]).
+    pub fn step(&mut self) -> Result<f64, SimError> {
+        let dt = self.next_dt(self.scene.file.time.end)?;
+        self.advance(dt)?;
+        Ok(dt)
+    }
+
+    /// One explicit step of size `dt`.
+    pub fn advance(&mut self, dt: f64) -> Result<(), SimError> {
+        match self.scene.file.grid.shape_function {
+            ShapeFunctionKind::Linear => self.advance_k::<Linear>(dt),
+            ShapeFunctionKind::Gimp => self.advance_k::<Gimp>(dt),
+            ShapeFunctionKind::QuadraticBspline => self.advance_k::<QuadraticBspline>(dt),
+            ShapeFunctionKind::CubicBspline => self.advance_k::<CubicBspline>(dt),
+        }
+    }
+
+    fn advance_k<K: Kernel>(&mut self, dt: f64) -> Result<(), SimError> {
+        if let Some(mut multi) = self.multi.take() {
+            let t0 = Instant::now();
+            let slots_n = p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi);
+            self.grid.reset(slots_n, true);
+            self.times.field_partition += t0.elapsed().as_secs_f64();
+            let slots = GroupFields { nodes: self.geom.node_count(), multi: &multi };
+            let r = self.stages::<K, _>(dt, &slots, Some(&multi));
+            self.multi = Some(multi);
+            r
+        } else {
+            self.grid.reset(self.geom.node_count(), false);
+            self.stages::<K, _>(dt, &SingleField, None)
+        }
+    }
+
+    fn stages<K: Kernel, S: FieldSlots>(&mut self, dt: f64, slots: &S, multi: Option<&MultiField>) -> Result<(), SimError> {
+        let contact = multi.is_some();
+        // P2G
+        let t0 = Instant::now();
+        match (self.apic, contact) {
+            (false, false) => p2g::p2g::<K, S, false, false>(&self.geom, &self.parts, &self.bins, slots, &mut self.grid),
+            (true, false) => p2g::p2g::<K, S, true, false>(&self.geom, &self.parts, &self.bins, slots, &mut self.grid),
+            (false, true) => p2g::p2g::<K, S, false, true>(&self.geom, &self.parts, &self.bins, slots, &mut self.grid),
+            (true, true) => p2g::p2g::<K, S, true, true>(&self.geom, &self.parts, &self.bins, slots, &mut self.grid),
+        }
+        let t1 = Instant::now();
+        self.times.p2g += (t1 - t0).as_secs_f64();
+        // Tractions at the start of the step (explicit)
+        if !self.tractions.is_empty() {
+            let w = self.tractions.apply::<K, S>(self.time, dt, &self.geom, &self.parts, slots, &mut self.grid);
+            self.add_work(w);
+            self.times.traction += t1.elapsed().as_secs_f64();
+        }
+        let t2 = Instant::now();
+        // Grid update and boundary conditions
+        let (w, negative) = grid_update::update(&mut self.grid, dt, self.body_force, self.m_min);
+        if let Some((slot, mass)) = negative {
+            let node = match multi {
+                Some(m) if slot >= self.geom.node_count() => m.extra_node[slot - self.geom.node_count()] as usize,
+                _ => slot,
+            };
+            let [x, y] = self.geom.node_position(node);
+            return Err(SimError::NegativeMass { step: self.step + 1, time: self.time + dt, node, mass, x, y });
+        }
+        self.add_work(w);
+        let t_bc = self.time + dt;
+        let w = self.boundary.apply(t_bc, &mut self.grid, multi);
+        self.add_work(w);
+        let t3 = Instant::now();
+        self.times.grid_update += (t3 - t2).as_secs_f64();
+        // Contact
+        if let Some(m) = multi {
+            let touched = contact::apply(&mut self.grid, m, &self.friction, self.m_min);
+            if touched > 0 {
+                self.contact_steps += 1;
+            }
+            // contact must not undo the walls
+            let w = self.boundary.apply(t_bc, &mut self.grid, multi);
+            self.add_work(w);
+            self.times.contact += t3.elapsed().as_secs_f64();
+        }
+        let t4 = Instant::now();
+        // G2P
+        let transfer = g2p::Transfer { flip: self.flip };
+        let stats = if self.musl {
+            self.musl::<K, S>(dt, t_bc, slots, multi, transfer)
+        } else if self.apic {
+            g2p::g2p::<K, S, true>(&self.geom, &mut self.parts, &mut self.bins, slots, &self.grid, &self.mats, transfer, dt)
+        } else {
+            g2p::g2p::<K, S, false>(&self.geom, &mut self.parts, &mut self.bins, slots, &self.grid, &self.mats, transfer, dt)
+        };
+        let t5 = Instant::now();
+        self.times.g2p += (t5 - t4).as_secs_f64();
+        self.step += 1;
+        self.time += dt;
+        self.dt = dt;
+        self.grid_valid = true;
+        if let Some((p, kind)) = stats.bad {
+            let (step, time, particle) = (self.step, self.time, self.parts.id[p]);
+            return Err(match kind {
+                BadKind::NonFinite(quantity) => SimError::NonFinite { step, time, particle, quantity },
+                BadKind::LeftGrid([x, y]) => SimError::LeftGrid { step, time, particle, x, y },
+                BadKind::VolumeVanished(j) => SimError::VolumeVanished { step, time, particle, j },
+            });
+        }
+        self.max_signal = stats.max_signal;
+        if stats.moved_tile {
+            self.bins.rebuild(&self.geom);
+        }
+        self.times.bins += t5.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The MUSL particle update: velocities, remap, then stresses.
+    fn musl<K: Kernel, S: FieldSlots>(
+        &mut self,
+        dt: f64,
+        t_bc: f64,
+        slots: &S,
+        multi: Option<&MultiField>,
+        transfer: g2p::Transfer,
+    ) -> g2p::G2pStats {
+        let (geom, mats) = (&self.geom, &self.mats);
+        self.x_next.resize(self.parts.len(), [0.0; 2]);
+        if self.apic {
+            g2p::musl_velocities::<K, S, true>(geom, &mut self.parts, &mut self.bins, &mut self.x_next, slots, &self.grid, mats, transfer, dt);
+            p2g::remap_velocities::<K, S, true>(geom, &self.parts, &self.bins, slots, &mut self.grid, self.m_min);
+        } else {
+            g2p::musl_velocities::<K, S, false>(geom, &mut self.parts, &mut self.bins, &mut self.x_next, slots, &self.grid, mats, transfer, dt);
+            p2g::remap_velocities::<K, S, false>(geom, &self.parts, &self.bins, slots, &mut self.grid, self.m_min);
+        }
+        // The walls hold the remapped velocities too (no work: that was
+        // counted when they were first imposed).
+        self.boundary.apply(t_bc, &mut self.grid, multi);
+        g2p::musl_stress::<K, S>(geom, &mut self.parts, &mut self.bins, &self.x_next, slots, &self.grid, mats, dt)
+    }
+
+    fn add_work(&mut self, w: f64) {
+        self.external_work += w;
+        self.abs_work += w.abs();
+    }
+
+    /// The current series row.
+    pub fn row(&mut self) -> SeriesRow {
+        let t0 = Instant::now();
+        let apic_d = if self.apic {
+            match self.scene.file.grid.shape_function {
+                ShapeFunctionKind::QuadraticBspline => Some(0.25 * self.geom.h * self.geom.h),
+                ShapeFunctionKind::CubicBspline => Some(self.geom.h * self.geom.h / 3.0),
+                _ => None,
+            }
+        } else {
+            None
+        };
+        let m = measure::measure(&self.parts, &self.mats, apic_d);
+        let e = m.kinetic + m.strain;
+        let row = SeriesRow {
+            step: self.step,
+            time: self.time,
+            kinetic_energy: m.kinetic,
+            strain_energy: m.strain,
+            external_work: self.external_work,
+            energy_error: if self.step == 0 { 0.0 } else { e - self.initial_energy - self.external_work },
+            total_mass: m.mass,
+            momentum_x: m.momentum[0],
+            momentum_y: m.momentum[1],
+            angular_momentum: m.angular,
+            dt: self.dt,
+        };
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+        row
+    }
+
+    fn check_energy(&self, row: &SeriesRow) -> Result<(), SimError> {
+        let energy = row.kinetic_energy + row.strain_energy;
+        let bound = self.scene.file.guards.energy_growth * (self.initial_energy + self.abs_work + self.energy_floor);
+        if !(energy <= bound) {
+            return Err(SimError::EnergyRunaway { step: row.step, time: row.time, energy, bound });
+        }
+        Ok(())
+    }
+
+    fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
+        let t0 = Instant::now();
+        let grid = if self.scene.file.output.grid_fields && self.grid_valid {
+            Some(measure::grid_snapshot(&self.geom, &self.grid, self.multi.as_ref()))
+        } else {
+            None
+        };
+        let snap = measure::snapshot(
+            self.snapshot_index,
+            self.step,
+            self.time,
+            &self.parts,
+            &self.mats,
+            grid,
+        );
+        self.snapshot_index += 1;
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+        obs.snapshot(&snap).map_err(SimError::Observer)
+    }
+}

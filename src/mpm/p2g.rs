@@ -1,0 +1,192 @@
+//! P2G: particles to grid.
+//!
+//! - mass m_i = Σ_p N_ip m_p;
+//! - momentum p_i = Σ_p N_ip m_p (v_p + C_p (x_i − x_p)) (the affine term
+//!   only with APIC, Jiang et al. 2015 eq. 15);
+//! - internal force f_i = −Σ_p V_p σ_p ∇N_ip (Sulsky et al. 1994);
+//! - with contact, the mass gradient Σ_p m_p ∇N_ip per field, whose
+//!   direction is the outward surface normal (Homel & Herbold eq. 11).
+//!
+//! Body force is added on the grid (m_i g) in the grid update.
+//!
+//! Parallel and deterministic: tiles of one colour run concurrently (their
+//! node ranges are disjoint), colours run one after another, and inside a
+//! tile particles are visited in ascending index. The sum at each node is
+//! therefore taken in the same order for any number of threads.
+
+use crate::grid::shape::Kernel;
+use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, SyncPtr};
+use crate::particles::Particles;
+use rayon::prelude::*;
+
+/// Scatters all particles to the grid. `grid` must have been reset.
+pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
+    geom: &GridGeom,
+    parts: &Particles,
+    bins: &Bins,
+    slots: &S,
+    grid: &mut GridFields,
+) {
+    let mass = SyncPtr::new(&mut grid.mass);
+    let mom = SyncPtr::new(&mut grid.momentum);
+    let force = SyncPtr::new(&mut grid.force);
+    let mgrad = SyncPtr::new(&mut grid.mass_grad);
+    let gimp = !parts.half_size.is_empty();
+    for colour in &bins.colours {
+        colour.par_iter().for_each(|&tile| {
+            for &p in bins.particles_of(tile) {
+                let p = p as usize;
+                let xp = parts.x[p];
+                let xi = geom.xi(xp);
+                let lp = if gimp { parts.half_size[p] } else { 0.0 };
+                let wx = K::eval(xi[0], lp);
+                let wy = K::eval(xi[1], lp);
+                let m = parts.mass[p];
+                let v = parts.v[p];
+                let vol = parts.vol[p];
+                let s = parts.stress[p];
+                let c = if APIC { parts.affine[p] } else { [0.0; 4] };
+                let g = parts.group[p];
+                let h = geom.h;
+                let inv_h = geom.inv_h;
+                for j in 0..K::N {
+                    let ny = (wy.base + j as isize) as usize;
+                    let dy = ((wy.base + j as isize) as f64 - xi[1]) * h;
+                    for i in 0..K::N {
+                        let nx = (wx.base + i as isize) as usize;
+                        let node = nx + ny * geom.nodes[0];
+                        let w = wx.w[i] * wy.w[j];
+                        let gx = wx.dw[i] * wy.w[j] * inv_h;
+                        let gy = wx.w[i] * wy.dw[j] * inv_h;
+                        let slot = slots.slot(node, g);
+                        let wm = w * m;
+                        let (mx, my) = if APIC {
+                            let dx = ((wx.base + i as isize) as f64 - xi[0]) * h;
+                            (wm * (v[0] + c[0] * dx + c[1] * dy), wm * (v[1] + c[2] * dx + c[3] * dy))
+                        } else {
+                            (wm * v[0], wm * v[1])
+                        };
+                        // SAFETY: this tile's nodes are touched by no other tile
+                        // of the same colour, and colours run in sequence.
+                        unsafe {
+                            *mass.at(slot) += wm;
+                            let q = mom.at(slot);
+                            q[0] += mx;
+                            q[1] += my;
+                            let f = force.at(slot);
+                            f[0] -= vol * (s[0] * gx + s[2] * gy);
+                            f[1] -= vol * (s[2] * gx + s[1] * gy);
+                            if MGRAD {
+                                let mg = mgrad.at(slot);
+                                mg[0] += m * gx;
+                                mg[1] += m * gy;
+                            }
+                        }
+                    }
+                }
+            }
+        });
+    }
+}
+
+/// Marks, for every node, which contact groups have particles whose support
+/// covers it (the field partition of a contact scene), then lays out the
+/// extra slots. Coloured like [`p2g`]; a bitwise OR is order-independent.
+pub fn partition_fields<K: Kernel>(
+    geom: &GridGeom,
+    parts: &Particles,
+    bins: &Bins,
+    multi: &mut crate::grid::MultiField,
+) -> usize {
+    let nodes = geom.node_count();
+    multi.mask.clear();
+    multi.mask.resize(nodes, 0);
+    let mask = SyncPtr::new(&mut multi.mask);
+    let gimp = !parts.half_size.is_empty();
+    for colour in &bins.colours {
+        colour.par_iter().for_each(|&tile| {
+            for &p in bins.particles_of(tile) {
+                let p = p as usize;
+                let xi = geom.xi(parts.x[p]);
+                let lp = if gimp { parts.half_size[p] } else { 0.0 };
+                let wx = K::eval(xi[0], lp);
+                let wy = K::eval(xi[1], lp);
+                let bit = 1u32 << parts.group[p];
+                // Every node of the support, even at zero weight: P2G writes
+                // the gradient there, so the slot must exist.
+                for j in 0..K::N {
+                    for i in 0..K::N {
+                        let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+                        // SAFETY: coloured tiles, as in `p2g`.
+                        unsafe { *mask.at(node) |= bit };
+                    }
+                }
+            }
+        });
+    }
+    multi.offset.clear();
+    multi.offset.reserve(nodes + 1);
+    multi.extra_node.clear();
+    multi.multi_nodes.clear();
+    let mut total = 0u32;
+    for (n, &m) in multi.mask.iter().enumerate() {
+        multi.offset.push(total);
+        let k = m.count_ones();
+        if k > 1 {
+            multi.multi_nodes.push(n as u32);
+            for _ in 1..k {
+                multi.extra_node.push(n as u32);
+            }
+            total += k - 1;
+        }
+    }
+    multi.offset.push(total);
+    nodes + total as usize
+}
+
+/// MUSL remap: the updated particle momenta back to the grid (same
+/// positions and weights as the step's P2G), then the nodal velocities.
+/// Coloured like [`p2g`].
+pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
+    geom: &GridGeom,
+    parts: &Particles,
+    bins: &Bins,
+    slots: &S,
+    grid: &mut GridFields,
+    m_min: f64,
+) {
+    for q in grid.momentum.iter_mut() {
+        *q = [0.0; 2];
+    }
+    let mom = SyncPtr::new(&mut grid.momentum);
+    let gimp = !parts.half_size.is_empty();
+    for colour in &bins.colours {
+        colour.par_iter().for_each(|&tile| {
+            for &p in bins.particles_of(tile) {
+                let p = p as usize;
+                let xi = geom.xi(parts.x[p]);
+                let lp = if gimp { parts.half_size[p] } else { 0.0 };
+                let wx = K::eval(xi[0], lp);
+                let wy = K::eval(xi[1], lp);
+                let (m, v, g) = (parts.mass[p], parts.v[p], parts.group[p]);
+                let c = if APIC { parts.affine[p] } else { [0.0; 4] };
+                for j in 0..K::N {
+                    let dy = ((wy.base + j as isize) as f64 - xi[1]) * geom.h;
+                    for i in 0..K::N {
+                        let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+                        let wm = wx.w[i] * wy.w[j] * m;
+                        let dx = ((wx.base + i as isize) as f64 - xi[0]) * geom.h;
+                        // SAFETY: coloured tiles, as in `p2g`.
+                        let q = unsafe { mom.at(slots.slot(node, g)) };
+                        q[0] += wm * (v[0] + c[0] * dx + c[1] * dy);
+                        q[1] += wm * (v[1] + c[2] * dx + c[3] * dy);
+                    }
+                }
+            }
+        });
+    }
+    let (mass, mom) = (&grid.mass, &grid.momentum);
+    grid.vel.par_iter_mut().enumerate().for_each(|(s, v)| {
+        *v = if mass[s] > m_min { [mom[s][0] / mass[s], mom[s][1] / mass[s]] } else { [0.0; 2] };
+    });
+}

@@ -1,0 +1,90 @@
+//! The [`Plan`]: the stages a scene needs, built once from the scene. A
+//! stage that no body or option asks for is not in the plan and its code
+//! never runs.
+
+use super::schema::{SceneFile, SideCondition};
+use serde::Serialize;
+use std::fmt;
+
+/// One stage of the explicit step, in execution order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stage {
+    /// Assigns each particle–node pair a velocity field (one per contact
+    /// group present at the node); only with more than one contact group.
+    FieldPartition,
+    /// Particle-to-grid: mass, momentum, internal and external force.
+    P2g,
+    /// Surface tractions on the outermost particles of traction sides.
+    Traction,
+    /// Nodal momentum update and boundary conditions.
+    GridUpdate,
+    /// Frictional contact between velocity fields (Bardenhagen/Nairn).
+    Contact,
+    /// Grid-to-particle: velocity, position, velocity gradient, stress.
+    G2p,
+}
+
+impl Stage {
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::FieldPartition => "field_partition",
+            Stage::P2g => "p2g",
+            Stage::Traction => "traction",
+            Stage::GridUpdate => "grid_update",
+            Stage::Contact => "contact",
+            Stage::G2p => "g2p",
+        }
+    }
+}
+
+impl fmt::Display for Stage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The stages of one step for a scene.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct Plan {
+    pub stages: Vec<Stage>,
+}
+
+impl Plan {
+    pub(super) fn build(file: &SceneFile, contact_groups: &[u32]) -> Plan {
+        let b = &file.grid.boundary;
+        let traction = [&b.left, &b.right, &b.bottom, &b.top]
+            .iter()
+            .any(|s| matches!(s, SideCondition::Traction { .. }));
+        let contact = contact_groups.len() > 1;
+        let mut stages = Vec::new();
+        if contact {
+            stages.push(Stage::FieldPartition);
+        }
+        stages.push(Stage::P2g);
+        if traction {
+            stages.push(Stage::Traction);
+        }
+        stages.push(Stage::GridUpdate);
+        if contact {
+            stages.push(Stage::Contact);
+        }
+        stages.push(Stage::G2p);
+        Plan { stages }
+    }
+
+    pub fn has(&self, stage: Stage) -> bool {
+        self.stages.contains(&stage)
+    }
+
+    /// Stage names in order.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.stages.iter().map(|s| s.name()).collect()
+    }
+}
+
+impl fmt::Display for Plan {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.names().join(" → "))
+    }
+}

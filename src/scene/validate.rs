@@ -1,0 +1,503 @@
+//! Validation: raw [`SceneFile`] → [`Scene`] with resolved materials, grid
+//! dimensions, particle counts and the [`Plan`].
+
+use super::plan::Plan;
+use super::schema::*;
+use super::{FieldError, SceneError};
+use crate::geometry::{self, Lattice};
+use std::collections::BTreeMap;
+
+/// At most this many distinct contact groups (a node's groups are a bit mask).
+pub const MAX_CONTACT_GROUPS: usize = 32;
+/// Refuse grids larger than this many nodes (memory).
+const MAX_NODES: usize = 50_000_000;
+/// Refuse scenes with more particles than this (memory).
+const MAX_PARTICLES: usize = 50_000_000;
+
+/// A material with its derived constants, as the engine uses it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResolvedMaterial {
+    /// The `[materials]` key, or `bodies[i]` for an inline material.
+    pub name: String,
+    pub model: MaterialModel,
+    pub density: f64,
+    pub youngs_modulus: f64,
+    pub poissons_ratio: f64,
+    /// Lamé constants, Pa.
+    pub lambda: f64,
+    pub mu: f64,
+    /// Dilatational wave speed of the 2D model at rest, m/s:
+    /// √((λ+2μ)/ρ) in plane strain, √(E/(ρ(1−ν²))) in plane stress.
+    pub wave_speed: f64,
+}
+
+/// A validated scene, ready to run.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The scene as written (after defaults).
+    pub file: SceneFile,
+    /// Distinct materials; particles refer to them by index.
+    pub materials: Vec<ResolvedMaterial>,
+    /// For each body, its index into `materials`.
+    pub body_material: Vec<usize>,
+    /// Cells along x and y (the grid's `max` is rounded up to whole cells).
+    pub cells: [usize; 2],
+    /// Particles seeded in each body.
+    pub particle_counts: Vec<usize>,
+    /// Distinct contact groups, ascending; a body's field index is the
+    /// position of its group in this list.
+    pub contact_groups: Vec<u32>,
+    /// The stages this scene needs.
+    pub plan: Plan,
+}
+
+impl Scene {
+    pub fn total_particles(&self) -> usize {
+        self.particle_counts.iter().sum()
+    }
+
+    /// The seeding lattice of body `b`.
+    pub fn lattice(&self, b: usize) -> Lattice {
+        Lattice {
+            origin: self.file.grid.min,
+            h: self.file.grid.cell_size,
+            cells: self.cells,
+            per_dir: per_dir(self.file.bodies[b].particles_per_cell),
+        }
+    }
+
+    /// Validates a parsed scene; reports every problem found.
+    pub fn validate(file: SceneFile) -> Result<Scene, SceneError> {
+        let mut c = Checker::default();
+        let cells = check_grid(&mut c, &file.grid);
+        c.positive("analysis.thickness", file.analysis.thickness);
+        check_time(&mut c, &file.time);
+        c.in_range("transfer.flip_blend", file.transfer.flip_blend, 0.0, 1.0);
+        for (d, v) in file.body_force.iter().enumerate() {
+            c.finite(&format!("body_force[{d}]"), *v);
+        }
+        check_output_and_guards(&mut c, &file);
+
+        // Materials: named ones first, then inline ones per body.
+        let mut materials = Vec::new();
+        let mut by_name = BTreeMap::new();
+        for (name, spec) in &file.materials {
+            let path = format!("materials.{name}");
+            if let Some(m) = resolve_material(&mut c, &path, name, spec, file.analysis.plane) {
+                by_name.insert(name.clone(), materials.len());
+                materials.push(m);
+            }
+        }
+        if file.bodies.is_empty() {
+            c.err("bodies", "the scene has no bodies: add at least one [[bodies]] entry");
+        }
+        let mut body_material = Vec::with_capacity(file.bodies.len());
+        let mut particle_counts = Vec::with_capacity(file.bodies.len());
+        let mut groups = std::collections::BTreeSet::new();
+        for (i, body) in file.bodies.iter().enumerate() {
+            let path = format!("bodies[{i}]");
+            let mat = match &body.material {
+                MaterialRef::Name(name) => match by_name.get(name) {
+                    Some(&k) => Some(k),
+                    None => {
+                        if !file.materials.contains_key(name) {
+                            let known: Vec<_> = file.materials.keys().map(String::as_str).collect();
+                            c.err(
+                                &format!("{path}.material"),
+                                format!("no material named `{name}` in [materials] (known: {})", list_or_none(&known)),
+                            );
+                        }
+                        None
+                    }
+                },
+                MaterialRef::Inline(spec) => {
+                    resolve_material(&mut c, &format!("{path}.material"), &path, spec, file.analysis.plane).map(|m| {
+                        materials.push(m);
+                        materials.len() - 1
+                    })
+                }
+            };
+            body_material.push(mat.unwrap_or(usize::MAX));
+            groups.insert(body.contact_group);
+            particle_counts.push(check_body(&mut c, &path, body, &file.grid, cells));
+        }
+        if groups.len() > MAX_CONTACT_GROUPS {
+            c.err("bodies", format!("{} contact groups; at most {MAX_CONTACT_GROUPS} are supported", groups.len()));
+        }
+        let total: usize = particle_counts.iter().sum();
+        if total > MAX_PARTICLES {
+            c.err("bodies", format!("{total} particles in all; at most {MAX_PARTICLES} are supported"));
+        }
+        check_contact(&mut c, &file.contact, &groups);
+
+        if !c.errors.is_empty() {
+            return Err(SceneError { errors: c.errors });
+        }
+        let contact_groups: Vec<u32> = groups.into_iter().collect();
+        let plan = Plan::build(&file, &contact_groups);
+        Ok(Scene { file, materials, body_material, cells, particle_counts, contact_groups, plan })
+    }
+
+    /// The effective time step limit factor: `time.cfl`, or 0.5 by default.
+    pub fn cfl(&self) -> f64 {
+        self.file.time.cfl.unwrap_or(0.5)
+    }
+
+    /// Serializes the scene (with defaults filled in) as TOML.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(&self.file).unwrap_or_default()
+    }
+}
+
+/// Particles per direction for a per-cell count (a perfect square).
+pub fn per_dir(ppc: u32) -> usize {
+    ((ppc as f64).sqrt().round() as usize).max(1)
+}
+
+fn list_or_none(names: &[&str]) -> String {
+    if names.is_empty() {
+        "none".to_string()
+    } else {
+        names.join(", ")
+    }
+}
+
+#[derive(Default)]
+struct Checker {
+    errors: Vec<FieldError>,
+}
+
+impl Checker {
+    fn err(&mut self, path: &str, reason: impl Into<String>) {
+        self.errors.push(FieldError { path: path.to_string(), reason: reason.into() });
+    }
+    fn finite(&mut self, path: &str, v: f64) -> bool {
+        if v.is_finite() {
+            true
+        } else {
+            self.err(path, format!("must be a finite number, got {v}"));
+            false
+        }
+    }
+    fn positive(&mut self, path: &str, v: f64) -> bool {
+        if !self.finite(path, v) {
+            return false;
+        }
+        if v > 0.0 {
+            true
+        } else {
+            self.err(path, format!("must be > 0, got {v}"));
+            false
+        }
+    }
+    fn in_range(&mut self, path: &str, v: f64, lo: f64, hi: f64) -> bool {
+        if !self.finite(path, v) {
+            return false;
+        }
+        if v >= lo && v <= hi {
+            true
+        } else {
+            self.err(path, format!("must be in [{lo}, {hi}], got {v}"));
+            false
+        }
+    }
+    fn point(&mut self, path: &str, p: [f64; 2]) -> bool {
+        let a = self.finite(&format!("{path}[0]"), p[0]);
+        let b = self.finite(&format!("{path}[1]"), p[1]);
+        a && b
+    }
+    fn time_function(&mut self, path: &str, f: &TimeFunction) {
+        match f {
+            TimeFunction::Constant(v) => {
+                self.finite(path, *v);
+            }
+            TimeFunction::Table { table } => {
+                if table.is_empty() {
+                    self.err(&format!("{path}.table"), "must have at least one [time, value] pair");
+                }
+                for (k, pair) in table.iter().enumerate() {
+                    self.point(&format!("{path}.table[{k}]"), *pair);
+                    if k > 0 && pair[0] < table[k - 1][0] {
+                        self.err(
+                            &format!("{path}.table[{k}]"),
+                            format!("times must not decrease, got {} after {}", pair[0], table[k - 1][0]),
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn check_grid(c: &mut Checker, g: &GridSpec) -> [usize; 2] {
+    let mut cells = [0usize; 2];
+    let h_ok = c.positive("grid.cell_size", g.cell_size);
+    let min_ok = c.point("grid.min", g.min);
+    let max_ok = c.point("grid.max", g.max);
+    if !(h_ok && min_ok && max_ok) {
+        return cells;
+    }
+    let axis = ["x", "y"];
+    for d in 0..2 {
+        let len = g.max[d] - g.min[d];
+        if len < g.cell_size {
+            c.err(
+                &format!("grid.max[{d}]"),
+                format!(
+                    "the grid must be at least one cell wide along {}: min {} max {} cell_size {}",
+                    axis[d], g.min[d], g.max[d], g.cell_size
+                ),
+            );
+            return [0, 0];
+        }
+        let n = (len / g.cell_size - 1e-9).ceil();
+        if n > 1e8 {
+            c.err("grid.cell_size", format!("{n} cells along {} is too many", axis[d]));
+            return [0, 0];
+        }
+        cells[d] = n as usize;
+    }
+    if (cells[0] + 1) * (cells[1] + 1) > MAX_NODES {
+        c.err(
+            "grid.cell_size",
+            format!("{} × {} cells is more than the {MAX_NODES}-node limit", cells[0], cells[1]),
+        );
+        return [0, 0];
+    }
+    let sides = [("left", &g.boundary.left), ("right", &g.boundary.right), ("bottom", &g.boundary.bottom), ("top", &g.boundary.top)];
+    for (name, side) in sides {
+        let path = format!("grid.boundary.{name}");
+        match side {
+            SideCondition::Velocity { x, y } => {
+                if x.is_none() && y.is_none() {
+                    c.err(&path, "a velocity condition needs `x` and/or `y`");
+                }
+                if let Some(f) = x {
+                    c.time_function(&format!("{path}.x"), f);
+                }
+                if let Some(f) = y {
+                    c.time_function(&format!("{path}.y"), f);
+                }
+            }
+            SideCondition::Traction { normal, shear } => {
+                if normal.is_none() && shear.is_none() {
+                    c.err(&path, "a traction condition needs `normal` and/or `shear`");
+                }
+                if let Some(f) = normal {
+                    c.time_function(&format!("{path}.normal"), f);
+                }
+                if let Some(f) = shear {
+                    c.time_function(&format!("{path}.shear"), f);
+                }
+            }
+            _ => {}
+        }
+    }
+    cells
+}
+
+fn check_time(c: &mut Checker, t: &TimeSpec) {
+    c.positive("time.end", t.end);
+    match (t.cfl, t.dt) {
+        (Some(_), Some(_)) => c.err("time", "give either `cfl` or `dt`, not both"),
+        (Some(cfl), None) => {
+            if c.positive("time.cfl", cfl) && cfl > 1.0 {
+                c.err(
+                    "time.cfl",
+                    format!("must be <= 1, got {cfl}: explicit MPM is unstable when a wave crosses more than one cell per step"),
+                );
+            }
+        }
+        (None, Some(dt)) => {
+            if c.positive("time.dt", dt) && t.end.is_finite() && t.end > 0.0 {
+                let steps = (t.end / dt).ceil();
+                let cap = t.max_steps.unwrap_or(10_000_000) as f64;
+                if steps > cap {
+                    c.err("time.dt", format!("{dt} s over {} s is {steps} steps, more than max_steps = {cap}", t.end));
+                }
+            }
+        }
+        (None, None) => {}
+    }
+    if t.max_steps == Some(0) {
+        c.err("time.max_steps", "must be >= 1, got 0");
+    }
+}
+
+fn check_output_and_guards(c: &mut Checker, file: &SceneFile) {
+    if file.output.series_rows < 2 || file.output.series_rows > 10_000_000 {
+        c.err("output.series_rows", format!("must be in [2, 10000000], got {}", file.output.series_rows));
+    }
+    if file.output.snapshots > 100_000 {
+        c.err("output.snapshots", format!("must be <= 100000, got {}", file.output.snapshots));
+    }
+    if c.finite("guards.energy_growth", file.guards.energy_growth) && file.guards.energy_growth <= 1.0 {
+        c.err("guards.energy_growth", format!("must be > 1, got {}", file.guards.energy_growth));
+    }
+    let f = file.guards.min_node_mass_fraction;
+    if c.finite("guards.min_node_mass_fraction", f) && !(0.0..1.0).contains(&f) {
+        c.err("guards.min_node_mass_fraction", format!("must be in [0, 1), got {f}"));
+    }
+}
+
+fn resolve_material(
+    c: &mut Checker,
+    path: &str,
+    name: &str,
+    m: &MaterialSpec,
+    plane: PlaneKind,
+) -> Option<ResolvedMaterial> {
+    let before = c.errors.len();
+    c.positive(&format!("{path}.density"), m.density);
+    c.positive(&format!("{path}.youngs_modulus"), m.youngs_modulus);
+    let nu = m.poissons_ratio;
+    if c.finite(&format!("{path}.poissons_ratio"), nu) && !(nu > -1.0 && nu < 0.5) {
+        c.err(&format!("{path}.poissons_ratio"), format!("must be in (-1, 0.5), got {nu}"));
+    }
+    if m.model == MaterialModel::NeoHookean && plane == PlaneKind::PlaneStress {
+        c.err(
+            &format!("{path}.model"),
+            "neo_hookean is implemented for analysis.plane = \"plane_strain\" only",
+        );
+    }
+    if c.errors.len() > before {
+        return None;
+    }
+    let (e, rho) = (m.youngs_modulus, m.density);
+    let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    let mu = e / (2.0 * (1.0 + nu));
+    let wave_speed = match plane {
+        PlaneKind::PlaneStrain => ((lambda + 2.0 * mu) / rho).sqrt(),
+        PlaneKind::PlaneStress => (e / (rho * (1.0 - nu * nu))).sqrt(),
+    };
+    Some(ResolvedMaterial {
+        name: name.to_string(),
+        model: m.model,
+        density: rho,
+        youngs_modulus: e,
+        poissons_ratio: nu,
+        lambda,
+        mu,
+        wave_speed,
+    })
+}
+
+fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec) -> bool {
+    let before = c.errors.len();
+    match s {
+        ShapeSpec::Box { min, max } => {
+            if c.point(&format!("{path}.min"), *min) && c.point(&format!("{path}.max"), *max) && (max[0] <= min[0] || max[1] <= min[1]) {
+                c.err(path, format!("max must exceed min in x and y, got min {min:?} max {max:?}"));
+            }
+        }
+        ShapeSpec::Disk { center, radius } => {
+            c.point(&format!("{path}.center"), *center);
+            c.positive(&format!("{path}.radius"), *radius);
+        }
+        ShapeSpec::Ring { center, inner_radius, outer_radius } => {
+            c.point(&format!("{path}.center"), *center);
+            let a = c.finite(&format!("{path}.inner_radius"), *inner_radius);
+            let b = c.positive(&format!("{path}.outer_radius"), *outer_radius);
+            if a && *inner_radius < 0.0 {
+                c.err(&format!("{path}.inner_radius"), format!("must be >= 0, got {inner_radius}"));
+            }
+            if a && b && inner_radius >= outer_radius {
+                c.err(&format!("{path}.inner_radius"), format!("must be less than outer_radius {outer_radius}, got {inner_radius}"));
+            }
+        }
+        ShapeSpec::Polygon { vertices } => {
+            if vertices.len() < 3 {
+                c.err(&format!("{path}.vertices"), format!("a polygon needs at least 3 vertices, got {}", vertices.len()));
+            } else {
+                let ok = vertices.iter().enumerate().all(|(k, v)| c.point(&format!("{path}.vertices[{k}]"), *v));
+                if ok && geometry::polygon_area2(vertices).abs() <= 0.0 {
+                    c.err(&format!("{path}.vertices"), "the polygon has zero area");
+                }
+            }
+        }
+        ShapeSpec::Slot { start, end, width } => {
+            let a = c.point(&format!("{path}.start"), *start);
+            let b = c.point(&format!("{path}.end"), *end);
+            c.positive(&format!("{path}.width"), *width);
+            if a && b && start == end {
+                c.err(&format!("{path}.end"), "must differ from start");
+            }
+        }
+    }
+    c.errors.len() == before
+}
+
+fn check_body(c: &mut Checker, path: &str, body: &BodySpec, grid: &GridSpec, cells: [usize; 2]) -> usize {
+    let before = c.errors.len();
+    let shape_ok = check_shape(c, &format!("{path}.shape"), &body.shape);
+    let holes_ok = body.holes.iter().enumerate().all(|(k, h)| check_shape(c, &format!("{path}.holes[{k}]"), h));
+    let ppc = body.particles_per_cell;
+    let n = per_dir(ppc);
+    if ppc == 0 || n * n != ppc as usize || n > 8 {
+        c.err(
+            &format!("{path}.particles_per_cell"),
+            format!("must be a perfect square from 1 to 64 (1, 4, 9, 16, ...), got {ppc}"),
+        );
+    }
+    c.point(&format!("{path}.velocity"), body.velocity);
+    for (r, row) in body.velocity_gradient.iter().enumerate() {
+        c.point(&format!("{path}.velocity_gradient[{r}]"), *row);
+    }
+    if let Some(o) = body.velocity_origin {
+        c.point(&format!("{path}.velocity_origin"), o);
+    }
+    if !(shape_ok && holes_ok) || cells[0] == 0 {
+        return 0;
+    }
+    let b = geometry::bounds(&body.shape);
+    let gmax = [
+        grid.min[0] + cells[0] as f64 * grid.cell_size,
+        grid.min[1] + cells[1] as f64 * grid.cell_size,
+    ];
+    let tol = 1e-9 * grid.cell_size;
+    let axis = ["x", "y"];
+    for d in 0..2 {
+        if b.min[d] < grid.min[d] - tol || b.max[d] > gmax[d] + tol {
+            c.err(
+                &format!("{path}.shape"),
+                format!(
+                    "extends outside the grid along {}: the body spans [{}, {}], the grid [{}, {}]",
+                    axis[d], b.min[d], b.max[d], grid.min[d], gmax[d]
+                ),
+            );
+        }
+    }
+    if c.errors.len() > before {
+        return 0;
+    }
+    let lat = Lattice { origin: grid.min, h: grid.cell_size, cells, per_dir: n };
+    let mut count = 0usize;
+    geometry::seed(&body.shape, &body.holes, &lat, |_| count += 1);
+    if count == 0 {
+        c.err(
+            &format!("{path}.shape"),
+            format!("holds no particle at cell size {} with {ppc} particles per cell", grid.cell_size),
+        );
+    }
+    count
+}
+
+fn check_contact(c: &mut Checker, contact: &ContactSpec, groups: &std::collections::BTreeSet<u32>) {
+    if c.finite("contact.friction", contact.friction) && contact.friction < 0.0 {
+        c.err("contact.friction", format!("must be >= 0, got {}", contact.friction));
+    }
+    for (k, pair) in contact.pairs.iter().enumerate() {
+        let path = format!("contact.pairs[{k}]");
+        if c.finite(&format!("{path}.friction"), pair.friction) && pair.friction < 0.0 {
+            c.err(&format!("{path}.friction"), format!("must be >= 0, got {}", pair.friction));
+        }
+        if pair.groups[0] == pair.groups[1] {
+            c.err(&format!("{path}.groups"), format!("the two groups must differ, got {:?}", pair.groups));
+        }
+        for g in pair.groups {
+            if !groups.contains(&g) {
+                c.err(&format!("{path}.groups"), format!("no body is in contact group {g}"));
+            }
+        }
+    }
+}
