@@ -11,6 +11,7 @@ pub mod geometry;
 pub mod grid;
 pub mod material;
 pub mod mpm;
+pub mod output;
 pub mod particles;
 pub mod scene;
 

@@ -1,0 +1,231 @@
+//! `cleave`: run fracture scenes in-process (and, later, against a server).
+//!
+//! Exit codes: 0 success, 1 simulation failure (or an output error),
+//! 2 invalid scene or usage.
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
+use cleave::mpm::Simulation;
+use cleave::output::OutputWriter;
+use cleave::scene::{Scene, SceneError};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "cleave", version = cleave::VERSION, about = "Dynamic fracture with the material point method")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene in this process and write series.csv, VTK snapshots and plots.
+    Run {
+        /// Scene file (TOML or JSON).
+        scene: PathBuf,
+        /// Output directory (created if missing).
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Print one JSON object with the run's summary on stdout.
+        #[arg(long)]
+        json: bool,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Check a scene without running it; prints its plan.
+    Validate {
+        scene: PathBuf,
+        /// Print the result as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+const EXIT_FAILED: u8 = 1;
+const EXIT_INVALID: u8 = 2;
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let code = if e.use_stderr() { EXIT_INVALID } else { 0 };
+            let _ = e.print();
+            return ExitCode::from(code);
+        }
+    };
+    match cli.command {
+        Command::Run { scene, out, json, quiet } => run(&scene, &out, json, quiet),
+        Command::Validate { scene, json } => validate(&scene, json),
+    }
+}
+
+fn report_invalid(path: &Path, e: &SceneError, json: bool) -> ExitCode {
+    if json {
+        let errors: Vec<_> = e.errors.iter().map(|f| json!({"path": f.path, "reason": f.reason})).collect();
+        println!("{}", json!({"status": "invalid", "scene": path, "errors": errors}));
+    }
+    eprintln!("error: invalid scene {}:", path.display());
+    for f in &e.errors {
+        eprintln!("  {f}");
+    }
+    ExitCode::from(EXIT_INVALID)
+}
+
+fn validate(path: &Path, json: bool) -> ExitCode {
+    match Scene::from_path(path) {
+        Ok(scene) => {
+            if json {
+                println!(
+                    "{}",
+                    json!({
+                        "status": "valid",
+                        "scene": path,
+                        "particles": scene.total_particles(),
+                        "cells": scene.cells,
+                        "stages": scene.plan.names(),
+                    })
+                );
+            } else {
+                println!(
+                    "{}: valid; {} particles, {} x {} cells; plan: {}",
+                    path.display(),
+                    scene.total_particles(),
+                    scene.cells[0],
+                    scene.cells[1],
+                    scene.plan
+                );
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => report_invalid(path, &e, json),
+    }
+}
+
+/// Writes results and drives the progress bar.
+struct RunObserver {
+    writer: OutputWriter,
+    bar: Option<ProgressBar>,
+}
+
+impl Observer for RunObserver {
+    fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
+        self.writer.series_row(row)
+    }
+    fn snapshot(&mut self, snapshot: &Snapshot) -> Result<(), String> {
+        self.writer.snapshot(snapshot)
+    }
+    fn progress(&mut self, p: &Progress) -> Control {
+        if let Some(bar) = &self.bar {
+            bar.set_position((p.fraction() * 1000.0) as u64);
+            if p.step % 16 == 0 {
+                bar.set_message(format!("step {} t = {:.3e} s", p.step, p.time));
+            }
+        }
+        Control::Continue
+    }
+}
+
+fn run(path: &Path, out: &Path, json: bool, quiet: bool) -> ExitCode {
+    let scene = match Scene::from_path(path) {
+        Ok(s) => s,
+        Err(e) => return report_invalid(path, &e, json),
+    };
+    match run_valid(path, &scene, out, json, quiet) {
+        Ok(code) => code,
+        Err(e) => {
+            if json {
+                println!("{}", json!({"status": "failed", "scene": path, "error": format!("{e:#}")}));
+            }
+            eprintln!("error: {e:#}");
+            ExitCode::from(EXIT_FAILED)
+        }
+    }
+}
+
+fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool) -> anyhow::Result<ExitCode> {
+    if !json {
+        eprintln!(
+            "{}: {} particles, {} x {} cells; plan: {}",
+            path.display(),
+            scene.total_particles(),
+            scene.cells[0],
+            scene.cells[1],
+            scene.plan
+        );
+    }
+    let writer = OutputWriter::create(out).with_context(|| format!("cannot write results to {}", out.display()))?;
+    let bar = (!quiet && !json).then(|| {
+        let bar = ProgressBar::new(1000);
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    });
+    let mut obs = RunObserver { writer, bar };
+    let mut sim = Simulation::new(scene);
+    let result = sim.run(&mut obs);
+    if let Some(bar) = &obs.bar {
+        bar.finish_and_clear();
+    }
+    // Write the collections and plots even after a failure: the rows and
+    // snapshots up to the failure are what a user needs to see why.
+    let paths = obs.writer.finish().context("finishing the output files")?;
+    match result {
+        Ok(summary) => {
+            let row = summary.last_row;
+            if json {
+                println!(
+                    "{}",
+                    json!({
+                        "status": if summary.cancelled { "cancelled" } else { "succeeded" },
+                        "scene": path,
+                        "steps": summary.steps,
+                        "time": summary.time,
+                        "wall_seconds": summary.wall_seconds,
+                        "particles": summary.particles,
+                        "stages": summary.stages,
+                        "kinetic_energy": row.kinetic_energy,
+                        "strain_energy": row.strain_energy,
+                        "external_work": row.external_work,
+                        "energy_error": row.energy_error,
+                        "stage_seconds": summary.stage_seconds,
+                        "outputs": paths,
+                    })
+                );
+            } else {
+                eprintln!(
+                    "done: {} steps to t = {:.6e} s in {:.2} s; kinetic {:.6e} J, strain {:.6e} J; results in {}",
+                    summary.steps,
+                    summary.time,
+                    summary.wall_seconds,
+                    row.kinetic_energy,
+                    row.strain_energy,
+                    out.display()
+                );
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            if json {
+                println!(
+                    "{}",
+                    json!({"status": "failed", "scene": path, "error": e.to_string(), "outputs": paths})
+                );
+            }
+            eprintln!("simulation failed: {e}");
+            Ok(ExitCode::from(EXIT_FAILED))
+        }
+    }
+}

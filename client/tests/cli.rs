@@ -1,0 +1,193 @@
+//! The `cleave` command line: exit codes, error messages that name the
+//! field, outputs, and byte-identical results for any thread count.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn cleave() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_cleave"))
+}
+
+fn scenes() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("scenes")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A valid scene to mutate.
+const GOOD: &str = r#"
+[grid]
+cell_size = 0.1
+max = [1.0, 1.0]
+
+[time]
+end = 0.01
+
+[[bodies]]
+shape = { type = "box", min = [0.2, 0.2], max = [0.8, 0.8] }
+material = { model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }
+"#;
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).expect("write the scene");
+    p
+}
+
+/// Every kind of bad input: exit code 2 from both `validate` and `run`,
+/// and a message that names the field (or the file's problem).
+#[test]
+fn bad_input_exits_2_and_names_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("empty", b"".to_vec(), "the scene is empty"),
+        ("blank", b"   \n\n".to_vec(), "the scene is empty"),
+        ("garbage", vec![0xff, 0xfe, 0x00, 0x12, 0x89, 0x50, 0x4e, 0x47], "not UTF-8"),
+        ("nul", b"[grid]\0\0".to_vec(), "NUL"),
+        ("missing grid", GOOD.replace("[grid]\ncell_size = 0.1\nmax = [1.0, 1.0]\n", "").into_bytes(), "missing field `grid`"),
+        ("negative cell", GOOD.replace("cell_size = 0.1", "cell_size = -0.1").into_bytes(), "grid.cell_size: must be > 0, got -0.1"),
+        ("unknown key", GOOD.replace("end = 0.01", "end = 0.01\nfinish = 3").into_bytes(), "unknown field `finish`"),
+        ("unknown nested key", GOOD.replace("poissons_ratio = 0.3", "poissons_ratio = 0.3, youngs = 3").into_bytes(), "bodies[0].material"),
+        ("nan", GOOD.replace("youngs_modulus = 1.0e6", "youngs_modulus = nan").into_bytes(), "bodies[0].material.youngs_modulus: must be a finite number"),
+        ("negative modulus", GOOD.replace("youngs_modulus = 1.0e6", "youngs_modulus = -3").into_bytes(), "bodies[0].material.youngs_modulus: must be > 0, got -3"),
+        ("poisson", GOOD.replace("poissons_ratio = 0.3", "poissons_ratio = 0.5").into_bytes(), "bodies[0].material.poissons_ratio: must be in (-1, 0.5)"),
+        ("outside", GOOD.replace("max = [0.8, 0.8]", "max = [1.3, 0.8]").into_bytes(), "bodies[0].shape: extends outside the grid"),
+        ("wrong type", GOOD.replace("end = 0.01", "end = \"soon\"").into_bytes(), "time.end"),
+        ("unknown material", GOOD.replace("material = { model = \"linear_elastic\", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }", "material = \"steel\"").into_bytes(), "bodies[0].material: no material named `steel`"),
+        ("ppc", GOOD.replace("[[bodies]]", "[[bodies]]\nparticles_per_cell = 5").into_bytes(), "bodies[0].particles_per_cell: must be a perfect square"),
+        ("cfl", GOOD.replace("end = 0.01", "end = 0.01\ncfl = 1.5").into_bytes(), "time.cfl: must be <= 1"),
+        ("cfl and dt", GOOD.replace("end = 0.01", "end = 0.01\ncfl = 0.5\ndt = 1e-5").into_bytes(), "time: give either `cfl` or `dt`"),
+        ("negative end", GOOD.replace("end = 0.01", "end = -1.0").into_bytes(), "time.end: must be > 0"),
+        ("shape type", GOOD.replace("type = \"box\"", "type = \"blob\"").into_bytes(), "bodies[0].shape"),
+        ("disk radius", GOOD.replace("{ type = \"box\", min = [0.2, 0.2], max = [0.8, 0.8] }", "{ type = \"disk\", center = [0.5, 0.5], radius = -0.1 }").into_bytes(), "bodies[0].shape.radius: must be > 0"),
+        ("inverted box", GOOD.replace("max = [0.8, 0.8]", "max = [0.1, 0.8]").into_bytes(), "bodies[0].shape: max must exceed min"),
+        ("no bodies", GOOD.split("[[bodies]]").next().unwrap().to_string().into_bytes(), "missing field `bodies`"),
+        ("grid too small", GOOD.replace("max = [1.0, 1.0]", "max = [0.05, 1.0]").into_bytes(), "grid.max[0]"),
+        ("toml syntax", b"[grid\ncell_size = ".to_vec(), "line 1"),
+        ("plane stress neo", GOOD.replace("model = \"linear_elastic\"", "model = \"neo_hookean\"").replace("[time]", "[analysis]\nplane = \"plane_stress\"\nthickness = 0.01\n\n[time]").into_bytes(), "bodies[0].material.model"),
+        ("contact group", GOOD.replace("[time]", "[contact]\npairs = [{ groups = [0, 7], friction = 0.2 }]\n\n[time]").into_bytes(), "contact.pairs[0].groups: no body is in contact group 7"),
+        ("side", GOOD.replace("max = [1.0, 1.0]", "max = [1.0, 1.0]\nboundary = { left = \"sticky\" }").into_bytes(), "grid.boundary.left"),
+        ("velocity table", GOOD.replace("max = [1.0, 1.0]", "max = [1.0, 1.0]\nboundary = { left = { type = \"velocity\", x = { table = [[1.0, 0.0], [0.5, 1.0]] } } }").into_bytes(), "grid.boundary.left.x.table[1]: times must not decrease"),
+    ];
+    for (name, bytes, expected) in &cases {
+        let path = write(dir.path(), &format!("{}.toml", name.replace(' ', "_")), bytes);
+        for cmd in ["validate", "run"] {
+            let mut c = cleave();
+            c.arg(cmd).arg(&path);
+            if cmd == "run" {
+                c.arg("--out").arg(dir.path().join("out"));
+            }
+            let out = c.output().unwrap();
+            assert_eq!(out.status.code(), Some(2), "{name} ({cmd}): exit code {:?}, stderr: {}", out.status.code(), stderr(&out));
+            assert!(stderr(&out).contains(expected), "{name} ({cmd}): expected `{expected}` in: {}", stderr(&out));
+        }
+    }
+    // JSON scenes get the same treatment.
+    let json = write(dir.path(), "bad.json", br#"{"grid": {"cell_size": 0.1, "max": [1, 1]}, "time": {"end": 0.01}, "bodies": [{"shape": {"type": "box", "min": [0.2, 0.2], "max": [0.8, 0.8]}, "material": {"model": "linear_elastic", "density": -1, "youngs_modulus": 1e6, "poissons_ratio": 0.3}}]}"#);
+    let out = cleave().arg("validate").arg(&json).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("bodies[0].material.density: must be > 0, got -1"), "{}", stderr(&out));
+    let json = write(dir.path(), "broken.json", b"{\"grid\": ");
+    assert_eq!(cleave().arg("validate").arg(&json).output().unwrap().status.code(), Some(2));
+    // A missing file and a bad flag are invalid input too.
+    let out = cleave().arg("validate").arg(dir.path().join("nope.toml")).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("cannot read scene file"));
+    assert_eq!(cleave().arg("run").arg("--frobnicate").output().unwrap().status.code(), Some(2));
+    // --json reports the errors as JSON on stdout.
+    let path = write(dir.path(), "json_errors.toml", GOOD.replace("cell_size = 0.1", "cell_size = 0").as_bytes());
+    let out = cleave().args(["validate", "--json"]).arg(&path).output().unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert_eq!(v["status"], "invalid");
+    assert_eq!(v["errors"][0]["path"], "grid.cell_size");
+}
+
+#[test]
+fn run_writes_results_and_reports_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("out");
+    let out = cleave()
+        .args(["run", "--json"])
+        .arg(scenes().join("wave_bar.toml"))
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object on stdout");
+    assert_eq!(v["status"], "succeeded");
+    assert!(v["steps"].as_u64().unwrap() > 100);
+    assert_eq!(v["particles"], 1600);
+    assert_eq!(v["stages"], serde_json::json!(["p2g", "grid_update", "g2p"]));
+    assert!(v["wall_seconds"].as_f64().unwrap() > 0.0);
+    assert!(v["kinetic_energy"].as_f64().unwrap() > 0.0);
+    let csv = std::fs::read_to_string(out_dir.join("series.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    for col in ["time", "kinetic_energy", "strain_energy", "external_work", "total_mass", "momentum_x", "angular_momentum"] {
+        assert!(header.split(',').any(|c| c == col), "series.csv lacks {col}: {header}");
+    }
+    assert_eq!(csv.lines().count(), 1 + 101, "header + 101 rows");
+    for f in ["particles.pvd", "grid.pvd", "energies.png", "particles_0000.vtp", "particles_0005.vtp", "grid_0005.vti"] {
+        assert!(out_dir.join(f).is_file(), "missing {f}");
+    }
+    let pvd = std::fs::read_to_string(out_dir.join("particles.pvd")).unwrap();
+    assert_eq!(pvd.matches("<DataSet").count(), 6);
+}
+
+#[test]
+fn a_failing_simulation_exits_1_with_a_diagnosis() {
+    // A fixed time step far beyond the CFL limit.
+    let dir = tempfile::tempdir().unwrap();
+    // h / c = 0.1 m / 36.7 m/s = 2.7 ms
+    let path = write(dir.path(), "cfl.toml", GOOD.replace("end = 0.01", "end = 0.05\ndt = 5e-3").as_bytes());
+    let out = cleave().arg("run").arg(&path).arg("--out").arg(dir.path().join("o")).output().unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(stderr(&out).contains("exceeds the CFL stability limit"), "{}", stderr(&out));
+    // A body pushed out of the grid.
+    let path = write(
+        dir.path(),
+        "leave.toml",
+        GOOD.replace("[[bodies]]", "[[bodies]]\nvelocity = [500.0, 0.0]").replace("end = 0.01", "end = 0.01\ncfl = 0.5").as_bytes(),
+    );
+    let out = cleave().args(["run", "--json"]).arg(&path).arg("--out").arg(dir.path().join("o2")).output().unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(stderr(&out).contains("left the grid"), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["status"], "failed");
+    assert!(v["error"].as_str().unwrap().contains("particle"));
+    // The rows up to the failure are kept.
+    assert!(std::fs::read_to_string(dir.path().join("o2").join("series.csv")).unwrap().lines().count() >= 2);
+}
+
+fn run_with_threads(scene: &Path, threads: &str, out: &Path) {
+    let o = cleave()
+        .env("RAYON_NUM_THREADS", threads)
+        .args(["run", "--quiet"])
+        .arg(scene)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// Every output file is byte-identical with 1 and 2 threads (contact and
+/// MUSL paths included).
+#[test]
+fn outputs_are_byte_identical_for_one_and_two_threads() {
+    for scene in ["sliding_block.toml", "two_disks.toml"] {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("t1"), dir.path().join("t2"));
+        run_with_threads(&scenes().join(scene), "1", &a);
+        run_with_threads(&scenes().join(scene), "2", &b);
+        let mut names: Vec<_> = std::fs::read_dir(&a).unwrap().map(|e| e.unwrap().file_name()).collect();
+        names.sort();
+        assert!(names.len() >= 5, "{scene}: too few outputs {names:?}");
+        for name in names {
+            let (x, y) = (std::fs::read(a.join(&name)).unwrap(), std::fs::read(b.join(&name)).unwrap());
+            assert!(x == y, "{scene}: {name:?} differs between 1 and 2 threads");
+        }
+    }
+}

@@ -1,0 +1,204 @@
+//! Results on disk: `series.csv`, VTK snapshots (`.vtp` particles, `.vti`
+//! grid, `.pvd` collections that ParaView opens as a time series) and a PNG
+//! plot of the energies.
+//!
+//! Entry point: [`OutputWriter`], an [`Observer`] for
+//! [`Simulation::run`](crate::mpm::Simulation::run). Every file is written
+//! atomically (a `.tmp` beside it, then a rename) and byte-for-byte
+//! deterministic: no timestamps, no unordered maps.
+
+mod plot;
+mod vtk;
+
+pub use plot::plot_energies;
+pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
+
+use crate::diagnostics::{Observer, SeriesRow, Snapshot};
+use serde::Serialize;
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// A file that could not be written.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {source}")]
+pub struct OutputError {
+    pub path: PathBuf,
+    #[source]
+    pub source: std::io::Error,
+}
+
+impl OutputError {
+    pub(crate) fn new(path: &Path, source: std::io::Error) -> OutputError {
+        OutputError { path: path.to_path_buf(), source }
+    }
+}
+
+/// What a run wrote.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct OutputPaths {
+    pub dir: PathBuf,
+    pub series_csv: PathBuf,
+    pub particles_pvd: Option<PathBuf>,
+    pub grid_pvd: Option<PathBuf>,
+    pub energy_plot: Option<PathBuf>,
+    /// Snapshot files in the order written (particles, then grid).
+    pub snapshots: Vec<PathBuf>,
+}
+
+/// Writes a run's results into a directory as they arrive.
+pub struct OutputWriter {
+    dir: PathBuf,
+    series: BufWriter<File>,
+    series_path: PathBuf,
+    rows: Vec<SeriesRow>,
+    particle_entries: Vec<(f64, String)>,
+    grid_entries: Vec<(f64, String)>,
+    snapshots: Vec<PathBuf>,
+}
+
+impl OutputWriter {
+    /// Creates `dir` (and parents) and starts `series.csv`.
+    pub fn create(dir: &Path) -> Result<OutputWriter, OutputError> {
+        std::fs::create_dir_all(dir).map_err(|e| OutputError::new(dir, e))?;
+        let series_path = dir.join("series.csv");
+        let file = File::create(&series_path).map_err(|e| OutputError::new(&series_path, e))?;
+        let mut series = BufWriter::new(file);
+        writeln!(series, "{}", SeriesRow::COLUMNS.join(",")).map_err(|e| OutputError::new(&series_path, e))?;
+        Ok(OutputWriter {
+            dir: dir.to_path_buf(),
+            series,
+            series_path,
+            rows: Vec::new(),
+            particle_entries: Vec::new(),
+            grid_entries: Vec::new(),
+            snapshots: Vec::new(),
+        })
+    }
+
+    /// Flushes the series and writes the `.pvd` collections and the plot.
+    pub fn finish(mut self) -> Result<OutputPaths, OutputError> {
+        self.series.flush().map_err(|e| OutputError::new(&self.series_path, e))?;
+        let mut paths = OutputPaths {
+            dir: self.dir.clone(),
+            series_csv: self.series_path.clone(),
+            snapshots: std::mem::take(&mut self.snapshots),
+            ..Default::default()
+        };
+        if !self.particle_entries.is_empty() {
+            let p = self.dir.join("particles.pvd");
+            write_pvd(&p, &self.particle_entries)?;
+            paths.particles_pvd = Some(p);
+        }
+        if !self.grid_entries.is_empty() {
+            let p = self.dir.join("grid.pvd");
+            write_pvd(&p, &self.grid_entries)?;
+            paths.grid_pvd = Some(p);
+        }
+        let p = self.dir.join("energies.png");
+        if plot_energies(&p, &self.rows)? {
+            paths.energy_plot = Some(p);
+        }
+        Ok(paths)
+    }
+}
+
+impl Observer for OutputWriter {
+    fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
+        write_series_line(&mut self.series, row)
+            .and_then(|_| self.series.flush())
+            .map_err(|e| OutputError::new(&self.series_path, e).to_string())?;
+        self.rows.push(*row);
+        Ok(())
+    }
+
+    fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
+        let name = format!("particles_{:04}.vtp", snap.index);
+        let path = self.dir.join(&name);
+        write_particles_vtp(&path, snap).map_err(|e| e.to_string())?;
+        self.particle_entries.push((snap.time, name));
+        self.snapshots.push(path);
+        if let Some(grid) = &snap.grid {
+            let name = format!("grid_{:04}.vti", snap.index);
+            let path = self.dir.join(&name);
+            write_grid_vti(&path, grid).map_err(|e| e.to_string())?;
+            self.grid_entries.push((snap.time, name));
+            self.snapshots.push(path);
+        }
+        Ok(())
+    }
+}
+
+/// One CSV line: the step as an integer, floats in shortest round-trip form.
+fn write_series_line(w: &mut impl Write, row: &SeriesRow) -> std::io::Result<()> {
+    let v = row.values();
+    write!(w, "{}", row.step)?;
+    for x in &v[1..] {
+        write!(w, ",{x:?}")?;
+    }
+    writeln!(w)
+}
+
+/// Writes a whole series to `path` (atomically), as [`OutputWriter`] does.
+pub fn write_series_csv(path: &Path, rows: &[SeriesRow]) -> Result<(), OutputError> {
+    write_atomic(path, |w| {
+        writeln!(w, "{}", SeriesRow::COLUMNS.join(","))?;
+        for r in rows {
+            write_series_line(w, r)?;
+        }
+        Ok(())
+    })
+}
+
+/// Writes through `fill` into `path.tmp`, then renames it over `path`.
+pub(crate) fn write_atomic(
+    path: &Path,
+    fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> Result<(), OutputError> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    let result = (|| {
+        let mut w = BufWriter::new(File::create(&tmp)?);
+        fill(&mut w)?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        OutputError::new(path, e)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_round_trips_bit_for_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows: Vec<SeriesRow> = (0..5)
+            .map(|k| SeriesRow {
+                step: k,
+                time: k as f64 * 1.0e-7 / 3.0,
+                kinetic_energy: 0.1 + k as f64 / 7.0,
+                strain_energy: 1e-300,
+                momentum_x: -2.5e12,
+                ..Default::default()
+            })
+            .collect();
+        let p = dir.path().join("s.csv");
+        write_series_csv(&p, &rows).unwrap();
+        let text = std::fs::read_to_string(&p).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next().unwrap(), SeriesRow::COLUMNS.join(","));
+        for (line, row) in lines.zip(&rows) {
+            let parsed: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+            let want = row.values();
+            assert_eq!(parsed.len(), want.len());
+            for (a, b) in parsed.iter().zip(want.iter()) {
+                assert_eq!(a.to_bits(), b.to_bits());
+            }
+        }
+    }
+}

@@ -1,0 +1,94 @@
+//! The energy plot: kinetic, strain, total and external work against time.
+
+use super::OutputError;
+use crate::diagnostics::SeriesRow;
+use plotters::prelude::*;
+use std::path::Path;
+
+/// Draws `energies.png`. Non-finite values are skipped. Returns Ok(false)
+/// and writes nothing when there is nothing to plot (fewer than two rows).
+pub fn plot_energies(path: &Path, rows: &[SeriesRow]) -> Result<bool, OutputError> {
+    let rows: Vec<&SeriesRow> = rows.iter().filter(|r| r.time.is_finite()).collect();
+    if rows.len() < 2 {
+        return Ok(false);
+    }
+    let series: [(&str, RGBColor, fn(&SeriesRow) -> f64); 4] = [
+        ("kinetic", RGBColor(31, 119, 180), |r| r.kinetic_energy),
+        ("strain", RGBColor(255, 127, 14), |r| r.strain_energy),
+        ("kinetic + strain", RGBColor(44, 160, 44), |r| r.kinetic_energy + r.strain_energy),
+        ("external work", RGBColor(120, 120, 120), |r| r.external_work),
+    ];
+    let t_max = rows.iter().map(|r| r.time).fold(0.0f64, f64::max).max(f64::MIN_POSITIVE);
+    let (mut lo, mut hi) = (0.0f64, 0.0f64);
+    for r in &rows {
+        for (_, _, f) in &series {
+            let v = f(r);
+            if v.is_finite() {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+    }
+    if hi - lo <= 0.0 {
+        hi = lo + 1.0;
+    }
+    let pad = 0.05 * (hi - lo);
+    // plotters reports its errors as its own type; keep the message.
+    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
+    let tmp = path.with_extension("png.tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, (900, 520)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption("Energies", ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d(0.0..t_max, (lo - pad)..(hi + pad))
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc("time in s")
+            .y_desc("energy in J")
+            .x_label_formatter(&|x| format!("{x:.2e}"))
+            .y_label_formatter(&|y| format!("{y:.2e}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        for (name, colour, f) in &series {
+            let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.time, f(r))).filter(|p| p.1.is_finite()).collect();
+            chart
+                .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                .map_err(|e| err(e.to_string()))?
+                .label(*name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))?;
+    Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plots_survive_nan_and_flat_data() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("e.png");
+        let mut rows = vec![SeriesRow::default(); 3];
+        rows[1].time = 1.0;
+        rows[2].time = 2.0;
+        rows[2].kinetic_energy = f64::NAN;
+        assert!(plot_energies(&p, &rows).unwrap());
+        assert!(std::fs::metadata(&p).unwrap().len() > 1000);
+        assert!(!plot_energies(&dir.path().join("one.png"), &rows[..1]).unwrap());
+    }
+}

@@ -1,0 +1,245 @@
+//! VTK XML writers: PolyData (`.vtp`) for particles, ImageData (`.vti`)
+//! for the grid, Collection (`.pvd`) for the time series. Arrays go in one
+//! raw appended block (`header_type="UInt64"`, little endian): each array is
+//! its byte count as a UInt64 followed by its values, and `offset` counts
+//! from the byte after the `_` that opens the block.
+
+use super::{write_atomic, OutputError};
+use crate::diagnostics::{Field, FieldData, GridSnapshot, Snapshot};
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::Path;
+
+/// One appended array: its XML attributes and its values.
+enum Values<'a> {
+    F64(&'a [f64]),
+    U32(&'a [u32]),
+    Points(&'a [[f64; 2]]),
+    Iota(usize),
+    IotaFrom1(usize),
+}
+
+impl Values<'_> {
+    fn bytes(&self) -> u64 {
+        match self {
+            Values::F64(v) => 8 * v.len() as u64,
+            Values::U32(v) => 4 * v.len() as u64,
+            Values::Points(p) => 24 * p.len() as u64,
+            Values::Iota(n) | Values::IotaFrom1(n) => 8 * *n as u64,
+        }
+    }
+
+    fn write(&self, w: &mut impl Write) -> std::io::Result<()> {
+        w.write_all(&self.bytes().to_le_bytes())?;
+        match self {
+            Values::F64(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
+            Values::U32(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
+            Values::Points(p) => p.iter().try_for_each(|x| {
+                w.write_all(&x[0].to_le_bytes())?;
+                w.write_all(&x[1].to_le_bytes())?;
+                w.write_all(&0f64.to_le_bytes())
+            }),
+            Values::Iota(n) => (0..*n as i64).try_for_each(|k| w.write_all(&k.to_le_bytes())),
+            Values::IotaFrom1(n) => (1..=*n as i64).try_for_each(|k| w.write_all(&k.to_le_bytes())),
+        }
+    }
+}
+
+/// Builds the XML of the arrays and remembers what to append.
+struct Appended<'a> {
+    offset: u64,
+    blocks: Vec<Values<'a>>,
+}
+
+impl<'a> Appended<'a> {
+    fn new() -> Self {
+        Appended { offset: 0, blocks: Vec::new() }
+    }
+
+    /// The `<DataArray .../>` element for `values`.
+    fn array(&mut self, xml: &mut String, ty: &str, name: Option<&str>, comps: usize, values: Values<'a>) {
+        let name = name.map(|n| format!(" Name=\"{n}\"")).unwrap_or_default();
+        let _ = writeln!(
+            xml,
+            "        <DataArray type=\"{ty}\"{name} NumberOfComponents=\"{comps}\" format=\"appended\" offset=\"{}\"/>",
+            self.offset
+        );
+        self.offset += 8 + values.bytes();
+        self.blocks.push(values);
+    }
+
+    fn field(&mut self, xml: &mut String, f: &'a Field) {
+        match &f.data {
+            FieldData::F64(v) => self.array(xml, "Float64", Some(&f.name), f.components, Values::F64(v)),
+            FieldData::U32(v) => self.array(xml, "UInt32", Some(&f.name), f.components, Values::U32(v)),
+        }
+    }
+
+    fn write(self, path: &Path, xml: String) -> Result<(), OutputError> {
+        write_atomic(path, |w| {
+            w.write_all(xml.as_bytes())?;
+            w.write_all(b"  <AppendedData encoding=\"raw\">\n   _")?;
+            for b in &self.blocks {
+                b.write(w)?;
+            }
+            w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")
+        })
+    }
+}
+
+const HEADER: &str = "<?xml version=\"1.0\"?>\n";
+
+/// Particles as VTK PolyData: one vertex per particle, every field as
+/// point data.
+pub fn write_particles_vtp(path: &Path, snap: &Snapshot) -> Result<(), OutputError> {
+    let n = snap.positions.len();
+    let mut xml = String::from(HEADER);
+    let _ = writeln!(xml, "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">");
+    let _ = writeln!(xml, "  <PolyData>");
+    let _ = writeln!(
+        xml,
+        "    <Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"{n}\" NumberOfLines=\"0\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
+    );
+    let mut app = Appended::new();
+    let _ = writeln!(xml, "      <PointData>");
+    for f in &snap.fields {
+        app.field(&mut xml, f);
+    }
+    let _ = writeln!(xml, "      </PointData>");
+    let _ = writeln!(xml, "      <Points>");
+    app.array(&mut xml, "Float64", Some("position"), 3, Values::Points(&snap.positions));
+    let _ = writeln!(xml, "      </Points>");
+    let _ = writeln!(xml, "      <Verts>");
+    app.array(&mut xml, "Int64", Some("connectivity"), 1, Values::Iota(n));
+    app.array(&mut xml, "Int64", Some("offsets"), 1, Values::IotaFrom1(n));
+    let _ = writeln!(xml, "      </Verts>");
+    let _ = writeln!(xml, "    </Piece>");
+    let _ = writeln!(xml, "  </PolyData>");
+    app.write(path, xml)
+}
+
+/// Grid nodes as VTK ImageData with the nodal fields as point data.
+pub fn write_grid_vti(path: &Path, grid: &GridSnapshot) -> Result<(), OutputError> {
+    let [nx, ny] = grid.dims;
+    let (o, h) = (grid.origin, grid.spacing);
+    let extent = format!("0 {} 0 {} 0 0", nx.saturating_sub(1), ny.saturating_sub(1));
+    let mut xml = String::from(HEADER);
+    let _ = writeln!(xml, "<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">");
+    let _ = writeln!(
+        xml,
+        "  <ImageData WholeExtent=\"{extent}\" Origin=\"{:?} {:?} 0\" Spacing=\"{h:?} {h:?} {h:?}\">",
+        o[0], o[1]
+    );
+    let _ = writeln!(xml, "    <Piece Extent=\"{extent}\">");
+    let mut app = Appended::new();
+    let _ = writeln!(xml, "      <PointData>");
+    for f in &grid.fields {
+        app.field(&mut xml, f);
+    }
+    let _ = writeln!(xml, "      </PointData>");
+    let _ = writeln!(xml, "    </Piece>");
+    let _ = writeln!(xml, "  </ImageData>");
+    app.write(path, xml)
+}
+
+/// A ParaView collection: `(time, file name relative to the .pvd)`.
+pub fn write_pvd(path: &Path, entries: &[(f64, String)]) -> Result<(), OutputError> {
+    let mut xml = String::from(HEADER);
+    xml.push_str("<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
+    for (t, file) in entries {
+        let _ = writeln!(xml, "    <DataSet timestep=\"{t:?}\" group=\"\" part=\"0\" file=\"{file}\"/>");
+    }
+    xml.push_str("  </Collection>\n</VTKFile>\n");
+    write_atomic(path, |w| w.write_all(xml.as_bytes()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn snapshot() -> Snapshot {
+        Snapshot {
+            index: 0,
+            step: 3,
+            time: 1.5e-6,
+            positions: vec![[0.1, 0.2], [0.3, -0.4], [1e-300, 7.0]],
+            fields: vec![
+                Field { name: "velocity".into(), components: 2, data: FieldData::F64(vec![1.0, 2.0, 3.0, 4.0, 5.0, f64::NAN]) },
+                Field { name: "particle_id".into(), components: 1, data: FieldData::U32(vec![7, 8, 9]) },
+            ],
+            grid: Some(GridSnapshot {
+                origin: [-0.2, -0.2],
+                spacing: 0.1,
+                dims: [2, 2],
+                fields: vec![Field { name: "mass".into(), components: 1, data: FieldData::F64(vec![0.0, 1.0, 2.0, 3.0]) }],
+            }),
+        }
+    }
+
+    /// Decodes the appended block of a file by the offsets in its XML.
+    fn blocks(bytes: &[u8]) -> Vec<Vec<u8>> {
+        let text = String::from_utf8_lossy(bytes);
+        let start = text.find("encoding=\"raw\">").unwrap();
+        let underscore = bytes[start..].iter().position(|&b| b == b'_').unwrap() + start + 1;
+        let mut offsets: Vec<usize> = text
+            .match_indices("offset=\"")
+            .map(|(i, m)| text[i + m.len()..].split('"').next().unwrap().parse().unwrap())
+            .collect();
+        offsets.sort();
+        offsets
+            .iter()
+            .map(|&o| {
+                let at = underscore + o;
+                let len = u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+                bytes[at + 8..at + 8 + len].to_vec()
+            })
+            .collect()
+    }
+
+    fn f64s(b: &[u8]) -> Vec<f64> {
+        b.chunks(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect()
+    }
+
+    #[test]
+    fn vtp_arrays_decode_bit_for_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("p.vtp");
+        let snap = snapshot();
+        write_particles_vtp(&p, &snap).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        assert!(bytes.ends_with(b"</AppendedData>\n</VTKFile>\n"));
+        let b = blocks(&bytes);
+        assert_eq!(b.len(), 5);
+        let v = f64s(&b[0]);
+        assert_eq!(v[..5], [1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert!(v[5].is_nan());
+        let ids: Vec<u32> = b[1].chunks(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect();
+        assert_eq!(ids, [7, 8, 9]);
+        let pts = f64s(&b[2]);
+        assert_eq!(pts, [0.1, 0.2, 0.0, 0.3, -0.4, 0.0, 1e-300, 7.0, 0.0]);
+        let offs: Vec<i64> = b[4].chunks(8).map(|c| i64::from_le_bytes(c.try_into().unwrap())).collect();
+        assert_eq!(offs, [1, 2, 3]);
+        // deterministic bytes
+        let q = dir.path().join("q.vtp");
+        write_particles_vtp(&q, &snap).unwrap();
+        assert_eq!(bytes, std::fs::read(&q).unwrap());
+        assert!(!dir.path().join("p.vtp.tmp").exists());
+    }
+
+    #[test]
+    fn vti_and_pvd() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("g.vti");
+        let snap = snapshot();
+        write_grid_vti(&p, snap.grid.as_ref().unwrap()).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        assert!(String::from_utf8_lossy(&bytes).contains("WholeExtent=\"0 1 0 1 0 0\""));
+        assert_eq!(f64s(&blocks(&bytes)[0]), [0.0, 1.0, 2.0, 3.0]);
+        let c = dir.path().join("c.pvd");
+        write_pvd(&c, &[(0.0, "a.vtp".into()), (2.5e-7, "b.vtp".into())]).unwrap();
+        let text = std::fs::read_to_string(&c).unwrap();
+        let a = text.find("file=\"a.vtp\"").unwrap();
+        let b = text.find("timestep=\"2.5e-7\" group=\"\" part=\"0\" file=\"b.vtp\"").unwrap();
+        assert!(a < b);
+    }
+}
