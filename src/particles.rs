@@ -3,7 +3,8 @@
 //! matrix, GIMP half-width) are empty when no particle needs them.
 
 /// All particles of a simulation. Index `p` is the same particle in every
-/// array; particles are never reordered after seeding.
+/// array. Particles are stored tile by tile (sorted once when the
+/// simulation is built); `id` keeps the seeding order.
 #[derive(Debug, Clone, Default)]
 pub struct Particles {
     /// Stable id: the seeding order (bodies in scene order).

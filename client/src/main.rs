@@ -3,6 +3,8 @@
 //! Exit codes: 0 success, 1 simulation failure (or an output error),
 //! 2 invalid scene or usage.
 
+mod bench;
+
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
@@ -37,6 +39,21 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Measure particle-steps per second of the explicit step (1 and 2 threads).
+    Bench {
+        /// Markdown file for the table.
+        #[arg(long, default_value = "docs/performance.md")]
+        out: PathBuf,
+        /// Steps timed per configuration.
+        #[arg(long, default_value_t = 20)]
+        steps: usize,
+        /// Largest block edge in cells (128: 65 k particles, 256: 262 k, 512: 1 M).
+        #[arg(long, default_value_t = 512)]
+        largest: usize,
+        /// Particle updates to measure, comma-separated: flip, pic, apic.
+        #[arg(long, default_value = "flip,apic")]
+        transfer: String,
+    },
     /// Check a scene without running it; prints its plan.
     Validate {
         scene: PathBuf,
@@ -67,6 +84,13 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Run { scene, out, json, quiet } => run(&scene, &out, json, quiet),
         Command::Validate { scene, json } => validate(&scene, json),
+        Command::Bench { out, steps, largest, transfer } => match bench::run(&out, steps, largest, &transfer) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                ExitCode::from(EXIT_FAILED)
+            }
+        },
     }
 }
 

@@ -144,6 +144,11 @@ impl Simulation {
         self.step
     }
 
+    /// Wall time spent in each stage so far.
+    pub fn stage_times(&self) -> &StageTimes {
+        &self.times
+    }
+
     /// Runs to `time.end`, reporting rows, snapshots and progress to `obs`.
     /// Returns early (with `cancelled`) when the observer asks to stop.
     pub fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {

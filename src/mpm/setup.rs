@@ -75,6 +75,12 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         }
     }
 
+    // Store the particles tile by tile (stable, so ids ascend within a
+    // tile): the coloured P2G then walks memory in order.
+    let tile_of: Vec<u32> = parts.x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect();
+    let mut order: Vec<u32> = (0..parts.len() as u32).collect();
+    order.sort_by_key(|&p| tile_of[p as usize]);
+    permute(&mut parts, &order);
     let mut bins = Bins { tile_of: parts.x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect(), ..Default::default() };
     bins.rebuild(&geom);
 
@@ -139,6 +145,30 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         snapshot_index: 0,
         grid_valid: false,
     }
+}
+
+/// Reorders every particle array so that new index k holds old particle
+/// `order[k]`.
+fn permute(parts: &mut Particles, order: &[u32]) {
+    fn apply<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
+        if !v.is_empty() {
+            *v = order.iter().map(|&p| v[p as usize]).collect();
+        }
+    }
+    apply(&mut parts.id, order);
+    apply(&mut parts.body, order);
+    apply(&mut parts.material, order);
+    apply(&mut parts.group, order);
+    apply(&mut parts.x, order);
+    apply(&mut parts.v, order);
+    apply(&mut parts.mass, order);
+    apply(&mut parts.vol, order);
+    apply(&mut parts.vol0, order);
+    apply(&mut parts.stress, order);
+    apply(&mut parts.strain, order);
+    apply(&mut parts.def_grad, order);
+    apply(&mut parts.affine, order);
+    apply(&mut parts.half_size, order);
 }
 
 /// Surface tractions of the grid sides that ask for one, carried by the
