@@ -56,11 +56,13 @@ fn compressive_wave_travels_at_bar_speed() {
     let t1 = crossing(&at_station[0], 0.5).expect("front reaches x = 0.25");
     let t2 = crossing(&at_station[1], 0.5).expect("front reaches x = 0.75");
     let speed = 0.5 / (t2 - t1);
+    println!("wave: front speed {speed:.1} m/s vs sqrt(E/rho) = {c:.1} m/s ({:+.2} %)", 100.0 * (speed / c - 1.0));
     assert!((speed / c - 1.0).abs() < 0.02, "front speed {speed} m/s vs sqrt(E/rho) = {c} m/s");
     // Far (free) end: the velocity doubles on reflection, 0 -> 2 m/s; the
     // wave arrives when it passes half of that jump.
     let t_end = crossing(&at_end, 1.0).expect("front reaches the far end");
     let arrival = 1.0 / c;
+    println!("wave: arrival at the far end {:.2} us vs L/c = {:.2} us ({:+.2} %)", 1e6 * t_end, 1e6 * arrival, 100.0 * (t_end / arrival - 1.0));
     assert!((t_end / arrival - 1.0).abs() < 0.02, "arrival {t_end} s vs L/c = {arrival} s");
 }
 
@@ -82,6 +84,17 @@ fn free_spinning_disk_conserves_mass_momentum_and_angular_momentum() {
     }
     // It really flew and spun: the centre moved by v t.
     assert!(last.time > 0.199);
+    let worst = |f: fn(&cleave::diagnostics::SeriesRow) -> f64| {
+        rec.rows.iter().map(|r| ((f(r) - f(&first)) / f(&first)).abs()).fold(0.0, f64::max)
+    };
+    println!(
+        "spinning disk ({} steps): max relative drift: mass {:.1e}, px {:.1e}, py {:.1e}, angular momentum {:.2e}",
+        summary.steps,
+        worst(|r| r.total_mass),
+        worst(|r| r.momentum_x),
+        worst(|r| r.momentum_y),
+        worst(|r| r.angular_momentum)
+    );
 }
 
 #[test]
@@ -93,7 +106,10 @@ fn sulsky_disks_conserve_momentum_and_energy() {
     let first = rec.rows[0];
     let e0 = first.kinetic_energy + first.strain_energy;
     let mut min_ke = f64::INFINITY;
+    let (mut worst_e, mut worst_p) = (0.0f64, 0.0f64);
     for r in &rec.rows {
+        worst_e = worst_e.max(((r.kinetic_energy + r.strain_energy - e0) / e0).abs());
+        worst_p = worst_p.max(r.momentum_x.abs().max(r.momentum_y.abs()));
         assert!(r.momentum_x.abs() < 1e-13 && r.momentum_y.abs() < 1e-13, "momentum {} {}", r.momentum_x, r.momentum_y);
         let e = r.kinetic_energy + r.strain_energy;
         assert!((e - e0).abs() / e0 < 0.05, "energy drifts by {:.2} % at t = {}", 100.0 * (e - e0) / e0, r.time);
@@ -103,6 +119,12 @@ fn sulsky_disks_conserve_momentum_and_energy() {
     assert!(min_ke < 0.6 * first.kinetic_energy, "no collision: min kinetic {min_ke} of {}", first.kinetic_energy);
     let last = rec.rows.last().unwrap();
     assert!(last.kinetic_energy > 0.7 * first.kinetic_energy, "no rebound");
+    println!(
+        "Sulsky disks: max |total energy drift| {:.2} %, final {:+.2} %, max |momentum| {worst_p:.1e} kg m/s, min KE/KE0 {:.3}",
+        100.0 * worst_e,
+        100.0 * (last.kinetic_energy + last.strain_energy - e0) / e0,
+        min_ke / first.kinetic_energy
+    );
 }
 
 #[test]
@@ -134,6 +156,7 @@ fn block_slides_with_coulomb_friction() {
     let (mt, mv) = (st / n, sv / n);
     let (num, den) = fit.iter().fold((0.0, 0.0), |a, s| (a.0 + (s.0 - mt) * (s.1 - mv), a.1 + (s.0 - mt).powi(2)));
     let a = num / den;
+    println!("sliding block: a = {a:.4} m/s^2 vs g(sin t - mu cos t) = {expected:.4} m/s^2 ({:+.2} %)", 100.0 * (a / expected - 1.0));
     assert!((a / expected - 1.0).abs() < 0.03, "acceleration {a} m/s² vs g(sin θ − μ cos θ) = {expected} m/s²");
 }
 
@@ -153,4 +176,50 @@ fn one_body_without_contact_runs_only_the_core_stages() {
 
 fn scene_two_groups() -> Scene {
     scene("sliding_block.toml")
+}
+
+#[test]
+fn traction_side_delivers_its_impulse_and_work() {
+    // A free plate pulled by 1 MPa on its right face: Σ m v_x = σ A t
+    // exactly (nothing else acts), and the work done balances the energy.
+    let text = r#"
+[grid]
+cell_size = 0.01
+max = [0.5, 0.2]
+[grid.boundary]
+right = { type = "traction", normal = { table = [[0.0, 0.0], [2e-5, 1.0e6]] } }
+[analysis]
+plane = "plane_stress"
+thickness = 0.01
+[time]
+end = 8e-5
+cfl = 0.5
+[[bodies]]
+shape = { type = "box", min = [0.1, 0.05], max = [0.5, 0.15] }
+material = { model = "linear_elastic", density = 7800.0, youngs_modulus = 2.0e11, poissons_ratio = 0.3 }
+particles_per_cell = 4
+[output]
+series_rows = 41
+"#;
+    let scene = Scene::from_text(text, None).unwrap();
+    assert!(scene.plan.has(Stage::Traction));
+    let mut rec = Recorder::default();
+    Simulation::new(&scene).run(&mut rec).unwrap();
+    let area = 0.1 * 0.01; // face height × thickness
+    for r in rec.rows.iter().skip(1) {
+        // impulse of the ramp (0 → 1 MPa over 20 µs) then the constant
+        let t = r.time;
+        let impulse = if t <= 2e-5 { 0.5 * 1e6 * t * t / 2e-5 } else { 1e6 * (t - 1e-5) } * area;
+        assert!((r.momentum_x - impulse).abs() < 0.02 * impulse, "t = {t}: p = {} vs σAt = {impulse}", r.momentum_x);
+        assert!(r.momentum_y.abs() < 1e-9 * impulse);
+    }
+    let last = rec.rows.last().unwrap();
+    let e = last.kinetic_energy + last.strain_energy;
+    println!(
+        "traction: momentum {:.6e} vs sigma A t {:.6e}; energy {e:.6e} J vs work {:.6e} J",
+        last.momentum_x,
+        1e6 * (last.time - 1e-5) * area,
+        last.external_work
+    );
+    assert!((e - last.external_work).abs() < 0.02 * last.external_work, "energy {e} vs work {}", last.external_work);
 }

@@ -302,9 +302,10 @@ impl Simulation {
         }
         let t1 = Instant::now();
         self.times.p2g += (t1 - t0).as_secs_f64();
-        // Tractions at the start of the step (explicit)
+        // Tractions at mid-step: the impulse of a linear ramp is then exact
         if !self.tractions.is_empty() {
-            let w = self.tractions.apply::<K, S>(self.time, dt, &self.geom, &self.parts, slots, &mut self.grid);
+            let t_mid = self.time + 0.5 * dt;
+            let w = self.tractions.apply::<K, S>(t_mid, dt, &self.geom, &self.parts, slots, &mut self.grid);
             self.add_work(w);
             self.times.traction += t1.elapsed().as_secs_f64();
         }
