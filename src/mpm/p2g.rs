@@ -14,10 +14,42 @@
 //! tile particles are visited in ascending index. The sum at each node is
 //! therefore taken in the same order for any number of threads.
 
-use crate::grid::shape::Kernel;
+use crate::grid::shape::{Kernel, Weights1};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, SyncPtr};
 use crate::particles::Particles;
 use rayon::prelude::*;
+
+/// Kernel weights of particle `p`: its position in node units and the 1D
+/// weights along x and y (GIMP uses the particle's half-width).
+#[inline(always)]
+pub(super) fn weights<K: Kernel>(geom: &GridGeom, parts: &Particles, p: usize) -> ([f64; 2], Weights1, Weights1) {
+    let xi = geom.xi(parts.x[p]);
+    let lp = parts.half_size.get(p).copied().unwrap_or(0.0);
+    (xi, K::eval(xi[0], lp), K::eval(xi[1], lp))
+}
+
+/// Runs `scatter(p, xi, wx, wy)` for every particle: colour by colour, the
+/// tiles of one colour in parallel, the particles of a tile in ascending
+/// order. Writes from one tile never meet writes from another tile of the
+/// same colour (see [`crate::grid::TILE`]), so `scatter` may add into the
+/// nodes of the particle's support through a [`SyncPtr`], and the order of
+/// the additions at every node is the same for any number of threads.
+fn scatter_coloured<K: Kernel>(
+    geom: &GridGeom,
+    parts: &Particles,
+    bins: &Bins,
+    scatter: impl Fn(usize, [f64; 2], Weights1, Weights1) + Sync,
+) {
+    for colour in &bins.colours {
+        colour.par_iter().for_each(|&tile| {
+            for &p in bins.particles_of(tile) {
+                let p = p as usize;
+                let (xi, wx, wy) = weights::<K>(geom, parts, p);
+                scatter(p, xi, wx, wy);
+            }
+        });
+    }
+}
 
 /// Scatters all particles to the grid. `grid` must have been reset.
 pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
@@ -31,62 +63,50 @@ pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
     let mom = SyncPtr::new(&mut grid.momentum);
     let force = SyncPtr::new(&mut grid.force);
     let mgrad = SyncPtr::new(&mut grid.mass_grad);
-    let gimp = !parts.half_size.is_empty();
-    for colour in &bins.colours {
-        colour.par_iter().for_each(|&tile| {
-            for &p in bins.particles_of(tile) {
-                let p = p as usize;
-                let xp = parts.x[p];
-                let xi = geom.xi(xp);
-                let lp = if gimp { parts.half_size[p] } else { 0.0 };
-                let wx = K::eval(xi[0], lp);
-                let wy = K::eval(xi[1], lp);
-                let m = parts.mass[p];
-                let v = parts.v[p];
-                let vol = parts.vol[p];
-                let s = parts.stress[p];
-                let c = if APIC { parts.affine[p] } else { [0.0; 4] };
-                let g = parts.group[p];
-                let h = geom.h;
-                let inv_h = geom.inv_h;
-                for j in 0..K::N {
-                    let ny = (wy.base + j as isize) as usize;
-                    let dy = ((wy.base + j as isize) as f64 - xi[1]) * h;
-                    for i in 0..K::N {
-                        let nx = (wx.base + i as isize) as usize;
-                        let node = nx + ny * geom.nodes[0];
-                        let w = wx.w[i] * wy.w[j];
-                        let gx = wx.dw[i] * wy.w[j] * inv_h;
-                        let gy = wx.w[i] * wy.dw[j] * inv_h;
-                        let slot = slots.slot(node, g);
-                        let wm = w * m;
-                        let (mx, my) = if APIC {
-                            let dx = ((wx.base + i as isize) as f64 - xi[0]) * h;
-                            (wm * (v[0] + c[0] * dx + c[1] * dy), wm * (v[1] + c[2] * dx + c[3] * dy))
-                        } else {
-                            (wm * v[0], wm * v[1])
-                        };
-                        // SAFETY: this tile's nodes are touched by no other tile
-                        // of the same colour, and colours run in sequence.
-                        unsafe {
-                            *mass.at(slot) += wm;
-                            let q = mom.at(slot);
-                            q[0] += mx;
-                            q[1] += my;
-                            let f = force.at(slot);
-                            f[0] -= vol * (s[0] * gx + s[2] * gy);
-                            f[1] -= vol * (s[2] * gx + s[1] * gy);
-                            if MGRAD {
-                                let mg = mgrad.at(slot);
-                                mg[0] += m * gx;
-                                mg[1] += m * gy;
-                            }
-                        }
+    scatter_coloured::<K>(geom, parts, bins, |p, xi, wx, wy| {
+        let m = parts.mass[p];
+        let v = parts.v[p];
+        let vol = parts.vol[p];
+        let s = parts.stress[p];
+        let c = if APIC { parts.affine[p] } else { [0.0; 4] };
+        let g = parts.group[p];
+        let h = geom.h;
+        let inv_h = geom.inv_h;
+        for j in 0..K::N {
+            let ny = (wy.base + j as isize) as usize;
+            let dy = ((wy.base + j as isize) as f64 - xi[1]) * h;
+            for i in 0..K::N {
+                let nx = (wx.base + i as isize) as usize;
+                let node = nx + ny * geom.nodes[0];
+                let w = wx.w[i] * wy.w[j];
+                let gx = wx.dw[i] * wy.w[j] * inv_h;
+                let gy = wx.w[i] * wy.dw[j] * inv_h;
+                let slot = slots.slot(node, g);
+                let wm = w * m;
+                let (mx, my) = if APIC {
+                    let dx = ((wx.base + i as isize) as f64 - xi[0]) * h;
+                    (wm * (v[0] + c[0] * dx + c[1] * dy), wm * (v[1] + c[2] * dx + c[3] * dy))
+                } else {
+                    (wm * v[0], wm * v[1])
+                };
+                // SAFETY: coloured scatter (see `scatter_coloured`).
+                unsafe {
+                    *mass.at(slot) += wm;
+                    let q = mom.at(slot);
+                    q[0] += mx;
+                    q[1] += my;
+                    let f = force.at(slot);
+                    f[0] -= vol * (s[0] * gx + s[2] * gy);
+                    f[1] -= vol * (s[2] * gx + s[1] * gy);
+                    if MGRAD {
+                        let mg = mgrad.at(slot);
+                        mg[0] += m * gx;
+                        mg[1] += m * gy;
                     }
                 }
             }
-        });
-    }
+        }
+    });
 }
 
 /// Marks, for every node, which contact groups have particles whose support
@@ -102,28 +122,18 @@ pub fn partition_fields<K: Kernel>(
     multi.mask.clear();
     multi.mask.resize(nodes, 0);
     let mask = SyncPtr::new(&mut multi.mask);
-    let gimp = !parts.half_size.is_empty();
-    for colour in &bins.colours {
-        colour.par_iter().for_each(|&tile| {
-            for &p in bins.particles_of(tile) {
-                let p = p as usize;
-                let xi = geom.xi(parts.x[p]);
-                let lp = if gimp { parts.half_size[p] } else { 0.0 };
-                let wx = K::eval(xi[0], lp);
-                let wy = K::eval(xi[1], lp);
-                let bit = 1u32 << parts.group[p];
-                // Every node of the support, even at zero weight: P2G writes
-                // the gradient there, so the slot must exist.
-                for j in 0..K::N {
-                    for i in 0..K::N {
-                        let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
-                        // SAFETY: coloured tiles, as in `p2g`.
-                        unsafe { *mask.at(node) |= bit };
-                    }
-                }
+    scatter_coloured::<K>(geom, parts, bins, |p, _, wx, wy| {
+        let bit = 1u32 << parts.group[p];
+        // Every node of the support, even at zero weight: P2G writes the
+        // gradient there, so the slot must exist.
+        for j in 0..K::N {
+            for i in 0..K::N {
+                let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+                // SAFETY: coloured scatter; a bitwise OR is order-independent.
+                unsafe { *mask.at(node) |= bit };
             }
-        });
-    }
+        }
+    });
     multi.offset.clear();
     multi.offset.reserve(nodes + 1);
     multi.extra_node.clear();
@@ -159,32 +169,22 @@ pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
         *q = [0.0; 2];
     }
     let mom = SyncPtr::new(&mut grid.momentum);
-    let gimp = !parts.half_size.is_empty();
-    for colour in &bins.colours {
-        colour.par_iter().for_each(|&tile| {
-            for &p in bins.particles_of(tile) {
-                let p = p as usize;
-                let xi = geom.xi(parts.x[p]);
-                let lp = if gimp { parts.half_size[p] } else { 0.0 };
-                let wx = K::eval(xi[0], lp);
-                let wy = K::eval(xi[1], lp);
-                let (m, v, g) = (parts.mass[p], parts.v[p], parts.group[p]);
-                let c = if APIC { parts.affine[p] } else { [0.0; 4] };
-                for j in 0..K::N {
-                    let dy = ((wy.base + j as isize) as f64 - xi[1]) * geom.h;
-                    for i in 0..K::N {
-                        let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
-                        let wm = wx.w[i] * wy.w[j] * m;
-                        let dx = ((wx.base + i as isize) as f64 - xi[0]) * geom.h;
-                        // SAFETY: coloured tiles, as in `p2g`.
-                        let q = unsafe { mom.at(slots.slot(node, g)) };
-                        q[0] += wm * (v[0] + c[0] * dx + c[1] * dy);
-                        q[1] += wm * (v[1] + c[2] * dx + c[3] * dy);
-                    }
-                }
+    scatter_coloured::<K>(geom, parts, bins, |p, xi, wx, wy| {
+        let (m, v, g) = (parts.mass[p], parts.v[p], parts.group[p]);
+        let c = if APIC { parts.affine[p] } else { [0.0; 4] };
+        for j in 0..K::N {
+            let dy = ((wy.base + j as isize) as f64 - xi[1]) * geom.h;
+            for i in 0..K::N {
+                let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+                let wm = wx.w[i] * wy.w[j] * m;
+                let dx = ((wx.base + i as isize) as f64 - xi[0]) * geom.h;
+                // SAFETY: coloured scatter (see `scatter_coloured`).
+                let q = unsafe { mom.at(slots.slot(node, g)) };
+                q[0] += wm * (v[0] + c[0] * dx + c[1] * dy);
+                q[1] += wm * (v[1] + c[2] * dx + c[3] * dy);
             }
-        });
-    }
+        }
+    });
     let (mass, mom) = (&grid.mass, &grid.momentum);
     grid.vel.par_iter_mut().enumerate().for_each(|(s, v)| {
         *v = if mass[s] > m_min { [mom[s][0] / mass[s], mom[s][1] / mass[s]] } else { [0.0; 2] };

@@ -254,9 +254,7 @@ impl Tractions {
                 let f = [tr[0] * area, tr[1] * area];
                 let v = parts.v[p];
                 work += (f[0] * v[0] + f[1] * v[1]) * dt;
-                let xi = geom.xi(parts.x[p]);
-                let lp = parts.half_size.get(p).copied().unwrap_or(0.0);
-                let (wx, wy) = (K::eval(xi[0], lp), K::eval(xi[1], lp));
+                let (_, wx, wy) = super::p2g::weights::<K>(geom, parts, p);
                 for j in 0..K::N {
                     for i in 0..K::N {
                         let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];

@@ -83,20 +83,20 @@ pub enum ShapeFunctionKind {
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundarySpec {
-    #[serde(default)]
+    #[serde(default, deserialize_with = "side_condition")]
     pub left: SideCondition,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "side_condition")]
     pub right: SideCondition,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "side_condition")]
     pub bottom: SideCondition,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "side_condition")]
     pub top: SideCondition,
 }
 
 /// The condition on one side of the grid. Written either as a bare string
 /// (`"free"`, `"fixed"`, `"roller"`) or as a table with a `type` key.
-#[derive(Debug, Clone, Default, Serialize, PartialEq)]
-#[serde(tag = "type", rename_all = "snake_case")]
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum SideCondition {
     /// No constraint.
     #[default]
@@ -104,6 +104,7 @@ pub enum SideCondition {
     /// Both velocity components zero on the side's nodes.
     Fixed,
     /// Normal velocity zero (symmetry plane); tangential free.
+    #[serde(alias = "symmetry")]
     Roller,
     /// Prescribed velocity components (m/s) as functions of time; a missing
     /// component is left free.
@@ -114,7 +115,8 @@ pub enum SideCondition {
         y: Option<TimeFunction>,
     },
     /// A traction (Pa) on the outermost particles that face this side, as
-    /// functions of time. Positive `normal` pulls outward.
+    /// functions of time. Positive `normal` pulls outward; `shear` acts
+    /// along +x on the bottom and top sides, along +y on the left and right.
     Traction {
         #[serde(default)]
         normal: Option<TimeFunction>,
@@ -123,58 +125,28 @@ pub enum SideCondition {
     },
 }
 
-#[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-enum SideConditionTable {
-    Free,
-    Fixed,
-    Roller,
-    Velocity {
-        #[serde(default)]
-        x: Option<TimeFunction>,
-        #[serde(default)]
-        y: Option<TimeFunction>,
-    },
-    Traction {
-        #[serde(default)]
-        normal: Option<TimeFunction>,
-        #[serde(default)]
-        shear: Option<TimeFunction>,
-    },
-}
-
-impl<'de> Deserialize<'de> for SideCondition {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = SideCondition;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("\"free\", \"fixed\", \"roller\", or a table with `type` = free | fixed | roller | velocity | traction")
-            }
-            fn visit_str<E: de::Error>(self, s: &str) -> Result<SideCondition, E> {
-                match s {
-                    "free" => Ok(SideCondition::Free),
-                    "fixed" => Ok(SideCondition::Fixed),
-                    "roller" | "symmetry" => Ok(SideCondition::Roller),
-                    "velocity" | "traction" => Err(E::custom(format!(
-                        "`{s}` needs parameters: write it as a table, e.g. {{ type = \"{s}\", ... }}"
-                    ))),
-                    _ => Err(E::unknown_variant(s, &["free", "fixed", "roller", "velocity", "traction"])),
-                }
-            }
-            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<SideCondition, A::Error> {
-                let t = SideConditionTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
-                Ok(match t {
-                    SideConditionTable::Free => SideCondition::Free,
-                    SideConditionTable::Fixed => SideCondition::Fixed,
-                    SideConditionTable::Roller => SideCondition::Roller,
-                    SideConditionTable::Velocity { x, y } => SideCondition::Velocity { x, y },
-                    SideConditionTable::Traction { normal, shear } => SideCondition::Traction { normal, shear },
-                })
+/// Reads a [`SideCondition`] from its table form, or from a bare string
+/// for the conditions without parameters.
+fn side_condition<'de, D: Deserializer<'de>>(d: D) -> Result<SideCondition, D::Error> {
+    struct V;
+    impl<'de> Visitor<'de> for V {
+        type Value = SideCondition;
+        fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+            f.write_str("\"free\", \"fixed\", \"roller\", or a table with `type` = free | fixed | roller | velocity | traction")
+        }
+        fn visit_str<E: de::Error>(self, s: &str) -> Result<SideCondition, E> {
+            match s {
+                "velocity" | "traction" => Err(E::custom(format!(
+                    "`{s}` needs parameters: write it as a table, e.g. {{ type = \"{s}\", ... }}"
+                ))),
+                _ => SideCondition::deserialize(de::value::MapDeserializer::new(std::iter::once(("type", s)))),
             }
         }
-        d.deserialize_any(V)
+        fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<SideCondition, A::Error> {
+            SideCondition::deserialize(de::value::MapAccessDeserializer::new(map))
+        }
     }
+    d.deserialize_any(V)
 }
 
 /// A scalar function of time: a constant, or a piecewise-linear table of
