@@ -14,6 +14,8 @@
 
 pub mod shape;
 
+use std::ops::Range;
+
 /// Ghost nodes beyond the domain on each side.
 pub const PAD: usize = 2;
 /// Tile edge in cells for the coloured scatter. Tiles of one colour are two
@@ -104,19 +106,30 @@ pub struct GridFields {
 }
 
 impl GridFields {
-    /// Resizes to `slots` and zeroes the accumulated quantities.
-    pub fn reset(&mut self, slots: usize, with_mass_grad: bool) {
-        fn clear<T: Copy>(v: &mut Vec<T>, n: usize, zero: T) {
-            v.clear();
-            v.resize(n, zero);
+    /// Prepares the arrays for a scatter into `nodes` node slots plus
+    /// `slots − nodes` extra field slots: zeroes the node ranges the last
+    /// scatter wrote (`written`; every other node is still zero) and the
+    /// extra slots. Only active tiles cost anything.
+    pub fn reset(&mut self, nodes: usize, slots: usize, with_mass_grad: bool, written: &[Range<usize>]) {
+        fn clear<T: Copy + Send + Sync>(v: &mut Vec<T>, nodes: usize, slots: usize, zero: T, written: &[Range<usize>]) {
+            if v.len() < nodes {
+                v.clear();
+                v.resize(nodes, zero);
+            } else {
+                v.truncate(nodes);
+                for r in written {
+                    v[r.clone()].fill(zero);
+                }
+            }
+            v.resize(slots, zero);
         }
-        clear(&mut self.mass, slots, 0.0);
-        clear(&mut self.momentum, slots, [0.0; 2]);
-        clear(&mut self.force, slots, [0.0; 2]);
+        clear(&mut self.mass, nodes, slots, 0.0, written);
+        clear(&mut self.momentum, nodes, slots, [0.0; 2], written);
+        clear(&mut self.force, nodes, slots, [0.0; 2], written);
         self.vel_old.resize(slots, [0.0; 2]);
         self.vel.resize(slots, [0.0; 2]);
         if with_mass_grad {
-            clear(&mut self.mass_grad, slots, [0.0; 2]);
+            clear(&mut self.mass_grad, nodes, slots, [0.0; 2], written);
         }
     }
 }
@@ -179,6 +192,11 @@ pub struct Bins {
     pub start: Vec<u32>,
     /// Non-empty tiles of each colour (tile x parity + 2·(y parity)).
     pub colours: [Vec<u32>; 4],
+    /// The active nodes, as ascending runs of node indices along rows: the
+    /// nodes of every tile that holds particles or touches one that does
+    /// (a particle's support reaches one node below and two above its
+    /// cell, so into the neighbouring tiles).
+    pub active: Vec<Range<usize>>,
 }
 
 impl Bins {
@@ -204,10 +222,36 @@ impl Bins {
         for c in &mut self.colours {
             c.clear();
         }
+        let [ntx, nty] = geom.tiles;
+        let mut live = vec![false; ntiles];
         for t in 0..ntiles {
             if self.start[t + 1] > self.start[t] {
-                let (tx, ty) = (t % geom.tiles[0], t / geom.tiles[0]);
+                let (tx, ty) = (t % ntx, t / ntx);
                 self.colours[(tx % 2) + 2 * (ty % 2)].push(t as u32);
+                for y in ty.saturating_sub(1)..(ty + 2).min(nty) {
+                    for x in tx.saturating_sub(1)..(tx + 2).min(ntx) {
+                        live[x + y * ntx] = true;
+                    }
+                }
+            }
+        }
+        // Runs of active nodes, row by row, merging neighbouring tiles.
+        self.active.clear();
+        let [nx, ny] = geom.nodes;
+        for j in 0..ny {
+            let row = &live[(j / TILE) * ntx..(j / TILE + 1) * ntx];
+            let mut tx = 0;
+            while tx < ntx {
+                if !row[tx] {
+                    tx += 1;
+                    continue;
+                }
+                let first = tx;
+                while tx < ntx && row[tx] {
+                    tx += 1;
+                }
+                let (a, b) = (first * TILE, (tx * TILE).min(nx));
+                self.active.push(j * nx + a..j * nx + b);
             }
         }
     }

@@ -6,53 +6,64 @@
 //! dividing a force by a vanishing mass is the classic source of MPM
 //! blow-ups at free surfaces. A negative nodal mass stops the run.
 
-use crate::grid::{GridFields, GridGeom, MultiField, PAD};
+use crate::grid::{GridFields, GridGeom, MultiField, SyncPtr, PAD};
+use std::ops::Range;
 use crate::scene::{SideCondition, TimeFunction};
 use rayon::prelude::*;
 
 /// Fixed chunk for deterministic partial sums (independent of threads).
 const CHUNK: usize = 4096;
 
-/// Computes old and new nodal velocities for every slot. Returns the body
+/// Computes old and new nodal velocities for the active nodes (`active`
+/// runs) and for the extra field slots from `extra` on. Returns the body
 /// force work over the step, Σ m_i g·(v_i + v_i')/2 Δt, and the first slot
-/// with negative mass, if any.
-pub fn update(grid: &mut GridFields, dt: f64, g: [f64; 2], m_min: f64) -> (f64, Option<(usize, f64)>) {
-    let slots = grid.mass.len();
+/// with negative mass, if any (both independent of the thread count: the
+/// runs are summed in order).
+pub fn update(
+    grid: &mut GridFields,
+    active: &[Range<usize>],
+    extra: usize,
+    dt: f64,
+    g: [f64; 2],
+    m_min: f64,
+) -> (f64, Option<(usize, f64)>) {
     let body_force = g != [0.0, 0.0];
+    let slots = grid.mass.len();
+    let extra_runs: Vec<Range<usize>> = (extra..slots).step_by(CHUNK).map(|a| a..(a + CHUNK).min(slots)).collect();
     let (mass, mom, force) = (&grid.mass, &grid.momentum, &grid.force);
-    let results: Vec<(f64, Option<(usize, f64)>)> = grid
-        .vel_old
-        .par_chunks_mut(CHUNK)
-        .zip(grid.vel.par_chunks_mut(CHUNK))
-        .enumerate()
-        .map(|(c, (vo_chunk, vn_chunk))| {
+    let vel_old = SyncPtr::new(&mut grid.vel_old);
+    let vel = SyncPtr::new(&mut grid.vel);
+    let results: Vec<(f64, Option<(usize, f64)>)> = active
+        .par_iter()
+        .chain(extra_runs.par_iter())
+        .map(|run| {
             let mut work = 0.0;
             let mut negative = None;
-            let start = c * CHUNK;
-            for k in 0..vo_chunk.len() {
-                let s = start + k;
+            for s in run.clone() {
                 let m = mass[s];
-                if m > m_min {
+                let (vo, vn) = if m > m_min {
                     let inv = 1.0 / m;
                     let vo = [mom[s][0] * inv, mom[s][1] * inv];
                     let vn = [vo[0] + dt * (force[s][0] * inv + g[0]), vo[1] + dt * (force[s][1] * inv + g[1])];
                     if body_force {
                         work += 0.5 * m * dt * (g[0] * (vo[0] + vn[0]) + g[1] * (vo[1] + vn[1]));
                     }
-                    vo_chunk[k] = vo;
-                    vn_chunk[k] = vn;
+                    (vo, vn)
                 } else {
                     if m < 0.0 && negative.is_none() {
                         negative = Some((s, m));
                     }
-                    vo_chunk[k] = [0.0; 2];
-                    vn_chunk[k] = [0.0; 2];
+                    ([0.0; 2], [0.0; 2])
+                };
+                // SAFETY: the runs are disjoint.
+                unsafe {
+                    *vel_old.at(s) = vo;
+                    *vel.at(s) = vn;
                 }
             }
             (work, negative)
         })
         .collect();
-    debug_assert!(slots == 0 || !results.is_empty());
     let mut work = 0.0;
     let mut negative = None;
     for (w, n) in results {

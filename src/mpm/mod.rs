@@ -103,6 +103,8 @@ pub struct Simulation {
     musl: bool,
     /// MUSL scratch: where the particles move this step.
     x_next: Vec<[f64; 2]>,
+    /// Node runs the last scatter wrote (cleared at the next reset).
+    written: Vec<std::ops::Range<usize>>,
     flip: f64,
     body_force: [f64; 2],
     m_min: f64,
@@ -278,14 +280,16 @@ impl Simulation {
         if let Some(mut multi) = self.multi.take() {
             let t0 = Instant::now();
             let slots_n = p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi);
-            self.grid.reset(slots_n, true);
+            self.grid.reset(self.geom.node_count(), slots_n, true, &self.written);
+            self.written.clone_from(&self.bins.active);
             self.times.field_partition += t0.elapsed().as_secs_f64();
             let slots = GroupFields { nodes: self.geom.node_count(), multi: &multi };
             let r = self.stages::<K, _>(dt, &slots, Some(&multi));
             self.multi = Some(multi);
             r
         } else {
-            self.grid.reset(self.geom.node_count(), false);
+            self.grid.reset(self.geom.node_count(), self.geom.node_count(), false, &self.written);
+            self.written.clone_from(&self.bins.active);
             self.stages::<K, _>(dt, &SingleField, None)
         }
     }
@@ -311,7 +315,8 @@ impl Simulation {
         }
         let t2 = Instant::now();
         // Grid update and boundary conditions
-        let (w, negative) = grid_update::update(&mut self.grid, dt, self.body_force, self.m_min);
+        let nodes = self.geom.node_count();
+        let (w, negative) = grid_update::update(&mut self.grid, &self.bins.active, nodes, dt, self.body_force, self.m_min);
         if let Some((slot, mass)) = negative {
             let node = match multi {
                 Some(m) if slot >= self.geom.node_count() => m.extra_node[slot - self.geom.node_count()] as usize,
@@ -382,10 +387,10 @@ impl Simulation {
         self.x_next.resize(self.parts.len(), [0.0; 2]);
         if self.apic {
             g2p::musl_velocities::<K, S, true>(geom, &mut self.parts, &mut self.bins, &mut self.x_next, slots, &self.grid, mats, transfer, dt);
-            p2g::remap_velocities::<K, S, true>(geom, &self.parts, &self.bins, slots, &mut self.grid, self.m_min);
+            p2g::remap_velocities::<K, S, true>(geom, &self.parts, &self.bins, slots, &mut self.grid, &self.written, self.m_min);
         } else {
             g2p::musl_velocities::<K, S, false>(geom, &mut self.parts, &mut self.bins, &mut self.x_next, slots, &self.grid, mats, transfer, dt);
-            p2g::remap_velocities::<K, S, false>(geom, &self.parts, &self.bins, slots, &mut self.grid, self.m_min);
+            p2g::remap_velocities::<K, S, false>(geom, &self.parts, &self.bins, slots, &mut self.grid, &self.written, self.m_min);
         }
         // The walls hold the remapped velocities too (no work: that was
         // counted when they were first imposed).

@@ -163,11 +163,15 @@ pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
     bins: &Bins,
     slots: &S,
     grid: &mut GridFields,
+    active: &[std::ops::Range<usize>],
     m_min: f64,
 ) {
-    for q in grid.momentum.iter_mut() {
-        *q = [0.0; 2];
+    // Only the active nodes and the extra slots can hold momentum.
+    let nodes = geom.node_count();
+    for r in active {
+        grid.momentum[r.clone()].fill([0.0; 2]);
     }
+    grid.momentum[nodes..].fill([0.0; 2]);
     let mom = SyncPtr::new(&mut grid.momentum);
     scatter_coloured::<K>(geom, parts, bins, |p, xi, wx, wy| {
         let (m, v, g) = (parts.mass[p], parts.v[p], parts.group[p]);

@@ -126,6 +126,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         apic,
         musl: file.transfer.stress_update == StressUpdate::Musl,
         x_next: Vec::new(),
+        written: Vec::new(),
         flip: match file.transfer.scheme {
             TransferKind::Pic => 0.0,
             _ => file.transfer.flip_blend,
