@@ -9,11 +9,13 @@ pub mod contact;
 pub mod diagnostics;
 pub mod geometry;
 pub mod grid;
+pub mod jobs;
 pub mod material;
 pub mod mpm;
 pub mod output;
 pub mod particles;
 pub mod scene;
+pub mod service;
 
 /// The crate version, as reported by the binaries.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -4,6 +4,7 @@
 //! 2 invalid scene or usage.
 
 mod bench;
+mod remote;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -19,6 +20,13 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(name = "cleave", version = cleave::VERSION, about = "Dynamic fracture with the material point method")]
 struct Cli {
+    /// A cleave server (http://HOST:PORT or https://...); without it, `run`
+    /// and `validate` work in this process.
+    #[arg(long, global = true, env = "CLEAVE_SERVER")]
+    server: Option<String>,
+    /// Bearer token for the server.
+    #[arg(long, global = true, env = "CLEAVE_TOKEN", hide_env_values = true)]
+    token: Option<String>,
     #[command(subcommand)]
     command: Command,
 }
@@ -61,6 +69,54 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Submit a scene to the server; prints the job id.
+    Submit {
+        scene: PathBuf,
+        /// A label for your own bookkeeping.
+        #[arg(long, default_value = "")]
+        label: String,
+        /// Wait for the job to end; exit with its outcome.
+        #[arg(long)]
+        wait: bool,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Follow a job to its end (progress bar, or JSON lines with --json).
+    Watch {
+        job: String,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Fetch a job's results and write them like `run` does.
+    Fetch {
+        job: String,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+    /// List jobs, newest first.
+    List {
+        /// Only jobs in this state (queued, running, succeeded, failed, cancelled).
+        #[arg(long)]
+        state: Option<String>,
+        #[arg(long, default_value_t = 50)]
+        limit: u32,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Show one job.
+    Get {
+        job: String,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Cancel a queued or running job.
+    Cancel {
+        job: String,
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 const EXIT_FAILED: u8 = 1;
@@ -81,9 +137,16 @@ fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
+    if let Some(server) = cli.server.clone() {
+        return remote_main(&server, cli.token.as_deref(), cli.command);
+    }
     match cli.command {
         Command::Run { scene, out, json, quiet } => run(&scene, &out, json, quiet),
         Command::Validate { scene, json } => validate(&scene, json),
+        Command::Submit { .. } | Command::Watch { .. } | Command::Fetch { .. } | Command::List { .. } | Command::Get { .. } | Command::Cancel { .. } => {
+            eprintln!("error: this command talks to a server: give --server URL (or set CLEAVE_SERVER)");
+            ExitCode::from(EXIT_INVALID)
+        }
         Command::Bench { out, steps, largest, transfer } => match bench::run(&out, steps, largest, &transfer) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -252,4 +315,115 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool) ->
             Ok(ExitCode::from(EXIT_FAILED))
         }
     }
+}
+
+/// Every command against a server.
+fn remote_main(server: &str, token: Option<&str>, command: Command) -> ExitCode {
+    let json = match &command {
+        Command::Run { json, .. }
+        | Command::Validate { json, .. }
+        | Command::Submit { json, .. }
+        | Command::Watch { json, .. }
+        | Command::Fetch { json, .. }
+        | Command::List { json, .. }
+        | Command::Get { json, .. }
+        | Command::Cancel { json, .. } => *json,
+        Command::Bench { .. } => false,
+    };
+    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: cannot start the async runtime: {e}");
+            return ExitCode::from(EXIT_FAILED);
+        }
+    };
+    runtime.block_on(async move {
+        let mut client = match remote::connect(server, token).await {
+            Ok(c) => c,
+            Err(e) => return e.report(json),
+        };
+        let result: Result<ExitCode, remote::RemoteError> = async {
+            match command {
+                Command::Validate { scene, json } => remote::validate(&mut client, &scene, json).await,
+                Command::Run { scene, out, json, quiet } => {
+                    let job = remote::submit(&mut client, &scene, "").await?;
+                    if !json {
+                        eprintln!("{}: job {} on {server}; {} particles; plan: {}", scene.display(), job.id, job.particles, job.stages.join(" → "));
+                    }
+                    let job = remote::watch(&mut client, &job.id, !quiet && !json, false).await?;
+                    let paths = remote::fetch(&mut client, &job.id, &out).await?;
+                    let summary = job.summary.clone().unwrap_or_default();
+                    if json {
+                        let mut v = remote::job_value(&job);
+                        v["status"] = serde_json::json!(match job.state { s if s == cleave::service::proto::JobState::Succeeded as i32 => "succeeded", s if s == cleave::service::proto::JobState::Cancelled as i32 => "cancelled", _ => "failed" });
+                        v["steps"] = serde_json::json!(summary.steps);
+                        v["wall_seconds"] = serde_json::json!(summary.wall_seconds);
+                        v["kinetic_energy"] = serde_json::json!(summary.kinetic_energy);
+                        v["strain_energy"] = serde_json::json!(summary.strain_energy);
+                        v["outputs"] = serde_json::json!(paths);
+                        println!("{v}");
+                    } else if job.error.is_empty() {
+                        eprintln!("done: {} steps to t = {:.6e} s in {:.2} s; results in {}", summary.steps, summary.time, summary.wall_seconds, out.display());
+                    } else {
+                        eprintln!("job {} {}: {}", job.id, if job.state == cleave::service::proto::JobState::Cancelled as i32 { "cancelled" } else { "failed" }, job.error);
+                    }
+                    Ok(remote::outcome(&job))
+                }
+                Command::Submit { scene, label, wait, json } => {
+                    let job = remote::submit(&mut client, &scene, &label).await?;
+                    if !wait {
+                        if json { remote::print_job(&job, true) } else { println!("{}", job.id) }
+                        return Ok(ExitCode::SUCCESS);
+                    }
+                    if !json {
+                        println!("{}", job.id);
+                    }
+                    let job = remote::watch(&mut client, &job.id, !json, false).await?;
+                    remote::print_job(&job, json);
+                    Ok(remote::outcome(&job))
+                }
+                Command::Watch { job, json } => {
+                    let job = remote::watch(&mut client, &job, !json, json).await?;
+                    if !json {
+                        remote::print_job(&job, false);
+                    }
+                    Ok(remote::outcome(&job))
+                }
+                Command::Fetch { job, out, json } => {
+                    let paths = remote::fetch(&mut client, &job, &out).await?;
+                    if json {
+                        println!("{}", serde_json::json!({"status": "fetched", "job_id": job, "outputs": paths}));
+                    } else {
+                        eprintln!("{job}: results in {}", out.display());
+                    }
+                    Ok(ExitCode::SUCCESS)
+                }
+                Command::List { state, limit, json } => {
+                    let jobs = remote::list(&mut client, state.as_deref(), limit).await?;
+                    if json {
+                        println!("{}", serde_json::Value::Array(jobs.iter().map(remote::job_value).collect()));
+                    } else {
+                        for j in &jobs {
+                            remote::print_job(j, false);
+                        }
+                    }
+                    Ok(ExitCode::SUCCESS)
+                }
+                Command::Get { job, json } => {
+                    remote::print_job(&remote::get(&mut client, &job).await?, json);
+                    Ok(ExitCode::SUCCESS)
+                }
+                Command::Cancel { job, json } => {
+                    remote::print_job(&remote::cancel(&mut client, &job).await?, json);
+                    Ok(ExitCode::SUCCESS)
+                }
+                Command::Bench { .. } => {
+                    eprintln!("error: bench runs in this process; drop --server");
+                    Ok(ExitCode::from(EXIT_INVALID))
+                }
+            }
+        }
+        .await;
+        result.unwrap_or_else(|e| e.report(json))
+    })
 }

@@ -1,6 +1,69 @@
-//! The cleave server. The gRPC service is not built yet (issue 3); until it
-//! is, this binary only reports its version.
+//! `cleave-server`: the gRPC service. Flags or environment variables:
+//! where to listen, where to keep data, how many jobs run at once and on
+//! how many threads, the bearer token, limits, TLS.
 
-fn main() {
-    println!("cleave-server {} (the gRPC service is not implemented yet; use `cleave run`)", cleave::VERSION);
+use clap::Parser;
+use cleave::jobs::JobConfig;
+use cleave::service::{serve, ServerConfig};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(name = "cleave-server", version = cleave::VERSION, about = "The cleave simulation service (gRPC)")]
+struct Args {
+    /// Address to listen on (port 0 picks a free port; the chosen address is
+    /// printed as `listening on ADDR`).
+    #[arg(long, env = "CLEAVE_LISTEN", default_value = "127.0.0.1:50051")]
+    listen: SocketAddr,
+    /// Directory of the job database and results.
+    #[arg(long, env = "CLEAVE_DATA_DIR", default_value = "./cleave-data")]
+    data_dir: PathBuf,
+    /// Jobs running at once; the rest wait in the queue.
+    #[arg(long, env = "CLEAVE_MAX_CONCURRENT_JOBS", default_value_t = 1)]
+    max_concurrent_jobs: usize,
+    /// Threads of each job's pool (default: the machine's cores).
+    #[arg(long, env = "CLEAVE_THREADS_PER_JOB")]
+    threads_per_job: Option<usize>,
+    /// Bearer token every RPC but health must carry.
+    #[arg(long, env = "CLEAVE_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+    /// Largest job accepted, in particles.
+    #[arg(long, env = "CLEAVE_MAX_PARTICLES", default_value_t = 20_000_000)]
+    max_particles: u64,
+    /// Most jobs waiting in the queue.
+    #[arg(long, env = "CLEAVE_MAX_QUEUED_JOBS", default_value_t = 100)]
+    max_queued_jobs: usize,
+    /// Largest request accepted, in bytes.
+    #[arg(long, env = "CLEAVE_MAX_REQUEST_BYTES", default_value_t = 16 << 20)]
+    max_request_bytes: usize,
+    /// PEM certificate chain for TLS (with --tls-key).
+    #[arg(long, env = "CLEAVE_TLS_CERT", requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    /// PEM private key for TLS.
+    #[arg(long, env = "CLEAVE_TLS_KEY", requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
+}
+
+fn main() -> anyhow::Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
+        .with_writer(std::io::stderr)
+        .init();
+    let a = Args::parse();
+    let threads = a.threads_per_job.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let config = ServerConfig {
+        listen: a.listen,
+        jobs: JobConfig {
+            data_dir: a.data_dir,
+            max_concurrent: a.max_concurrent_jobs.max(1),
+            threads_per_job: threads.max(1),
+            max_particles: a.max_particles,
+            max_queued: a.max_queued_jobs,
+        },
+        token: a.token.filter(|t| !t.is_empty()),
+        max_request_bytes: a.max_request_bytes,
+        tls: a.tls_cert.zip(a.tls_key),
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    runtime.block_on(serve(config))
 }

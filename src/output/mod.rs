@@ -130,7 +130,7 @@ impl Observer for OutputWriter {
 }
 
 /// One CSV line: the step as an integer, floats in shortest round-trip form.
-fn write_series_line(w: &mut impl Write, row: &SeriesRow) -> std::io::Result<()> {
+pub(crate) fn write_series_line(w: &mut impl Write, row: &SeriesRow) -> std::io::Result<()> {
     let v = row.values();
     write!(w, "{}", row.step)?;
     for x in &v[1..] {

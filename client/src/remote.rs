@@ -1,0 +1,377 @@
+//! The client side of the gRPC service: connect, submit, watch, fetch.
+
+use cleave::diagnostics::{Field, FieldData, GridSnapshot, Observer, SeriesRow, Snapshot};
+use cleave::output::{OutputPaths, OutputWriter};
+use cleave::service::proto::{self, cleave_client::CleaveClient, job_event::Event};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use std::path::Path;
+use std::process::ExitCode;
+use tonic::service::interceptor::InterceptedService;
+use tonic::transport::Channel;
+use tonic::{Code, Request, Status};
+
+pub const EXIT_FAILED: u8 = 1;
+pub const EXIT_INVALID: u8 = 2;
+pub const EXIT_UNREACHABLE: u8 = 3;
+
+/// A failed remote call, with the exit code it maps to.
+#[derive(Debug)]
+pub struct RemoteError {
+    pub code: u8,
+    pub message: String,
+}
+
+impl From<Status> for RemoteError {
+    fn from(s: Status) -> Self {
+        let code = match s.code() {
+            Code::InvalidArgument | Code::NotFound | Code::FailedPrecondition | Code::OutOfRange => EXIT_INVALID,
+            Code::Unauthenticated | Code::PermissionDenied | Code::Unavailable | Code::DeadlineExceeded => EXIT_UNREACHABLE,
+            _ => EXIT_FAILED,
+        };
+        RemoteError { code, message: format!("{}: {}", code_name(s.code()), s.message()) }
+    }
+}
+
+fn code_name(c: Code) -> &'static str {
+    match c {
+        Code::InvalidArgument => "invalid argument",
+        Code::NotFound => "not found",
+        Code::FailedPrecondition => "failed precondition",
+        Code::Unauthenticated => "unauthenticated",
+        Code::ResourceExhausted => "resource exhausted",
+        Code::Unavailable => "server unavailable",
+        _ => "error",
+    }
+}
+
+impl RemoteError {
+    fn new(code: u8, message: impl Into<String>) -> Self {
+        RemoteError { code, message: message.into() }
+    }
+
+    /// Prints the error and returns its exit code.
+    pub fn report(self, json: bool) -> ExitCode {
+        if json {
+            println!("{}", json!({"status": "error", "error": self.message, "exit_code": self.code}));
+        }
+        eprintln!("error: {}", self.message);
+        ExitCode::from(self.code)
+    }
+}
+
+/// Adds the bearer token to every call.
+#[derive(Clone)]
+pub struct Auth(Option<tonic::metadata::MetadataValue<tonic::metadata::Ascii>>);
+
+impl tonic::service::Interceptor for Auth {
+    fn call(&mut self, mut req: Request<()>) -> Result<Request<()>, Status> {
+        if let Some(v) = &self.0 {
+            req.metadata_mut().insert("authorization", v.clone());
+        }
+        Ok(req)
+    }
+}
+
+pub type Client = CleaveClient<InterceptedService<Channel, Auth>>;
+
+/// Connects to `url` (http:// or https://).
+pub async fn connect(url: &str, token: Option<&str>) -> Result<Client, RemoteError> {
+    let endpoint = Channel::from_shared(url.to_string())
+        .map_err(|e| RemoteError::new(EXIT_INVALID, format!("--server {url:?}: {e}")))?;
+    let endpoint = if url.starts_with("https://") {
+        endpoint
+            .tls_config(tonic::transport::ClientTlsConfig::new().with_enabled_roots())
+            .map_err(|e| RemoteError::new(EXIT_UNREACHABLE, format!("TLS: {e}")))?
+    } else {
+        endpoint
+    };
+    let channel = endpoint
+        .connect()
+        .await
+        .map_err(|e| RemoteError::new(EXIT_UNREACHABLE, format!("cannot reach the server at {url}: {e}")))?;
+    let auth = match token {
+        Some(t) => Some(
+            format!("Bearer {t}")
+                .parse()
+                .map_err(|_| RemoteError::new(EXIT_INVALID, "--token: not a valid header value"))?,
+        ),
+        None => None,
+    };
+    Ok(CleaveClient::with_interceptor(channel, Auth(auth)).max_decoding_message_size(usize::MAX))
+}
+
+fn state_name(s: i32) -> &'static str {
+    proto::JobState::try_from(s).map_or("UNKNOWN", |s| s.as_str_name())
+}
+
+fn job_json(j: &proto::Job) -> serde_json::Value {
+    json!({
+        "id": j.id,
+        "label": j.label,
+        "state": state_name(j.state),
+        "created_at": j.created_at,
+        "started_at": j.started_at,
+        "finished_at": j.finished_at,
+        "error": j.error,
+        "particles": j.particles,
+        "stages": j.stages,
+        "progress": j.progress.as_ref().map(|p| json!({"step": p.step, "time": p.time, "fraction": p.fraction, "eta_seconds": p.eta_seconds})),
+        "summary": j.summary.as_ref().map(summary_json),
+    })
+}
+
+fn summary_json(s: &proto::Summary) -> serde_json::Value {
+    json!({
+        "steps": s.steps, "time": s.time, "wall_seconds": s.wall_seconds,
+        "kinetic_energy": s.kinetic_energy, "strain_energy": s.strain_energy,
+        "external_work": s.external_work, "energy_error": s.energy_error,
+        "snapshots": s.snapshots, "series_rows": s.series_rows,
+    })
+}
+
+/// Reads a scene file as text (exit 2 if it cannot be read).
+pub fn read_scene(path: &Path) -> Result<String, RemoteError> {
+    let bytes = std::fs::read(path).map_err(|e| RemoteError::new(EXIT_INVALID, format!("cannot read scene file {}: {e}", path.display())))?;
+    String::from_utf8(bytes).map_err(|e| {
+        RemoteError::new(EXIT_INVALID, format!("invalid scene {}: not UTF-8 text (invalid byte at offset {})", path.display(), e.utf8_error().valid_up_to()))
+    })
+}
+
+fn scene_format(path: &Path) -> i32 {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some("json") => proto::SceneFormat::Json as i32,
+        Some("toml") => proto::SceneFormat::Toml as i32,
+        _ => proto::SceneFormat::Auto as i32,
+    }
+}
+
+pub async fn submit(client: &mut Client, path: &Path, label: &str) -> Result<proto::Job, RemoteError> {
+    let scene = read_scene(path)?;
+    let job = client
+        .submit_job(proto::SubmitJobRequest { scene, format: scene_format(path), label: label.to_string() })
+        .await?
+        .into_inner();
+    Ok(job)
+}
+
+pub async fn validate(client: &mut Client, path: &Path, json_out: bool) -> Result<ExitCode, RemoteError> {
+    let scene = read_scene(path)?;
+    let r = client
+        .validate_scene(proto::ValidateSceneRequest { scene, format: scene_format(path) })
+        .await?
+        .into_inner();
+    if json_out {
+        let errors: Vec<_> = r.errors.iter().map(|e| json!({"path": e.path, "reason": e.reason})).collect();
+        println!(
+            "{}",
+            json!({"status": if r.valid { "valid" } else { "invalid" }, "scene": path, "particles": r.particles, "cells": [r.cells_x, r.cells_y], "stages": r.stages, "errors": errors})
+        );
+    }
+    if r.valid {
+        if !json_out {
+            println!("{}: valid; {} particles, {} x {} cells; plan: {}", path.display(), r.particles, r.cells_x, r.cells_y, r.stages.join(" → "));
+        }
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!("error: invalid scene {}:", path.display());
+        for e in &r.errors {
+            if e.path.is_empty() {
+                eprintln!("  {}", e.reason);
+            } else {
+                eprintln!("  {}: {}", e.path, e.reason);
+            }
+        }
+        Ok(ExitCode::from(EXIT_INVALID))
+    }
+}
+
+/// Follows a job to its end: a progress bar, or one JSON object per event
+/// with `json_events`. Returns the final job.
+pub async fn watch(client: &mut Client, id: &str, bar: bool, json_events: bool) -> Result<proto::Job, RemoteError> {
+    let mut stream = client.watch_job(proto::WatchJobRequest { job_id: id.to_string() }).await?.into_inner();
+    let pb = bar.then(|| {
+        let pb = ProgressBar::new(1000);
+        pb.set_style(
+            ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        pb
+    });
+    while let Some(ev) = stream.message().await? {
+        if json_events {
+            let body = match &ev.event {
+                Some(Event::State(s)) => json!({"type": "state", "state": state_name(s.state), "error": s.error}),
+                Some(Event::Progress(p)) => json!({"type": "progress", "step": p.step, "time": p.time, "fraction": p.fraction, "eta_seconds": p.eta_seconds, "kinetic_energy": p.kinetic_energy, "strain_energy": p.strain_energy}),
+                Some(Event::Summary(s)) => json!({"type": "summary", "summary": summary_json(s)}),
+                None => json!({"type": "unknown"}),
+            };
+            let mut body = body;
+            body["sequence"] = json!(ev.sequence);
+            body["job_id"] = json!(id);
+            println!("{body}");
+        }
+        if let (Some(pb), Some(Event::Progress(p))) = (&pb, &ev.event) {
+            pb.set_position((p.fraction * 1000.0) as u64);
+            pb.set_message(format!("step {} t = {:.3e} s", p.step, p.time));
+        }
+    }
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    Ok(client.get_job(proto::GetJobRequest { job_id: id.to_string() }).await?.into_inner())
+}
+
+/// Exit code of a finished job.
+pub fn outcome(job: &proto::Job) -> ExitCode {
+    if job.state == proto::JobState::Succeeded as i32 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FAILED)
+    }
+}
+
+async fn fetch_snapshot(client: &mut Client, id: &str, index: u32, with_grid: bool) -> Result<Snapshot, RemoteError> {
+    let (info, particle_fields) = fetch_location(client, id, index, proto::Location::Particles).await?;
+    let mut positions = Vec::new();
+    let mut fields = Vec::new();
+    for f in particle_fields {
+        if f.name == "position" && positions.is_empty() {
+            if let FieldData::F64(v) = &f.data {
+                positions = v.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+            }
+        } else {
+            fields.push(f);
+        }
+    }
+    let grid = match (&info.grid, with_grid) {
+        (Some(g), true) => {
+            let (_, gf) = fetch_location(client, id, index, proto::Location::Grid).await?;
+            Some(GridSnapshot { origin: [g.origin_x, g.origin_y], spacing: g.spacing, dims: [g.nx as usize, g.ny as usize], fields: gf })
+        }
+        _ => None,
+    };
+    Ok(Snapshot { index: info.index, step: info.step, time: info.time, positions, fields, grid })
+}
+
+/// All fields of one location of a snapshot, rebuilt from the chunks.
+async fn fetch_location(
+    client: &mut Client,
+    id: &str,
+    index: u32,
+    location: proto::Location,
+) -> Result<(proto::SnapshotInfo, Vec<Field>), RemoteError> {
+    let mut stream = client
+        .fetch_fields(proto::FetchFieldsRequest { job_id: id.to_string(), snapshot: index, location: location as i32, fields: vec![] })
+        .await?
+        .into_inner();
+    let mut info = None;
+    let mut fields: Vec<(Field, Vec<u8>)> = Vec::new();
+    while let Some(c) = stream.message().await? {
+        if let Some(s) = c.snapshot {
+            info = Some(s);
+        }
+        let same = fields.last().is_some_and(|(f, _)| f.name == c.field);
+        if !same {
+            let data = if c.dtype == proto::DataType::Uint32 as i32 { FieldData::U32(Vec::new()) } else { FieldData::F64(Vec::new()) };
+            fields.push((Field { name: c.field.clone(), components: c.components as usize, data }, Vec::new()));
+        }
+        if let Some((_, bytes)) = fields.last_mut() {
+            bytes.extend_from_slice(&c.data);
+        }
+    }
+    let info = info.ok_or_else(|| RemoteError::new(EXIT_FAILED, "the server sent no snapshot header"))?;
+    let fields = fields
+        .into_iter()
+        .map(|(mut f, bytes)| {
+            f.data = match f.data {
+                FieldData::U32(_) => FieldData::U32(bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()),
+                FieldData::F64(_) => FieldData::F64(
+                    bytes.chunks_exact(8).map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]])).collect(),
+                ),
+            };
+            f
+        })
+        .collect();
+    Ok((info, fields))
+}
+
+/// Fetches a job's series and snapshots and writes them like `cleave run`.
+pub async fn fetch(client: &mut Client, id: &str, out: &Path) -> Result<OutputPaths, RemoteError> {
+    let series = client.fetch_series(proto::FetchSeriesRequest { job_id: id.to_string() }).await?.into_inner();
+    let snaps = client.list_snapshots(proto::ListSnapshotsRequest { job_id: id.to_string() }).await?.into_inner();
+    let write_err = |e: String| RemoteError::new(EXIT_FAILED, format!("writing results to {}: {e}", out.display()));
+    let mut writer = OutputWriter::create(out).map_err(|e| write_err(e.to_string()))?;
+    let cols = series.columns.len();
+    if cols != SeriesRow::COLUMNS.len() {
+        return Err(RemoteError::new(EXIT_FAILED, format!("the server's series has {cols} columns, this client expects {}", SeriesRow::COLUMNS.len())));
+    }
+    for v in series.values.chunks_exact(cols) {
+        let row = SeriesRow {
+            step: v[0] as u64,
+            time: v[1],
+            kinetic_energy: v[2],
+            strain_energy: v[3],
+            external_work: v[4],
+            energy_error: v[5],
+            total_mass: v[6],
+            momentum_x: v[7],
+            momentum_y: v[8],
+            angular_momentum: v[9],
+            dt: v[10],
+        };
+        writer.series_row(&row).map_err(write_err)?;
+    }
+    for s in &snaps.snapshots {
+        let snap = fetch_snapshot(client, id, s.index, s.grid.is_some()).await?;
+        writer.snapshot(&snap).map_err(write_err)?;
+    }
+    writer.finish().map_err(|e| write_err(e.to_string()))
+}
+
+pub async fn get(client: &mut Client, id: &str) -> Result<proto::Job, RemoteError> {
+    Ok(client.get_job(proto::GetJobRequest { job_id: id.to_string() }).await?.into_inner())
+}
+
+pub async fn cancel(client: &mut Client, id: &str) -> Result<proto::Job, RemoteError> {
+    Ok(client.cancel_job(proto::CancelJobRequest { job_id: id.to_string() }).await?.into_inner())
+}
+
+pub async fn list(client: &mut Client, state: Option<&str>, limit: u32) -> Result<Vec<proto::Job>, RemoteError> {
+    let state = match state {
+        None => 0,
+        Some(s) => proto::JobState::from_str_name(&s.to_uppercase())
+            .ok_or_else(|| RemoteError::new(EXIT_INVALID, format!("--state: unknown state {s:?} (queued, running, succeeded, failed, cancelled)")))?
+            as i32,
+    };
+    let mut out = Vec::new();
+    let mut token = String::new();
+    loop {
+        let page = client
+            .list_jobs(proto::ListJobsRequest { page_size: limit.min(1000).max(1), page_token: token, state })
+            .await?
+            .into_inner();
+        out.extend(page.jobs);
+        if page.next_page_token.is_empty() || out.len() >= limit as usize {
+            break;
+        }
+        token = page.next_page_token;
+    }
+    out.truncate(limit as usize);
+    Ok(out)
+}
+
+/// Prints a job as text or JSON.
+pub fn print_job(j: &proto::Job, json_out: bool) {
+    if json_out {
+        println!("{}", job_json(j));
+    } else {
+        let extra = if j.error.is_empty() { String::new() } else { format!("  {}", j.error) };
+        let progress = j.progress.as_ref().map_or(String::new(), |p| format!("  {:.0} %", 100.0 * p.fraction));
+        println!("{}  {:<9}  {} particles  {}{progress}{extra}", j.id, state_name(j.state), j.particles, j.label);
+    }
+}
+
+pub fn job_value(j: &proto::Job) -> serde_json::Value {
+    job_json(j)
+}

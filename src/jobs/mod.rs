@@ -1,0 +1,559 @@
+//! Jobs: the queue, the runner threads, cancellation, the event log every
+//! watcher reads, and the persistent store.
+//!
+//! Entry point: [`JobManager::start`]. A job goes QUEUED → RUNNING →
+//! SUCCEEDED | FAILED | CANCELLED. At most `max_concurrent` jobs run at
+//! once, each on its own OS thread (outside any async runtime) with its own
+//! rayon pool. A job that fails numerically or panics ends FAILED with the
+//! diagnosis; the manager keeps serving.
+
+mod bus;
+pub mod snapfile;
+mod store;
+
+pub use bus::{JobBus, JobEvent};
+pub use store::Store;
+
+use crate::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
+use crate::mpm::Simulation;
+use crate::scene::{Format, Scene, SceneError};
+use serde::{Deserialize, Serialize};
+use std::collections::{HashMap, VecDeque};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
+use std::time::{Instant, SystemTime, UNIX_EPOCH};
+
+/// The life of a job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
+pub enum JobState {
+    Queued,
+    Running,
+    Succeeded,
+    Failed,
+    Cancelled,
+}
+
+impl JobState {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobState::Queued => "QUEUED",
+            JobState::Running => "RUNNING",
+            JobState::Succeeded => "SUCCEEDED",
+            JobState::Failed => "FAILED",
+            JobState::Cancelled => "CANCELLED",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<JobState> {
+        Some(match s {
+            "QUEUED" => JobState::Queued,
+            "RUNNING" => JobState::Running,
+            "SUCCEEDED" => JobState::Succeeded,
+            "FAILED" => JobState::Failed,
+            "CANCELLED" => JobState::Cancelled,
+            _ => return None,
+        })
+    }
+
+    pub fn is_final(self) -> bool {
+        matches!(self, JobState::Succeeded | JobState::Failed | JobState::Cancelled)
+    }
+}
+
+/// How a finished job ended.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct JobSummary {
+    pub steps: u64,
+    pub time: f64,
+    pub wall_seconds: f64,
+    pub kinetic_energy: f64,
+    pub strain_energy: f64,
+    pub external_work: f64,
+    pub energy_error: f64,
+    pub snapshots: u32,
+    pub series_rows: u32,
+}
+
+/// Progress of a running job.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct JobProgress {
+    pub step: u64,
+    pub time: f64,
+    pub end_time: f64,
+    pub fraction: f64,
+    pub eta_seconds: f64,
+    pub kinetic_energy: f64,
+    pub strain_energy: f64,
+    pub wall_seconds: f64,
+}
+
+/// A job as the store and the API see it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JobRecord {
+    pub id: String,
+    pub label: String,
+    pub state: JobState,
+    pub scene: String,
+    pub created_at: f64,
+    pub started_at: Option<f64>,
+    pub finished_at: Option<f64>,
+    pub error: Option<String>,
+    pub particles: u64,
+    pub stages: Vec<String>,
+    pub summary: Option<JobSummary>,
+    /// Latest progress (kept in memory while the server runs).
+    pub progress: Option<JobProgress>,
+}
+
+/// What can go wrong with a request.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    #[error("{0}")]
+    Invalid(#[from] SceneError),
+    #[error("{0}")]
+    NotFound(String),
+    #[error("{0}")]
+    Precondition(String),
+    #[error("{0}")]
+    Exhausted(String),
+    #[error("{0}")]
+    Store(String),
+}
+
+/// Limits and sizes of the job runner.
+#[derive(Debug, Clone)]
+pub struct JobConfig {
+    pub data_dir: PathBuf,
+    pub max_concurrent: usize,
+    pub threads_per_job: usize,
+    pub max_particles: u64,
+    pub max_queued: usize,
+}
+
+/// Seconds since the Unix epoch.
+pub fn now() -> f64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64())
+}
+
+struct Queue {
+    waiting: VecDeque<String>,
+    /// Cancellation flags of the running jobs.
+    running: HashMap<String, Arc<AtomicBool>>,
+    shutdown: bool,
+}
+
+struct Inner {
+    config: JobConfig,
+    store: Store,
+    queue: Mutex<Queue>,
+    wake: Condvar,
+    buses: Mutex<HashMap<String, Arc<JobBus>>>,
+}
+
+/// Owns the jobs: submit, query, cancel, watch.
+#[derive(Clone)]
+pub struct JobManager {
+    inner: Arc<Inner>,
+}
+
+/// Snapshot metadata of a finished or running job.
+pub type SnapshotHeader = snapfile::SnapshotHeader;
+
+impl JobManager {
+    /// Opens the store, settles jobs a previous server left behind (running
+    /// ones become FAILED "server stopped"; queued ones are queued again),
+    /// and starts the runner threads.
+    pub fn start(config: JobConfig) -> Result<JobManager, JobError> {
+        let store = Store::open(&config.data_dir)?;
+        for id in store.ids_in_state(JobState::Running)? {
+            store.finish(&id, JobState::Failed, now(), Some("server stopped while the job was running"), None)?;
+            tracing::warn!(job = %id, "marked FAILED: the server stopped while it was running");
+        }
+        let waiting: VecDeque<String> = store.ids_in_state(JobState::Queued)?.into();
+        let inner = Arc::new(Inner {
+            store,
+            queue: Mutex::new(Queue { waiting, running: HashMap::new(), shutdown: false }),
+            wake: Condvar::new(),
+            buses: Mutex::new(HashMap::new()),
+            config,
+        });
+        for k in 0..inner.config.max_concurrent.max(1) {
+            let inner = inner.clone();
+            std::thread::Builder::new()
+                .name(format!("cleave-runner-{k}"))
+                .spawn(move || runner(inner))
+                .map_err(|e| JobError::Store(format!("cannot start a runner thread: {e}")))?;
+        }
+        Ok(JobManager { inner })
+    }
+
+    /// Stops taking jobs from the queue (running jobs finish their step and
+    /// are cancelled).
+    pub fn shutdown(&self) {
+        let mut q = lock(&self.inner.queue);
+        q.shutdown = true;
+        for flag in q.running.values() {
+            flag.store(true, Ordering::SeqCst);
+        }
+        self.inner.wake.notify_all();
+    }
+
+    pub fn config(&self) -> &JobConfig {
+        &self.inner.config
+    }
+
+    /// Checks a scene.
+    pub fn validate(text: &str, format: Option<Format>) -> Result<Scene, SceneError> {
+        Scene::from_text(text, format)
+    }
+
+    /// Validates and queues a scene.
+    pub fn submit(&self, text: &str, format: Option<Format>, label: &str) -> Result<JobRecord, JobError> {
+        let scene = Scene::from_text(text, format)?;
+        let particles = scene.total_particles() as u64;
+        if particles > self.inner.config.max_particles {
+            return Err(JobError::Exhausted(format!(
+                "the scene has {particles} particles; this server accepts at most {}",
+                self.inner.config.max_particles
+            )));
+        }
+        let mut q = lock(&self.inner.queue);
+        if q.waiting.len() >= self.inner.config.max_queued {
+            return Err(JobError::Exhausted(format!(
+                "{} jobs are already queued (the limit is {})",
+                q.waiting.len(),
+                self.inner.config.max_queued
+            )));
+        }
+        let stages: Vec<String> = scene.plan.names().into_iter().map(String::from).collect();
+        let id = self.inner.store.insert(label, text, now(), particles, &stages)?;
+        let bus = Arc::new(JobBus::new());
+        bus.push_state(JobState::Queued, None);
+        lock(&self.inner.buses).insert(id.clone(), bus);
+        q.waiting.push_back(id.clone());
+        self.inner.wake.notify_one();
+        drop(q);
+        tracing::info!(job = %id, particles, "queued");
+        self.get(&id)
+    }
+
+    /// A job with its latest progress.
+    pub fn get(&self, id: &str) -> Result<JobRecord, JobError> {
+        let mut r = self.inner.store.get(id)?;
+        if let Some(bus) = lock(&self.inner.buses).get(id) {
+            r.progress = bus.last_progress();
+        }
+        Ok(r)
+    }
+
+    pub fn list(&self, page_size: usize, token: &str, state: Option<JobState>) -> Result<(Vec<JobRecord>, String), JobError> {
+        let after = if token.is_empty() {
+            None
+        } else {
+            Some(token.parse::<i64>().map_err(|_| JobError::Precondition(format!("invalid page_token {token:?}")))?)
+        };
+        let (jobs, next) = self.inner.store.list(page_size.clamp(1, 1000), after, state)?;
+        Ok((jobs, next.map(|n| n.to_string()).unwrap_or_default()))
+    }
+
+    /// Cancels a queued or running job; a finished job is returned as is.
+    pub fn cancel(&self, id: &str) -> Result<JobRecord, JobError> {
+        let record = self.inner.store.get(id)?;
+        let mut q = lock(&self.inner.queue);
+        if let Some(pos) = q.waiting.iter().position(|j| j == id) {
+            q.waiting.remove(pos);
+            drop(q);
+            self.inner.store.finish(id, JobState::Cancelled, now(), Some("cancelled before it started"), None)?;
+            self.bus(id).push_state(JobState::Cancelled, Some("cancelled before it started".into()));
+        } else if let Some(flag) = q.running.get(id) {
+            flag.store(true, Ordering::SeqCst);
+        } else if !record.state.is_final() {
+            tracing::warn!(job = %id, state = record.state.as_str(), "cancel: job neither queued nor running");
+        }
+        self.get(id)
+    }
+
+    /// The event log of a job (rebuilt from the store for jobs of an
+    /// earlier server).
+    pub fn bus(&self, id: &str) -> Arc<JobBus> {
+        let mut buses = lock(&self.inner.buses);
+        if let Some(b) = buses.get(id) {
+            return b.clone();
+        }
+        let bus = Arc::new(JobBus::new());
+        if let Ok(r) = self.inner.store.get(id) {
+            bus.push_state(JobState::Queued, None);
+            if r.started_at.is_some() {
+                bus.push_state(JobState::Running, None);
+            }
+            if r.state.is_final() {
+                if let Some(s) = r.summary {
+                    bus.push(JobEvent::Summary(s));
+                }
+                bus.push_state(r.state, r.error.clone());
+            }
+        }
+        buses.insert(id.to_string(), bus.clone());
+        bus
+    }
+
+    /// Checks that the job exists and returns its event log.
+    pub fn watch(&self, id: &str) -> Result<Arc<JobBus>, JobError> {
+        self.inner.store.get(id)?;
+        Ok(self.bus(id))
+    }
+
+    /// Headers of a job's snapshots, in order.
+    pub fn snapshots(&self, id: &str) -> Result<Vec<SnapshotHeader>, JobError> {
+        self.inner.store.get(id)?;
+        let mut out = Vec::new();
+        for k in 0.. {
+            let path = snapshot_path(&self.inner.store.job_dir(id), k);
+            if !path.exists() {
+                break;
+            }
+            out.push(snapfile::SnapshotReader::open(&path).map_err(JobError::Store)?.header);
+        }
+        Ok(out)
+    }
+
+    /// Opens one snapshot of a job.
+    pub fn open_snapshot(&self, id: &str, index: u32) -> Result<snapfile::SnapshotReader, JobError> {
+        let record = self.inner.store.get(id)?;
+        let path = snapshot_path(&self.inner.store.job_dir(id), index);
+        if !path.exists() {
+            return Err(if record.state == JobState::Queued {
+                JobError::Precondition(format!("{id} has not started: it has no snapshots yet"))
+            } else {
+                JobError::NotFound(format!("{id} has no snapshot {index}"))
+            });
+        }
+        snapfile::SnapshotReader::open(&path).map_err(JobError::Store)
+    }
+
+    /// A job's time series so far.
+    pub fn series(&self, id: &str) -> Result<Vec<SeriesRow>, JobError> {
+        let record = self.inner.store.get(id)?;
+        let path = self.inner.store.job_dir(id).join("series.csv");
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(_) if !record.state.is_final() || record.state == JobState::Cancelled => {
+                return Err(JobError::Precondition(format!("{id} has no time series yet")));
+            }
+            Err(e) => return Err(JobError::Store(format!("{}: {e}", path.display()))),
+        };
+        parse_series(&text).map_err(|e| JobError::Store(format!("{}: {e}", path.display())))
+    }
+}
+
+fn snapshot_path(dir: &Path, index: u32) -> PathBuf {
+    dir.join(format!("snapshot_{index:04}.bin"))
+}
+
+/// Reads `series.csv` back (the columns of [`SeriesRow::COLUMNS`]).
+fn parse_series(text: &str) -> Result<Vec<SeriesRow>, String> {
+    let mut lines = text.lines();
+    let header = lines.next().ok_or("empty series")?;
+    if header != SeriesRow::COLUMNS.join(",") {
+        return Err(format!("unexpected columns {header:?}"));
+    }
+    let mut rows = Vec::new();
+    for line in lines {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse::<f64>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
+        if v.len() != SeriesRow::COLUMNS.len() {
+            // a row cut short by a crash: stop there
+            break;
+        }
+        rows.push(SeriesRow {
+            step: v[0] as u64,
+            time: v[1],
+            kinetic_energy: v[2],
+            strain_energy: v[3],
+            external_work: v[4],
+            energy_error: v[5],
+            total_mass: v[6],
+            momentum_x: v[7],
+            momentum_y: v[8],
+            angular_momentum: v[9],
+            dt: v[10],
+        });
+    }
+    Ok(rows)
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// A runner thread: takes queued jobs one at a time until shutdown.
+fn runner(inner: Arc<Inner>) {
+    loop {
+        let (id, cancel) = {
+            let mut q = lock(&inner.queue);
+            loop {
+                if q.shutdown {
+                    return;
+                }
+                if let Some(id) = q.waiting.pop_front() {
+                    let flag = Arc::new(AtomicBool::new(false));
+                    q.running.insert(id.clone(), flag.clone());
+                    break (id, flag);
+                }
+                q = inner.wake.wait(q).unwrap_or_else(|p| p.into_inner());
+            }
+        };
+        let manager = JobManager { inner: inner.clone() };
+        let bus = manager.bus(&id);
+        if let Err(e) = run_job(&inner, &id, &bus, &cancel) {
+            tracing::error!(job = %id, error = %e, "job bookkeeping failed");
+            let msg = format!("internal error: {e}");
+            let _ = inner.store.finish(&id, JobState::Failed, now(), Some(&msg), None);
+            bus.push_state(JobState::Failed, Some(msg));
+        }
+        lock(&inner.queue).running.remove(&id);
+    }
+}
+
+/// Runs one job to its end and records the outcome.
+fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> Result<(), JobError> {
+    let record = inner.store.get(id)?;
+    let scene = Scene::from_text(&record.scene, None)?;
+    inner.store.set_running(id, now())?;
+    bus.push_state(JobState::Running, None);
+    tracing::info!(job = %id, "running");
+    let dir = inner.store.job_dir(id);
+    std::fs::create_dir_all(&dir).map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
+    let series = std::fs::File::create(dir.join("series.csv"))
+        .map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
+    let mut observer = JobObserver {
+        dir: dir.clone(),
+        series: std::io::BufWriter::new(series),
+        bus,
+        cancel: cancel.clone(),
+        started: Instant::now(),
+        last_emit: None,
+        snapshots: 0,
+        rows: 0,
+        last_row: None,
+    };
+    observer.write_header().map_err(|e| JobError::Store(format!("series.csv: {e}")))?;
+    let threads = inner.config.threads_per_job.max(1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(move |k| format!("cleave-job-{k}"))
+        .build()
+        .map_err(|e| JobError::Store(format!("cannot build a thread pool: {e}")))?;
+    let outcome = pool.install(|| {
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Simulation::new(&scene).run(&mut observer)))
+    });
+    let _ = std::io::Write::flush(&mut observer.series);
+    let wall = observer.started.elapsed().as_secs_f64();
+    let mut summary = JobSummary {
+        wall_seconds: wall,
+        snapshots: observer.snapshots,
+        series_rows: observer.rows,
+        ..Default::default()
+    };
+    if let Some(r) = observer.last_row {
+        summary.steps = r.step;
+        summary.time = r.time;
+        summary.kinetic_energy = r.kinetic_energy;
+        summary.strain_energy = r.strain_energy;
+        summary.external_work = r.external_work;
+        summary.energy_error = r.energy_error;
+    }
+    let (state, error) = match outcome {
+        Ok(Ok(s)) if s.cancelled => (JobState::Cancelled, Some("cancelled while running".to_string())),
+        Ok(Ok(s)) => {
+            summary.steps = s.steps;
+            summary.time = s.time;
+            (JobState::Succeeded, None)
+        }
+        Ok(Err(e)) => (JobState::Failed, Some(e.to_string())),
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            (JobState::Failed, Some(format!("internal error (panic): {what}")))
+        }
+    };
+    inner.store.finish(id, state, now(), error.as_deref(), Some(&summary))?;
+    bus.push(JobEvent::Summary(summary));
+    bus.push_state(state, error.clone());
+    tracing::info!(job = %id, state = state.as_str(), error = error.as_deref().unwrap_or(""), wall, "finished");
+    Ok(())
+}
+
+/// Streams a running job's results to its directory and its event log.
+struct JobObserver<'a> {
+    dir: PathBuf,
+    series: std::io::BufWriter<std::fs::File>,
+    bus: &'a JobBus,
+    cancel: Arc<AtomicBool>,
+    started: Instant,
+    last_emit: Option<(Instant, f64)>,
+    snapshots: u32,
+    rows: u32,
+    last_row: Option<SeriesRow>,
+}
+
+impl JobObserver<'_> {
+    fn write_header(&mut self) -> std::io::Result<()> {
+        use std::io::Write;
+        writeln!(self.series, "{}", SeriesRow::COLUMNS.join(","))
+    }
+}
+
+impl Observer for JobObserver<'_> {
+    fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
+        use std::io::Write;
+        crate::output::write_series_line(&mut self.series, row)
+            .and_then(|_| self.series.flush())
+            .map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))?;
+        self.rows += 1;
+        self.last_row = Some(*row);
+        Ok(())
+    }
+
+    fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
+        if self.cancel.load(Ordering::SeqCst) {
+            return Ok(()); // cancelled: write nothing more
+        }
+        snapfile::write(&snapshot_path(&self.dir, snap.index), snap)?;
+        self.snapshots += 1;
+        Ok(())
+    }
+
+    fn progress(&mut self, p: &Progress) -> Control {
+        if self.cancel.load(Ordering::SeqCst) {
+            return Control::Stop;
+        }
+        // At most one progress event per 1 % or 0.25 s.
+        let now = Instant::now();
+        let fraction = p.fraction();
+        let due = match self.last_emit {
+            None => true,
+            Some((t, f)) => fraction - f >= 0.01 || (now - t).as_secs_f64() >= 0.25 || fraction >= 1.0,
+        };
+        if due {
+            let wall = (now - self.started).as_secs_f64();
+            let eta = if fraction > 0.0 { wall * (1.0 - fraction) / fraction } else { 0.0 };
+            self.bus.push(JobEvent::Progress(JobProgress {
+                step: p.step,
+                time: p.time,
+                end_time: p.end_time,
+                fraction,
+                eta_seconds: eta,
+                kinetic_energy: p.kinetic_energy,
+                strain_energy: p.strain_energy,
+                wall_seconds: wall,
+            }));
+            self.last_emit = Some((now, fraction));
+        }
+        Control::Continue
+    }
+}

@@ -1,0 +1,417 @@
+//! The gRPC service: proto ↔ domain conversions and thin handlers that call
+//! [`crate::jobs::JobManager`]. Entry point: [`serve`].
+
+pub mod proto;
+
+use crate::jobs::{self, JobError, JobEvent, JobManager, JobState};
+use crate::scene::{Format, SceneError};
+use proto::cleave_server::{Cleave, CleaveServer};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::pin::Pin;
+use tokio_stream::Stream;
+use tonic::{Request, Response, Status};
+
+/// Bytes of field data per FetchFields chunk.
+pub const CHUNK_BYTES: usize = 1 << 20;
+
+/// Everything `cleave-server` is configured with.
+#[derive(Debug, Clone)]
+pub struct ServerConfig {
+    pub listen: SocketAddr,
+    pub jobs: jobs::JobConfig,
+    /// Bearer token required on every RPC but health.
+    pub token: Option<String>,
+    pub max_request_bytes: usize,
+    /// PEM certificate chain and key for TLS.
+    pub tls: Option<(PathBuf, PathBuf)>,
+}
+
+fn status(e: JobError) -> Status {
+    match e {
+        JobError::Invalid(e) => invalid(&e),
+        JobError::NotFound(m) => Status::not_found(m),
+        JobError::Precondition(m) => Status::failed_precondition(m),
+        JobError::Exhausted(m) => Status::resource_exhausted(m),
+        JobError::Store(m) => Status::internal(m),
+    }
+}
+
+fn invalid(e: &SceneError) -> Status {
+    Status::invalid_argument(format!("invalid scene: {e}"))
+}
+
+fn format(f: i32) -> Option<Format> {
+    match proto::SceneFormat::try_from(f) {
+        Ok(proto::SceneFormat::Toml) => Some(Format::Toml),
+        Ok(proto::SceneFormat::Json) => Some(Format::Json),
+        _ => None,
+    }
+}
+
+pub fn state_to_proto(s: JobState) -> proto::JobState {
+    match s {
+        JobState::Queued => proto::JobState::Queued,
+        JobState::Running => proto::JobState::Running,
+        JobState::Succeeded => proto::JobState::Succeeded,
+        JobState::Failed => proto::JobState::Failed,
+        JobState::Cancelled => proto::JobState::Cancelled,
+    }
+}
+
+fn progress_to_proto(p: &jobs::JobProgress) -> proto::Progress {
+    proto::Progress {
+        step: p.step,
+        time: p.time,
+        end_time: p.end_time,
+        fraction: p.fraction,
+        eta_seconds: p.eta_seconds,
+        kinetic_energy: p.kinetic_energy,
+        strain_energy: p.strain_energy,
+        wall_seconds: p.wall_seconds,
+    }
+}
+
+fn summary_to_proto(s: &jobs::JobSummary) -> proto::Summary {
+    proto::Summary {
+        steps: s.steps,
+        time: s.time,
+        wall_seconds: s.wall_seconds,
+        kinetic_energy: s.kinetic_energy,
+        strain_energy: s.strain_energy,
+        external_work: s.external_work,
+        energy_error: s.energy_error,
+        snapshots: s.snapshots,
+        series_rows: s.series_rows,
+    }
+}
+
+fn job_to_proto(r: jobs::JobRecord) -> proto::Job {
+    proto::Job {
+        id: r.id,
+        label: r.label,
+        state: state_to_proto(r.state) as i32,
+        created_at: r.created_at,
+        started_at: r.started_at.unwrap_or(0.0),
+        finished_at: r.finished_at.unwrap_or(0.0),
+        error: r.error.unwrap_or_default(),
+        particles: r.particles,
+        stages: r.stages,
+        progress: r.progress.as_ref().map(progress_to_proto),
+        summary: r.summary.as_ref().map(summary_to_proto),
+        scene: r.scene,
+    }
+}
+
+fn event_to_proto(sequence: u64, e: &JobEvent) -> proto::JobEvent {
+    use proto::job_event::Event;
+    let event = match e {
+        JobEvent::State { state, error } => Event::State(proto::StateChange {
+            state: state_to_proto(*state) as i32,
+            error: error.clone().unwrap_or_default(),
+        }),
+        JobEvent::Progress(p) => Event::Progress(progress_to_proto(p)),
+        JobEvent::Summary(s) => Event::Summary(summary_to_proto(s)),
+    };
+    proto::JobEvent { sequence, event: Some(event) }
+}
+
+fn dtype_to_proto(d: jobs::snapfile::Dtype) -> proto::DataType {
+    match d {
+        jobs::snapfile::Dtype::F64 => proto::DataType::Float64,
+        jobs::snapfile::Dtype::U32 => proto::DataType::Uint32,
+    }
+}
+
+fn field_info(a: &jobs::snapfile::ArrayInfo) -> proto::FieldInfo {
+    proto::FieldInfo { name: a.name.clone(), dtype: dtype_to_proto(a.dtype) as i32, components: a.components as u32 }
+}
+
+fn snapshot_to_proto(h: &jobs::SnapshotHeader) -> proto::SnapshotInfo {
+    proto::SnapshotInfo {
+        index: h.index,
+        step: h.step,
+        time: h.time,
+        particles: h.particles as u64,
+        particle_fields: h.fields.iter().map(field_info).collect(),
+        grid: h.grid.as_ref().map(|g| proto::GridInfo {
+            origin_x: g.origin[0],
+            origin_y: g.origin[1],
+            spacing: g.spacing,
+            nx: g.dims[0] as u64,
+            ny: g.dims[1] as u64,
+            fields: g.fields.iter().map(field_info).collect(),
+        }),
+    }
+}
+
+/// Runs a blocking job-manager call off the async runtime.
+async fn blocking<T: Send + 'static>(f: impl FnOnce() -> Result<T, JobError> + Send + 'static) -> Result<T, Status> {
+    tokio::task::spawn_blocking(f).await.map_err(|e| Status::internal(format!("worker: {e}")))?.map_err(status)
+}
+
+/// The `cleave.v1.Cleave` service.
+pub struct CleaveService {
+    jobs: JobManager,
+}
+
+type EventStream = Pin<Box<dyn Stream<Item = Result<proto::JobEvent, Status>> + Send>>;
+type ChunkStream = Pin<Box<dyn Stream<Item = Result<proto::FieldChunk, Status>> + Send>>;
+
+#[tonic::async_trait]
+impl Cleave for CleaveService {
+    async fn submit_job(&self, req: Request<proto::SubmitJobRequest>) -> Result<Response<proto::Job>, Status> {
+        let r = req.into_inner();
+        let jobs = self.jobs.clone();
+        let job = blocking(move || jobs.submit(&r.scene, format(r.format), &r.label)).await?;
+        Ok(Response::new(job_to_proto(job)))
+    }
+
+    async fn get_job(&self, req: Request<proto::GetJobRequest>) -> Result<Response<proto::Job>, Status> {
+        let id = req.into_inner().job_id;
+        let jobs = self.jobs.clone();
+        Ok(Response::new(job_to_proto(blocking(move || jobs.get(&id)).await?)))
+    }
+
+    async fn list_jobs(&self, req: Request<proto::ListJobsRequest>) -> Result<Response<proto::ListJobsResponse>, Status> {
+        let r = req.into_inner();
+        let state = match proto::JobState::try_from(r.state) {
+            Ok(proto::JobState::Unspecified) => None,
+            Ok(s) => JobState::parse(s.as_str_name()),
+            Err(_) => return Err(Status::invalid_argument(format!("state: unknown job state {}", r.state))),
+        };
+        let size = if r.page_size == 0 { 50 } else { r.page_size as usize };
+        let jobs = self.jobs.clone();
+        let (list, next) = blocking(move || jobs.list(size, &r.page_token, state)).await?;
+        Ok(Response::new(proto::ListJobsResponse {
+            jobs: list.into_iter().map(job_to_proto).collect(),
+            next_page_token: next,
+        }))
+    }
+
+    async fn cancel_job(&self, req: Request<proto::CancelJobRequest>) -> Result<Response<proto::Job>, Status> {
+        let id = req.into_inner().job_id;
+        let jobs = self.jobs.clone();
+        Ok(Response::new(job_to_proto(blocking(move || jobs.cancel(&id)).await?)))
+    }
+
+    type WatchJobStream = EventStream;
+
+    async fn watch_job(&self, req: Request<proto::WatchJobRequest>) -> Result<Response<EventStream>, Status> {
+        let id = req.into_inner().job_id;
+        let jobs = self.jobs.clone();
+        let bus = blocking(move || jobs.watch(&id)).await?;
+        let (tx, rx) = tokio::sync::mpsc::channel(64);
+        tokio::spawn(async move {
+            let mut seen = bus.subscribe();
+            let mut next = 0usize;
+            loop {
+                let events = bus.since(next);
+                for e in &events {
+                    if tx.send(Ok(event_to_proto(next as u64, e))).await.is_err() {
+                        return; // the watcher went away
+                    }
+                    next += 1;
+                    if e.is_final() {
+                        return;
+                    }
+                }
+                if seen.changed().await.is_err() {
+                    return;
+                }
+            }
+        });
+        Ok(Response::new(Box::pin(tokio_stream::wrappers::ReceiverStream::new(rx))))
+    }
+
+    async fn list_snapshots(
+        &self,
+        req: Request<proto::ListSnapshotsRequest>,
+    ) -> Result<Response<proto::ListSnapshotsResponse>, Status> {
+        let id = req.into_inner().job_id;
+        let jobs = self.jobs.clone();
+        let heads = blocking(move || jobs.snapshots(&id)).await?;
+        Ok(Response::new(proto::ListSnapshotsResponse { snapshots: heads.iter().map(snapshot_to_proto).collect() }))
+    }
+
+    type FetchFieldsStream = ChunkStream;
+
+    async fn fetch_fields(&self, req: Request<proto::FetchFieldsRequest>) -> Result<Response<ChunkStream>, Status> {
+        let r = req.into_inner();
+        let jobs = self.jobs.clone();
+        let (id, index) = (r.job_id.clone(), r.snapshot);
+        let mut reader = blocking(move || jobs.open_snapshot(&id, index)).await?;
+        let header = reader.header.clone();
+        let available: Vec<jobs::snapfile::ArrayInfo> = match proto::Location::try_from(r.location) {
+            Ok(proto::Location::Grid) => match &header.grid {
+                Some(g) => g.fields.clone(),
+                None => return Err(Status::failed_precondition(format!("snapshot {index} of {} has no grid fields", r.job_id))),
+            },
+            _ => header.fields.clone(),
+        };
+        let chosen: Vec<_> = if r.fields.is_empty() {
+            available
+        } else {
+            let mut out = Vec::new();
+            for name in &r.fields {
+                match available.iter().find(|a| &a.name == name) {
+                    Some(a) => out.push(a.clone()),
+                    None => {
+                        let names: Vec<_> = available.iter().map(|a| a.name.as_str()).collect();
+                        return Err(Status::invalid_argument(format!(
+                            "fields: no field {name:?} in this snapshot (it has {})",
+                            names.join(", ")
+                        )));
+                    }
+                }
+            }
+            out
+        };
+        let info = snapshot_to_proto(&header);
+        let (tx, rx) = tokio::sync::mpsc::channel(4);
+        tokio::task::spawn_blocking(move || {
+            let mut first = Some(info);
+            for a in chosen {
+                let size = a.dtype.size();
+                let per_chunk = (CHUNK_BYTES / size).max(1);
+                let mut offset = 0usize;
+                loop {
+                    let count = per_chunk.min(a.len - offset);
+                    let data = match reader.read_bytes(&a, (offset * size) as u64, count * size) {
+                        Ok(d) => d,
+                        Err(e) => {
+                            let _ = tx.blocking_send(Err(Status::internal(e)));
+                            return;
+                        }
+                    };
+                    let chunk = proto::FieldChunk {
+                        field: a.name.clone(),
+                        dtype: dtype_to_proto(a.dtype) as i32,
+                        components: a.components as u32,
+                        total: a.len as u64,
+                        offset: offset as u64,
+                        data,
+                        snapshot: first.take(),
+                    };
+                    if tx.blocking_send(Ok(chunk)).is_err() {
+                        return;
+                    }
+                    offset += count;
+                    if offset >= a.len {
+                        break;
+                    }
+                }
+            }
+        });
+        Ok(Response::new(Box::pin(tokio_stream::wrappers::ReceiverStream::new(rx))))
+    }
+
+    async fn fetch_series(&self, req: Request<proto::FetchSeriesRequest>) -> Result<Response<proto::FetchSeriesResponse>, Status> {
+        let id = req.into_inner().job_id;
+        let jobs = self.jobs.clone();
+        let rows = blocking(move || jobs.series(&id)).await?;
+        Ok(Response::new(proto::FetchSeriesResponse {
+            columns: crate::diagnostics::SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect(),
+            values: rows.iter().flat_map(|r| r.values()).collect(),
+            rows: rows.len() as u32,
+        }))
+    }
+
+    async fn validate_scene(
+        &self,
+        req: Request<proto::ValidateSceneRequest>,
+    ) -> Result<Response<proto::ValidateSceneResponse>, Status> {
+        let r = req.into_inner();
+        let resp = match tokio::task::spawn_blocking(move || JobManager::validate(&r.scene, format(r.format)))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))?
+        {
+            Ok(scene) => proto::ValidateSceneResponse {
+                valid: true,
+                errors: vec![],
+                particles: scene.total_particles() as u64,
+                stages: scene.plan.names().into_iter().map(String::from).collect(),
+                cells_x: scene.cells[0] as u64,
+                cells_y: scene.cells[1] as u64,
+            },
+            Err(e) => proto::ValidateSceneResponse {
+                valid: false,
+                errors: e.errors.iter().map(|f| proto::FieldError { path: f.path.clone(), reason: f.reason.clone() }).collect(),
+                ..Default::default()
+            },
+        };
+        Ok(Response::new(resp))
+    }
+}
+
+/// Checks the bearer token of a request.
+fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), Status> {
+    let Some(token) = expected else { return Ok(()) };
+    let given = req.metadata().get("authorization").and_then(|v| v.to_str().ok()).unwrap_or("");
+    // constant-time comparison of the token
+    let want = format!("Bearer {token}");
+    let ok = given.len() == want.len() && given.bytes().zip(want.bytes()).fold(0u8, |a, (x, y)| a | (x ^ y)) == 0;
+    if ok {
+        Ok(())
+    } else {
+        Err(Status::unauthenticated("missing or wrong bearer token (authorization: Bearer <token>)"))
+    }
+}
+
+/// Binds, prints `listening on ADDR` on stdout, and serves until ctrl-c or
+/// SIGTERM. Jobs keep running on their threads; on shutdown, running jobs
+/// are cancelled.
+pub async fn serve(config: ServerConfig) -> anyhow::Result<()> {
+    let jobs = JobManager::start(config.jobs.clone())?;
+    let listener = tokio::net::TcpListener::bind(config.listen).await?;
+    let addr = listener.local_addr()?;
+    let (reporter, health) = tonic_health::server::health_reporter();
+    reporter.set_serving::<CleaveServer<CleaveService>>().await;
+    let reflection = tonic_reflection::server::Builder::configure()
+        .register_encoded_file_descriptor_set(proto::FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+        .build_v1()?;
+    let token = config.token.clone();
+    let auth = move |req: Request<()>| check_token(&token, &req).map(|_| req);
+    let cleave = tonic::service::interceptor::InterceptedService::new(
+        CleaveServer::new(CleaveService { jobs: jobs.clone() }).max_decoding_message_size(config.max_request_bytes),
+        auth.clone(),
+    );
+    let reflection = tonic::service::interceptor::InterceptedService::new(reflection, auth);
+    let mut builder = tonic::transport::Server::builder();
+    if let Some((cert, key)) = &config.tls {
+        let identity = tonic::transport::Identity::from_pem(std::fs::read(cert)?, std::fs::read(key)?);
+        builder = builder.tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))?;
+    }
+    println!("listening on {addr}");
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+    tracing::info!(%addr, data_dir = %config.jobs.data_dir.display(), "serving");
+    let shutdown = async {
+        let ctrl_c = tokio::signal::ctrl_c();
+        #[cfg(unix)]
+        {
+            let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                Ok(t) => t,
+                Err(_) => {
+                    let _ = ctrl_c.await;
+                    return;
+                }
+            };
+            tokio::select! { _ = ctrl_c => {}, _ = term.recv() => {} }
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = ctrl_c.await;
+        }
+    };
+    builder
+        .add_service(health)
+        .add_service(reflection)
+        .add_service(cleave)
+        .serve_with_incoming_shutdown(tokio_stream::wrappers::TcpListenerStream::new(listener), shutdown)
+        .await?;
+    jobs.shutdown();
+    tracing::info!("stopped");
+    Ok(())
+}
