@@ -62,6 +62,15 @@ enum Command {
         #[arg(long, default_value = "flip,apic")]
         transfer: String,
     },
+    /// Measure the overhead of running through a server (in this process)
+    /// and the FetchFields throughput.
+    BenchService {
+        #[arg(long, default_value = "docs/service-performance.md")]
+        out: PathBuf,
+        /// Runs of each kind (medians are reported).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+    },
     /// Check a scene without running it; prints its plan.
     Validate {
         scene: PathBuf,
@@ -147,6 +156,13 @@ fn main() -> ExitCode {
             eprintln!("error: this command talks to a server: give --server URL (or set CLEAVE_SERVER)");
             ExitCode::from(EXIT_INVALID)
         }
+        Command::BenchService { out, repeats } => match bench::run_service(&out, repeats.max(1)) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                ExitCode::from(EXIT_FAILED)
+            }
+        },
         Command::Bench { out, steps, largest, transfer } => match bench::run(&out, steps, largest, &transfer) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -328,7 +344,7 @@ fn remote_main(server: &str, token: Option<&str>, command: Command) -> ExitCode 
         | Command::List { json, .. }
         | Command::Get { json, .. }
         | Command::Cancel { json, .. } => *json,
-        Command::Bench { .. } => false,
+        Command::Bench { .. } | Command::BenchService { .. } => false,
     };
     let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
         Ok(r) => r,
@@ -417,8 +433,8 @@ fn remote_main(server: &str, token: Option<&str>, command: Command) -> ExitCode 
                     remote::print_job(&remote::cancel(&mut client, &job).await?, json);
                     Ok(ExitCode::SUCCESS)
                 }
-                Command::Bench { .. } => {
-                    eprintln!("error: bench runs in this process; drop --server");
+                Command::Bench { .. } | Command::BenchService { .. } => {
+                    eprintln!("error: the benchmarks run in this process; drop --server");
                     Ok(ExitCode::from(EXIT_INVALID))
                 }
             }

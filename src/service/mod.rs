@@ -359,11 +359,42 @@ fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), Statu
 }
 
 /// Binds, prints `listening on ADDR` on stdout, and serves until ctrl-c or
-/// SIGTERM. Jobs keep running on their threads; on shutdown, running jobs
-/// are cancelled.
+/// SIGTERM; on shutdown, running jobs are cancelled.
 pub async fn serve(config: ServerConfig) -> anyhow::Result<()> {
-    let jobs = JobManager::start(config.jobs.clone())?;
     let listener = tokio::net::TcpListener::bind(config.listen).await?;
+    let addr = listener.local_addr()?;
+    println!("listening on {addr}");
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+    let shutdown = async {
+        let ctrl_c = tokio::signal::ctrl_c();
+        #[cfg(unix)]
+        {
+            let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                Ok(t) => t,
+                Err(_) => {
+                    let _ = ctrl_c.await;
+                    return;
+                }
+            };
+            tokio::select! { _ = ctrl_c => {}, _ = term.recv() => {} }
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = ctrl_c.await;
+        }
+    };
+    serve_on(listener, config, shutdown).await
+}
+
+/// Serves on a bound listener until `shutdown` completes (used by
+/// [`serve`], and by benchmarks that run a server in-process).
+pub async fn serve_on(
+    listener: tokio::net::TcpListener,
+    config: ServerConfig,
+    shutdown: impl std::future::Future<Output = ()> + Send,
+) -> anyhow::Result<()> {
+    let jobs = JobManager::start(config.jobs.clone())?;
     let addr = listener.local_addr()?;
     let (reporter, health) = tonic_health::server::health_reporter();
     reporter.set_serving::<CleaveServer<CleaveService>>().await;
@@ -383,28 +414,7 @@ pub async fn serve(config: ServerConfig) -> anyhow::Result<()> {
         let identity = tonic::transport::Identity::from_pem(std::fs::read(cert)?, std::fs::read(key)?);
         builder = builder.tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))?;
     }
-    println!("listening on {addr}");
-    use std::io::Write;
-    let _ = std::io::stdout().flush();
     tracing::info!(%addr, data_dir = %config.jobs.data_dir.display(), "serving");
-    let shutdown = async {
-        let ctrl_c = tokio::signal::ctrl_c();
-        #[cfg(unix)]
-        {
-            let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-                Ok(t) => t,
-                Err(_) => {
-                    let _ = ctrl_c.await;
-                    return;
-                }
-            };
-            tokio::select! { _ = ctrl_c => {}, _ = term.recv() => {} }
-        }
-        #[cfg(not(unix))]
-        {
-            let _ = ctrl_c.await;
-        }
-    };
     builder
         .add_service(health)
         .add_service(reflection)

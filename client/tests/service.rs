@@ -1,0 +1,352 @@
+//! End to end: a real `cleave-server` process on a free loopback port with a
+//! temporary data directory, driven by the `cleave` client and by the gRPC
+//! API directly.
+
+use cleave::service::proto::{self, cleave_client::CleaveClient, job_event::Event};
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn cleave_bin() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_cleave"))
+}
+
+/// The server binary is built beside the client by `cargo test --workspace`.
+fn server_bin() -> PathBuf {
+    let p = cleave_bin().with_file_name(format!("cleave-server{}", std::env::consts::EXE_SUFFIX));
+    assert!(p.exists(), "{} is missing: run the tests with `cargo test --release --workspace`", p.display());
+    p
+}
+
+fn scenes() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("scenes")
+}
+
+struct Server {
+    child: Child,
+    url: String,
+    data: PathBuf,
+}
+
+impl Server {
+    fn start(data: &Path, extra: &[&str]) -> Server {
+        let mut child = Command::new(server_bin())
+            .args(["--listen", "127.0.0.1:0", "--data-dir"])
+            .arg(data)
+            .args(["--threads-per-job", "1"])
+            .args(extra)
+            .env("RUST_LOG", "warn")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start cleave-server");
+        let mut line = String::new();
+        let stdout = child.stdout.take().expect("server stdout");
+        BufReader::new(stdout).read_line(&mut line).expect("read the listening line");
+        let addr = line.trim().strip_prefix("listening on ").unwrap_or_else(|| panic!("unexpected server output {line:?}")).to_string();
+        Server { child, url: format!("http://{addr}"), data: data.to_path_buf() }
+    }
+
+    fn cli(&self, args: &[&str]) -> Output {
+        Command::new(cleave_bin()).arg("--server").arg(&self.url).args(args).output().expect("run cleave")
+    }
+
+    async fn client(&self) -> CleaveClient<tonic::transport::Channel> {
+        CleaveClient::connect(self.url.clone()).await.expect("connect").max_decoding_message_size(usize::MAX)
+    }
+
+    fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// A scene that runs for many seconds (a large block, long end time).
+fn slow_scene() -> String {
+    r#"
+[grid]
+cell_size = 0.005
+max = [1.0, 1.0]
+[time]
+end = 10.0
+cfl = 0.5
+[[bodies]]
+shape = { type = "box", min = [0.1, 0.1], max = [0.9, 0.9] }
+material = { model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }
+velocity_gradient = [[0.0, -0.5], [0.5, 0.0]]
+[output]
+series_rows = 1000
+snapshots = 1000
+"#
+    .to_string()
+}
+
+fn same_files(a: &Path, b: &Path) {
+    let mut names: Vec<_> = std::fs::read_dir(a).unwrap().map(|e| e.unwrap().file_name()).collect();
+    names.sort();
+    assert!(names.len() >= 5, "too few files in {}", a.display());
+    for n in names {
+        let (x, y) = (std::fs::read(a.join(&n)).unwrap(), std::fs::read(b.join(&n)).unwrap_or_default());
+        assert!(x == y, "{n:?} differs between {} and {}", a.display(), b.display());
+    }
+}
+
+async fn wait_state(client: &mut CleaveClient<tonic::transport::Channel>, id: &str, want: proto::JobState, within: Duration) -> proto::Job {
+    let t0 = Instant::now();
+    loop {
+        let j = client.get_job(proto::GetJobRequest { job_id: id.into() }).await.unwrap().into_inner();
+        if j.state == want as i32 {
+            return j;
+        }
+        assert!(t0.elapsed() < within, "{id} is {:?}, not {want:?}, after {within:?}", proto::JobState::try_from(j.state));
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+async fn wait_running_with_snapshot(client: &mut CleaveClient<tonic::transport::Channel>, id: &str) {
+    wait_state(client, id, proto::JobState::Running, Duration::from_secs(30)).await;
+    let t0 = Instant::now();
+    loop {
+        let n = client.list_snapshots(proto::ListSnapshotsRequest { job_id: id.into() }).await.unwrap().into_inner().snapshots.len();
+        if n >= 2 {
+            return;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "no snapshots");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+#[test]
+fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &[]);
+    let scene = scenes().join("sliding_block.toml");
+    let local = dir.path().join("local");
+    let o = Command::new(cleave_bin()).args(["run", "--quiet"]).arg(&scene).arg("--out").arg(&local).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    // submit, watch to completion, fetch
+    let o = server.cli(&["submit", scene.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let id = stdout(&o).trim().to_string();
+    assert!(id.starts_with("job-"), "{id}");
+    let o = server.cli(&["watch", &id, "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let events: Vec<serde_json::Value> = stdout(&o).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(events.first().unwrap()["state"], "QUEUED");
+    assert_eq!(events.last().unwrap()["state"], "SUCCEEDED");
+    assert!(events.iter().any(|e| e["type"] == "progress"));
+    assert!(events.iter().any(|e| e["type"] == "summary"));
+    for (k, e) in events.iter().enumerate() {
+        assert_eq!(e["sequence"], k as u64);
+    }
+    let remote = dir.path().join("remote");
+    let o = server.cli(&["fetch", &id, "--out", remote.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    same_files(&local, &remote);
+    // `run --server` does all three and gives the same files too
+    let remote2 = dir.path().join("remote2");
+    let o = server.cli(&["run", scene.to_str().unwrap(), "--out", remote2.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["status"], "succeeded");
+    assert_eq!(v["stages"], serde_json::json!(["field_partition", "p2g", "grid_update", "contact", "g2p"]));
+    same_files(&local, &remote2);
+    // list and get
+    let o = server.cli(&["list", "--json"]);
+    let list: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(list.as_array().unwrap().len(), 2);
+    let o = server.cli(&["list", "--state", "failed", "--json"]);
+    assert_eq!(serde_json::from_str::<serde_json::Value>(stdout(&o).trim()).unwrap(), serde_json::json!([]));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn errors_have_the_right_status_codes() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &[]);
+    let mut c = server.client().await;
+    let bad = std::fs::read_to_string(scenes().join("wave_bar.toml")).unwrap().replace("youngs_modulus = 2.0e11", "youngs_modulus = -3");
+    let e = c.submit_job(proto::SubmitJobRequest { scene: bad.clone(), ..Default::default() }).await.unwrap_err();
+    assert_eq!(e.code(), tonic::Code::InvalidArgument);
+    assert!(e.message().contains("materials.steel.youngs_modulus: must be > 0, got -3"), "{}", e.message());
+    let v = c.validate_scene(proto::ValidateSceneRequest { scene: bad, ..Default::default() }).await.unwrap().into_inner();
+    assert!(!v.valid);
+    assert_eq!(v.errors[0].path, "materials.steel.youngs_modulus");
+    let e = c.get_job(proto::GetJobRequest { job_id: "job-424242".into() }).await.unwrap_err();
+    assert_eq!(e.code(), tonic::Code::NotFound);
+    let e = c.watch_job(proto::WatchJobRequest { job_id: "nope".into() }).await.unwrap_err();
+    assert_eq!(e.code(), tonic::Code::NotFound);
+    let e = c.fetch_fields(proto::FetchFieldsRequest { job_id: "nope".into(), ..Default::default() }).await.unwrap_err();
+    assert_eq!(e.code(), tonic::Code::NotFound);
+    // the CLI maps them to exit codes
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, "[grid]\ncell_size = -1\nmax = [1, 1]\n[time]\nend = 1\n[[bodies]]\nshape = { type = \"disk\", center = [0.5, 0.5], radius = 0.1 }\nmaterial = { model = \"linear_elastic\", density = 1.0, youngs_modulus = 1.0, poissons_ratio = 0.0 }\n").unwrap();
+    let o = server.cli(&["submit", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("grid.cell_size: must be > 0"), "{}", stderr(&o));
+    let o = server.cli(&["get", "job-424242"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("not found"));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn token_is_required_except_for_health() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &["--token", "s3cret"]);
+    let mut c = server.client().await;
+    let e = c.list_jobs(proto::ListJobsRequest::default()).await.unwrap_err();
+    assert_eq!(e.code(), tonic::Code::Unauthenticated);
+    let mut req = tonic::Request::new(proto::ListJobsRequest::default());
+    req.metadata_mut().insert("authorization", "Bearer wrong".parse().unwrap());
+    assert_eq!(c.list_jobs(req).await.unwrap_err().code(), tonic::Code::Unauthenticated);
+    let mut req = tonic::Request::new(proto::ListJobsRequest::default());
+    req.metadata_mut().insert("authorization", "Bearer s3cret".parse().unwrap());
+    assert!(c.list_jobs(req).await.is_ok());
+    // health needs no token and says SERVING
+    let channel = tonic::transport::Channel::from_shared(server.url.clone()).unwrap().connect().await.unwrap();
+    let mut health = tonic_health::pb::health_client::HealthClient::new(channel);
+    let r = health
+        .check(tonic_health::pb::HealthCheckRequest { service: "cleave.v1.Cleave".into() })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(r.status, tonic_health::pb::health_check_response::ServingStatus::Serving as i32);
+    // the CLI: exit 3 without or with a wrong token, 0 with the right one
+    let o = server.cli(&["list"]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(stderr(&o).contains("unauthenticated"));
+    assert_eq!(server.cli(&["--token", "wrong", "list"]).status.code(), Some(3));
+    assert_eq!(server.cli(&["--token", "s3cret", "list"]).status.code(), Some(0));
+    // an unreachable server is exit 3 too
+    let o = Command::new(cleave_bin()).args(["--server", "http://127.0.0.1:9", "list"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(3));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cancel_takes_effect_within_a_second_and_writes_nothing_more() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &[]);
+    let mut c = server.client().await;
+    let job = c.submit_job(proto::SubmitJobRequest { scene: slow_scene(), ..Default::default() }).await.unwrap().into_inner();
+    wait_running_with_snapshot(&mut c, &job.id).await;
+    let t0 = Instant::now();
+    c.cancel_job(proto::CancelJobRequest { job_id: job.id.clone() }).await.unwrap();
+    let done = wait_state(&mut c, &job.id, proto::JobState::Cancelled, Duration::from_secs(1)).await;
+    assert!(t0.elapsed() < Duration::from_secs(1));
+    assert!(done.error.contains("cancelled"));
+    let jobdir = server.data.join("jobs").join(&job.id);
+    let count = || std::fs::read_dir(&jobdir).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with("snapshot_")).count();
+    let n = count();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(count(), n, "snapshots written after cancellation");
+    // a queued job is cancelled at once
+    let a = c.submit_job(proto::SubmitJobRequest { scene: slow_scene(), ..Default::default() }).await.unwrap().into_inner();
+    let b = c.submit_job(proto::SubmitJobRequest { scene: slow_scene(), ..Default::default() }).await.unwrap().into_inner();
+    let b = c.cancel_job(proto::CancelJobRequest { job_id: b.id.clone() }).await.unwrap().into_inner();
+    assert_eq!(b.state, proto::JobState::Cancelled as i32);
+    c.cancel_job(proto::CancelJobRequest { job_id: a.id.clone() }).await.unwrap();
+    wait_state(&mut c, &a.id, proto::JobState::Cancelled, Duration::from_secs(5)).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_killed_server_keeps_finished_jobs_and_fails_the_interrupted_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let mut server = Server::start(&data, &[]);
+    let scene = scenes().join("two_disks.toml");
+    let o = server.cli(&["submit", "--wait", scene.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let done = stdout(&o).lines().next().unwrap().trim().to_string();
+    let before = dir.path().join("before");
+    assert!(server.cli(&["fetch", &done, "--out", before.to_str().unwrap()]).status.success());
+    let mut c = server.client().await;
+    let slow = c.submit_job(proto::SubmitJobRequest { scene: slow_scene(), ..Default::default() }).await.unwrap().into_inner();
+    wait_running_with_snapshot(&mut c, &slow.id).await;
+    server.kill(); // SIGKILL in the middle of the run
+    let server = Server::start(&data, &[]);
+    let mut c = server.client().await;
+    let j = c.get_job(proto::GetJobRequest { job_id: slow.id.clone() }).await.unwrap().into_inner();
+    assert_eq!(j.state, proto::JobState::Failed as i32);
+    assert!(j.error.contains("server stopped"), "{}", j.error);
+    let j = c.get_job(proto::GetJobRequest { job_id: done.clone() }).await.unwrap().into_inner();
+    assert_eq!(j.state, proto::JobState::Succeeded as i32);
+    let after = dir.path().join("after");
+    assert!(server.cli(&["fetch", &done, "--out", after.to_str().unwrap()]).status.success());
+    same_files(&before, &after);
+    // watching a finished job of the earlier server replays its end
+    let o = server.cli(&["watch", &done, "--json"]);
+    assert!(o.status.success());
+    assert!(stdout(&o).lines().last().unwrap().contains("SUCCEEDED"));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_blow_up_fails_with_a_diagnosis_while_another_job_finishes() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &["--max-concurrent-jobs", "2"]);
+    let mut c = server.client().await;
+    // fixed dt far beyond the CFL limit of the moving block
+    let bad = slow_scene().replace("cfl = 0.5", "dt = 1.0e-2");
+    let bad = c.submit_job(proto::SubmitJobRequest { scene: bad, label: "bad".into(), ..Default::default() }).await.unwrap().into_inner();
+    let good = std::fs::read_to_string(scenes().join("wave_bar.toml")).unwrap();
+    let good = c.submit_job(proto::SubmitJobRequest { scene: good, label: "good".into(), ..Default::default() }).await.unwrap().into_inner();
+    let b = wait_state(&mut c, &bad.id, proto::JobState::Failed, Duration::from_secs(30)).await;
+    assert!(b.error.contains("CFL"), "{}", b.error);
+    wait_state(&mut c, &good.id, proto::JobState::Succeeded, Duration::from_secs(60)).await;
+    // and a scene that asks too much is refused up front
+    let huge = slow_scene().replace("cell_size = 0.005", "cell_size = 0.0005");
+    let server2 = Server::start(&dir.path().join("data2"), &["--max-particles", "1000"]);
+    let mut c2 = server2.client().await;
+    let e = c2.submit_job(proto::SubmitJobRequest { scene: huge, ..Default::default() }).await.unwrap_err();
+    assert_eq!(e.code(), tonic::Code::ResourceExhausted);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn thirty_two_watchers_see_the_complete_ordered_stream() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &[]);
+    let mut c = server.client().await;
+    let scene = std::fs::read_to_string(scenes().join("two_disks.toml")).unwrap();
+    let job = c.submit_job(proto::SubmitJobRequest { scene, ..Default::default() }).await.unwrap().into_inner();
+    let mut tasks = Vec::new();
+    for _ in 0..32 {
+        let url = server.url.clone();
+        let id = job.id.clone();
+        tasks.push(tokio::spawn(async move {
+            let mut c = CleaveClient::connect(url).await.unwrap();
+            let mut s = c.watch_job(proto::WatchJobRequest { job_id: id }).await.unwrap().into_inner();
+            let mut events = Vec::new();
+            while let Some(e) = s.message().await.unwrap() {
+                events.push(e);
+            }
+            events
+        }));
+    }
+    let mut streams = Vec::new();
+    for t in tasks {
+        streams.push(t.await.unwrap());
+    }
+    let first = &streams[0];
+    assert!(first.len() >= 5, "too few events: {}", first.len());
+    for (k, e) in first.iter().enumerate() {
+        assert_eq!(e.sequence, k as u64);
+    }
+    assert!(matches!(&first[0].event, Some(Event::State(s)) if s.state == proto::JobState::Queued as i32));
+    assert!(matches!(&first.last().unwrap().event, Some(Event::State(s)) if s.state == proto::JobState::Succeeded as i32));
+    for s in &streams {
+        assert_eq!(s, first, "a watcher saw a different stream");
+    }
+}
