@@ -225,6 +225,21 @@ async fn token_is_required_except_for_health() {
         .unwrap()
         .into_inner();
     assert_eq!(r.status, tonic_health::pb::health_check_response::ServingStatus::Serving as i32);
+    // reflection (what grpcurl uses) lists every service, with the token
+    use tonic_reflection::pb::v1::{server_reflection_client::ServerReflectionClient, server_reflection_request::MessageRequest, server_reflection_response::MessageResponse, ServerReflectionRequest};
+    let channel = tonic::transport::Channel::from_shared(server.url.clone()).unwrap().connect().await.unwrap();
+    let token: tonic::metadata::MetadataValue<_> = "Bearer s3cret".parse().unwrap();
+    let mut refl = ServerReflectionClient::with_interceptor(channel, move |mut r: tonic::Request<()>| {
+        r.metadata_mut().insert("authorization", token.clone());
+        Ok(r)
+    });
+    let ask = ServerReflectionRequest { host: String::new(), message_request: Some(MessageRequest::ListServices(String::new())) };
+    let mut answers = refl.server_reflection_info(tokio_stream::iter(vec![ask])).await.unwrap().into_inner();
+    let Some(MessageResponse::ListServicesResponse(list)) = answers.message().await.unwrap().unwrap().message_response else { panic!("no service list") };
+    let names: Vec<_> = list.service.iter().map(|s| s.name.as_str()).collect();
+    for want in ["cleave.v1.Cleave", "grpc.health.v1.Health"] {
+        assert!(names.contains(&want), "reflection lists {names:?}");
+    }
     // the CLI: exit 3 without or with a wrong token, 0 with the right one
     let o = server.cli(&["list"]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));

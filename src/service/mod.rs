@@ -398,17 +398,22 @@ pub async fn serve_on(
     let addr = listener.local_addr()?;
     let (reporter, health) = tonic_health::server::health_reporter();
     reporter.set_serving::<CleaveServer<CleaveService>>().await;
-    let reflection = tonic_reflection::server::Builder::configure()
-        .register_encoded_file_descriptor_set(proto::FILE_DESCRIPTOR_SET)
-        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
-        .build_v1()?;
+    // Both reflection versions: grpcurl and other tools ask for either.
+    let reflection_builder = || {
+        tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(proto::FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+    };
+    let reflection = reflection_builder().build_v1()?;
+    let reflection_alpha = reflection_builder().build_v1alpha()?;
     let token = config.token.clone();
     let auth = move |req: Request<()>| check_token(&token, &req).map(|_| req);
     let cleave = tonic::service::interceptor::InterceptedService::new(
         CleaveServer::new(CleaveService { jobs: jobs.clone() }).max_decoding_message_size(config.max_request_bytes),
         auth.clone(),
     );
-    let reflection = tonic::service::interceptor::InterceptedService::new(reflection, auth);
+    let reflection = tonic::service::interceptor::InterceptedService::new(reflection, auth.clone());
+    let reflection_alpha = tonic::service::interceptor::InterceptedService::new(reflection_alpha, auth);
     let mut builder = tonic::transport::Server::builder();
     if let Some((cert, key)) = &config.tls {
         let identity = tonic::transport::Identity::from_pem(std::fs::read(cert)?, std::fs::read(key)?);
@@ -418,6 +423,7 @@ pub async fn serve_on(
     builder
         .add_service(health)
         .add_service(reflection)
+        .add_service(reflection_alpha)
         .add_service(cleave)
         .serve_with_incoming_shutdown(tokio_stream::wrappers::TcpListenerStream::new(listener), shutdown)
         .await?;
