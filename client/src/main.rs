@@ -27,6 +27,9 @@ struct Cli {
     /// Bearer token for the server.
     #[arg(long, global = true, env = "CLEAVE_TOKEN", hide_env_values = true)]
     token: Option<String>,
+    /// PEM certificate (or CA) to trust for an https:// server.
+    #[arg(long, global = true, env = "CLEAVE_CA_CERT")]
+    ca_cert: Option<PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
@@ -147,7 +150,7 @@ fn main() -> ExitCode {
         }
     };
     if let Some(server) = cli.server.clone() {
-        return remote_main(&server, cli.token.as_deref(), cli.command);
+        return remote_main(&server, cli.token.as_deref(), cli.ca_cert.as_deref(), cli.command);
     }
     match cli.command {
         Command::Run { scene, out, json, quiet } => run(&scene, &out, json, quiet),
@@ -334,7 +337,7 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool) ->
 }
 
 /// Every command against a server.
-fn remote_main(server: &str, token: Option<&str>, command: Command) -> ExitCode {
+fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, command: Command) -> ExitCode {
     let json = match &command {
         Command::Run { json, .. }
         | Command::Validate { json, .. }
@@ -354,7 +357,7 @@ fn remote_main(server: &str, token: Option<&str>, command: Command) -> ExitCode 
         }
     };
     runtime.block_on(async move {
-        let mut client = match remote::connect(server, token).await {
+        let mut client = match remote::connect(server, token, ca_cert).await {
             Ok(c) => c,
             Err(e) => return e.report(json),
         };

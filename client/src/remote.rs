@@ -75,14 +75,19 @@ impl tonic::service::Interceptor for Auth {
 
 pub type Client = CleaveClient<InterceptedService<Channel, Auth>>;
 
-/// Connects to `url` (http:// or https://).
-pub async fn connect(url: &str, token: Option<&str>) -> Result<Client, RemoteError> {
+/// Connects to `url` (http:// or https://). For https, `ca_cert` is a PEM
+/// file of the certificate authority to trust (a self-signed server
+/// certificate itself will do).
+pub async fn connect(url: &str, token: Option<&str>, ca_cert: Option<&Path>) -> Result<Client, RemoteError> {
     let endpoint = Channel::from_shared(url.to_string())
         .map_err(|e| RemoteError::new(EXIT_INVALID, format!("--server {url:?}: {e}")))?;
     let endpoint = if url.starts_with("https://") {
-        endpoint
-            .tls_config(tonic::transport::ClientTlsConfig::new().with_enabled_roots())
-            .map_err(|e| RemoteError::new(EXIT_UNREACHABLE, format!("TLS: {e}")))?
+        let mut tls = tonic::transport::ClientTlsConfig::new();
+        if let Some(ca) = ca_cert {
+            let pem = std::fs::read(ca).map_err(|e| RemoteError::new(EXIT_INVALID, format!("--ca-cert {}: {e}", ca.display())))?;
+            tls = tls.ca_certificate(tonic::transport::Certificate::from_pem(pem));
+        }
+        endpoint.tls_config(tls).map_err(|e| RemoteError::new(EXIT_UNREACHABLE, format!("TLS: {e}")))?
     } else {
         endpoint
     };

@@ -365,3 +365,23 @@ async fn thirty_two_watchers_see_the_complete_ordered_stream() {
         assert_eq!(s, first, "a watcher saw a different stream");
     }
 }
+
+#[test]
+fn tls_with_a_self_signed_certificate() {
+    let dir = tempfile::tempdir().unwrap();
+    let cert = rcgen::generate_simple_self_signed(vec!["localhost".to_string()]).unwrap();
+    let (crt, key) = (dir.path().join("server.crt"), dir.path().join("server.key"));
+    std::fs::write(&crt, cert.cert.pem()).unwrap();
+    std::fs::write(&key, cert.signing_key.serialize_pem()).unwrap();
+    let server = Server::start(&dir.path().join("data"), &["--tls-cert", crt.to_str().unwrap(), "--tls-key", key.to_str().unwrap()]);
+    let https = server.url.replace("http://127.0.0.1", "https://localhost");
+    let run = |extra: &[&str]| {
+        Command::new(cleave_bin()).args(["--server", &https]).args(extra).args(["validate"]).arg(scenes().join("wave_bar.toml")).output().unwrap()
+    };
+    let o = run(&["--ca-cert", crt.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("valid"));
+    // without trusting the certificate the client cannot connect (exit 3)
+    let o = run(&[]);
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+}
