@@ -7,6 +7,7 @@
 
 pub mod contact;
 pub mod diagnostics;
+pub mod fracture;
 pub mod geometry;
 pub mod grid;
 pub mod jobs;

@@ -4,6 +4,7 @@
 //! 2 invalid scene or usage.
 
 mod bench;
+mod gc_polar;
 mod remote;
 
 use anyhow::Context;
@@ -73,6 +74,24 @@ enum Command {
         /// Runs of each kind (medians are reported).
         #[arg(long, default_value_t = 3)]
         repeats: usize,
+    },
+    /// The effective surface energy Gc(θ) of the anisotropic phase field
+    /// (eq. 8 of Kakouris & Triantafyllou) as a table and a polar plot.
+    GcPolar {
+        /// Voigt entries g1111,g2222,g1122,g1212[,g1112,g2212].
+        #[arg(long, allow_hyphen_values = true)]
+        gamma: String,
+        /// The model parameter Ḡc, N/m (the table is in the same unit).
+        #[arg(long)]
+        gc_bar: f64,
+        /// Angle step, degrees.
+        #[arg(long, default_value_t = 1.0)]
+        angle_step: f64,
+        #[arg(long)]
+        json: bool,
+        /// Where to write the polar plot of Gc and 1/Gc.
+        #[arg(long, default_value = "gc-polar.png")]
+        out: PathBuf,
     },
     /// Check a scene without running it; prints its plan.
     Validate {
@@ -159,6 +178,7 @@ fn main() -> ExitCode {
             eprintln!("error: this command talks to a server: give --server URL (or set CLEAVE_SERVER)");
             ExitCode::from(EXIT_INVALID)
         }
+        Command::GcPolar { gamma, gc_bar, angle_step, json, out } => gc_polar::run(&gamma, gc_bar, angle_step, json, &out),
         Command::BenchService { out, repeats } => match bench::run_service(&out, repeats.max(1)) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -347,7 +367,7 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
         | Command::List { json, .. }
         | Command::Get { json, .. }
         | Command::Cancel { json, .. } => *json,
-        Command::Bench { .. } | Command::BenchService { .. } => false,
+        Command::Bench { .. } | Command::BenchService { .. } | Command::GcPolar { .. } => false,
     };
     let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
         Ok(r) => r,
@@ -436,8 +456,8 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
                     remote::print_job(&remote::cancel(&mut client, &job).await?, json);
                     Ok(ExitCode::SUCCESS)
                 }
-                Command::Bench { .. } | Command::BenchService { .. } => {
-                    eprintln!("error: the benchmarks run in this process; drop --server");
+                Command::Bench { .. } | Command::BenchService { .. } | Command::GcPolar { .. } => {
+                    eprintln!("error: this command runs in this process; drop --server");
                     Ok(ExitCode::from(EXIT_INVALID))
                 }
             }

@@ -191,3 +191,43 @@ fn outputs_are_byte_identical_for_one_and_two_threads() {
         }
     }
 }
+
+/// `cleave gc-polar` reproduces the paper's Gc_min / Gc_max pairs (seed 001,
+/// section 5) within 1 %.
+#[test]
+fn gc_polar_reproduces_the_published_extremes() {
+    let dir = tempfile::tempdir().unwrap();
+    for (gamma, gc_bar, min, max) in [
+        ("1,1,0,74", "0.002121", 0.003, 0.0049),
+        ("1,80,0,74", "0.002121", 0.003, 0.0067),
+        ("1,2900,0,74", "4.175", 5.9067, 30.9044),
+        ("80,1,0,74", "7.5", 10.6066, 23.6892),
+    ] {
+        let png = dir.path().join("polar.png");
+        let o = cleave()
+            .args(["gc-polar", "--gamma", gamma, "--gc-bar", gc_bar, "--angle-step", "0.25", "--json", "--out"])
+            .arg(&png)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let (lo, hi) = (v["gc_min"].as_f64().unwrap(), v["gc_max"].as_f64().unwrap());
+        assert!((lo / min - 1.0).abs() < 0.01, "{gamma}: Gc_min {lo} vs {min}");
+        assert!((hi / max - 1.0).abs() < 0.01, "{gamma}: Gc_max {hi} vs {max}");
+        assert!(png.is_file());
+    }
+    // 4th-order isotropic: Gc = √2 Ḡc in every direction
+    let o = cleave().args(["gc-polar", "--gamma", "1,1,0,2", "--gc-bar", "1", "--json", "--out"]).arg(dir.path().join("i.png")).output().unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for row in v["table"].as_array().unwrap() {
+        assert!((row["gc"].as_f64().unwrap() - 2f64.sqrt()).abs() < 1e-9);
+    }
+    // bad input
+    for args in [["--gamma", "1,2,3"], ["--gamma", "1,1,-5,0"]] {
+        let o = cleave().arg("gc-polar").args(args).args(["--gc-bar", "1"]).output().unwrap();
+        assert_eq!(o.status.code(), Some(2));
+        assert!(stderr(&o).contains("--gamma"), "{}", stderr(&o));
+    }
+    let o = cleave().args(["gc-polar", "--gamma", "1,1,0,2", "--gc-bar", "-1"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -10,7 +10,7 @@
 mod plot;
 mod vtk;
 
-pub use plot::plot_energies;
+pub use plot::{plot_energies, plot_polar};
 pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
 
 use crate::diagnostics::{Observer, SeriesRow, Snapshot};

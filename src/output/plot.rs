@@ -92,3 +92,47 @@ mod tests {
         assert!(!plot_energies(&dir.path().join("one.png"), &rows[..1]).unwrap());
     }
 }
+
+/// A polar plot of r(θ) (degrees) as a closed curve, one panel per series,
+/// side by side, equal axes.
+pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(), OutputError> {
+    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
+    let tmp = path.with_extension("png.tmp.png");
+    {
+        let width = 480 * panels.len().max(1) as u32;
+        let root = BitMapBackend::new(&tmp, (width, 500)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let areas = root.split_evenly((1, panels.len().max(1)));
+        for (area, (title, pts)) in areas.iter().zip(panels) {
+            let rmax = pts.iter().map(|p| p.1).filter(|r| r.is_finite()).fold(0.0f64, f64::max).max(f64::MIN_POSITIVE) * 1.1;
+            let mut chart = ChartBuilder::on(area)
+                .caption(*title, ("sans-serif", 20))
+                .margin(10)
+                .x_label_area_size(35)
+                .y_label_area_size(60)
+                .build_cartesian_2d(-rmax..rmax, -rmax..rmax)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_labels(5)
+                .y_labels(5)
+                .x_label_formatter(&|x| format!("{x:.2e}"))
+                .y_label_formatter(&|y| format!("{y:.2e}"))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            let mut curve: Vec<(f64, f64)> = pts
+                .iter()
+                .filter(|p| p.1.is_finite())
+                .map(|&(deg, r)| (r * deg.to_radians().cos(), r * deg.to_radians().sin()))
+                .collect();
+            if let Some(&first) = curve.first() {
+                curve.push(first);
+            }
+            chart
+                .draw_series(LineSeries::new(curve, RGBColor(31, 119, 180).stroke_width(2)))
+                .map_err(|e| err(e.to_string()))?;
+        }
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
+}
