@@ -39,6 +39,12 @@ pub struct Particles {
     /// GIMP particle half-width in cells; empty unless the shape functions
     /// are GIMP.
     pub half_size: Vec<f64>,
+    /// Phase field c at the particle (1 intact, 0 broken); empty unless a
+    /// body has a phase field.
+    pub phase: Vec<f64>,
+    /// History field H = max ψ⁺, J/m³; empty unless a body has a phase
+    /// field.
+    pub history: Vec<f64>,
 }
 
 impl Particles {

@@ -116,3 +116,62 @@ fn straight_crack_energy_equals_gc_theta() {
         assert!((got / want - 1.0).abs() < 0.02, "{name}: {got} vs {want}");
     }
 }
+
+#[test]
+fn the_plan_runs_only_what_the_scene_asks_for() {
+    use cleave::diagnostics::Recorder;
+    use cleave::mpm::Simulation;
+    use cleave::scene::{Scene, Stage};
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    // one phase-field body: phase field, no contact
+    let pf = Scene::from_path(&dir.join("p1_plate_coarse.toml")).unwrap();
+    assert!(pf.plan.has(Stage::PhaseField));
+    assert!(!pf.plan.has(Stage::Contact) && !pf.plan.has(Stage::FieldPartition));
+    // no phase field: no assembly, no solve
+    let plain = Scene::from_path(&dir.join("two_disks.toml")).unwrap();
+    assert!(!plain.plan.has(Stage::PhaseField));
+    let summary = Simulation::new(&plain).run(&mut Recorder::default()).unwrap();
+    assert!(summary.phase_field.is_none());
+    assert_eq!(summary.stage_seconds.phase_field, 0.0);
+    // a short phase-field run: one analysis (the node set barely changes),
+    // one factorization per step, the pre-crack's energy Gc·a from the start
+    let text = std::fs::read_to_string(dir.join("p1_plate_coarse.toml")).unwrap().replace("end = 8.0e-5", "end = 2.0e-6");
+    let short = Scene::from_text(&text, None).unwrap();
+    let mut rec = Recorder::default();
+    let s = Simulation::new(&short).run(&mut rec).unwrap();
+    let stats = s.phase_field.expect("phase-field stats");
+    assert_eq!(stats.factorizations, s.steps);
+    assert!(stats.analyses >= 1 && stats.analyses <= 3, "{} analyses", stats.analyses);
+    let psi = rec.rows.last().unwrap().fracture_energy;
+    // 50 mm of pre-crack at Gc = 3 J/m² is 0.15 J/m; the band of the coarse
+    // initial crack (l0 = h) adds to it
+    assert!(psi > 0.15 && psi < 0.2, "pre-crack fracture energy {psi} J/m");
+}
+
+#[test]
+fn phase_field_scenes_are_validated() {
+    use cleave::scene::Scene;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = std::fs::read_to_string(dir.join("p1_plate_coarse.toml")).unwrap();
+    let bad = |from: &str, to: &str, expect: &str| {
+        assert!(text.contains(from), "{from}");
+        let e = Scene::from_text(&text.replace(from, to), None).unwrap_err().to_string();
+        assert!(e.contains(expect), "{expect} not in: {e}");
+    };
+    // a 4th-order tensor with B-splines is fine
+    assert!(Scene::from_text(&text.replace("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 1.0, 0.0, 74.0] }"), None).is_ok());
+    bad("gc = 3.0", "gc = -3.0", "materials.concrete.phase_field.gc: must be > 0");
+    bad("l0 = 5.0e-4", "l0 = 0.0", "materials.concrete.phase_field.l0: must be > 0");
+    bad("k_f = 0.0 }", "k_f = 1.5 }", "materials.concrete.phase_field.k_f: must be in [0, 1)");
+    bad("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 1.0, -5.0, 0.0] }", "materials.concrete.phase_field.gamma");
+    bad("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 2.0] }", "give 4 or 6 numbers");
+    // the 2nd-order model works with any shape function
+    assert!(Scene::from_text(&text.replace("shape_function = \"quadratic_bspline\"", "shape_function = \"gimp\""), None).is_ok());
+    let fourth_gimp = text
+        .replace("shape_function = \"quadratic_bspline\"", "shape_function = \"gimp\"")
+        .replace("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 1.0, 0.0, 74.0] }");
+    let e = Scene::from_text(&fourth_gimp, None).unwrap_err().to_string();
+    assert!(e.contains("grid.shape_function") && e.contains("quadratic_bspline or cubic_bspline"), "{e}");
+    let e = Scene::from_text(&text.replace("[[0.0, 0.02], [0.05, 0.02]]", "[[0.0, 0.02]]"), None).unwrap_err().to_string();
+    assert!(e.contains("bodies[0].cracks[0].points: a crack needs at least 2 points"), "{e}");
+}

@@ -312,19 +312,7 @@ pub async fn fetch(client: &mut Client, id: &str, out: &Path) -> Result<OutputPa
         return Err(RemoteError::new(EXIT_FAILED, format!("the server's series has {cols} columns, this client expects {}", SeriesRow::COLUMNS.len())));
     }
     for v in series.values.chunks_exact(cols) {
-        let row = SeriesRow {
-            step: v[0] as u64,
-            time: v[1],
-            kinetic_energy: v[2],
-            strain_energy: v[3],
-            external_work: v[4],
-            energy_error: v[5],
-            total_mass: v[6],
-            momentum_x: v[7],
-            momentum_y: v[8],
-            angular_momentum: v[9],
-            dt: v[10],
-        };
+        let row = SeriesRow::from_values(v).ok_or_else(|| RemoteError::new(EXIT_FAILED, "malformed series row"))?;
         writer.series_row(&row).map_err(write_err)?;
     }
     for s in &snaps.snapshots {

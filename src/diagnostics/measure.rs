@@ -129,7 +129,11 @@ pub fn snapshot(
             u32_field("material_id", parts.material.iter().map(|&m| m as u32).collect()),
             u32_field("body_id", parts.body.iter().map(|&b| b as u32).collect()),
             u32_field("particle_id", parts.id.clone()),
-        ],
+        ]
+        .into_iter()
+        .chain((!parts.phase.is_empty()).then(|| f64_field("phase_field", 1, parts.phase.clone())))
+        .chain((!parts.history.is_empty()).then(|| f64_field("history", 1, parts.history.clone())))
+        .collect(),
         grid,
     }
 }

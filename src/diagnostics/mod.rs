@@ -33,11 +33,14 @@ pub struct SeriesRow {
     pub angular_momentum: f64,
     /// The time step used for the last step, s.
     pub dt: f64,
+    /// Ψ_f = Σ Ḡc Z V over phase-field bodies (seed 001 eq. 3), J; zero
+    /// without a fracture model.
+    pub fracture_energy: f64,
 }
 
 impl SeriesRow {
     /// Column names in the order of [`SeriesRow::values`].
-    pub const COLUMNS: [&'static str; 11] = [
+    pub const COLUMNS: [&'static str; 12] = [
         "step",
         "time",
         "kinetic_energy",
@@ -49,10 +52,33 @@ impl SeriesRow {
         "momentum_y",
         "angular_momentum",
         "dt",
+        "fracture_energy",
     ];
 
+    /// The row back from [`SeriesRow::values`]; None if `v` has another
+    /// length.
+    pub fn from_values(v: &[f64]) -> Option<SeriesRow> {
+        if v.len() != Self::COLUMNS.len() {
+            return None;
+        }
+        Some(SeriesRow {
+            step: v[0] as u64,
+            time: v[1],
+            kinetic_energy: v[2],
+            strain_energy: v[3],
+            external_work: v[4],
+            energy_error: v[5],
+            total_mass: v[6],
+            momentum_x: v[7],
+            momentum_y: v[8],
+            angular_momentum: v[9],
+            dt: v[10],
+            fracture_energy: v[11],
+        })
+    }
+
     /// The row's values in the order of [`SeriesRow::COLUMNS`].
-    pub fn values(&self) -> [f64; 11] {
+    pub fn values(&self) -> [f64; 12] {
         [
             self.step as f64,
             self.time,
@@ -65,6 +91,7 @@ impl SeriesRow {
             self.momentum_y,
             self.angular_momentum,
             self.dt,
+            self.fracture_energy,
         ]
     }
 }

@@ -362,23 +362,10 @@ fn parse_series(text: &str) -> Result<Vec<SeriesRow>, String> {
     let mut rows = Vec::new();
     for line in lines {
         let v: Vec<f64> = line.split(',').map(|x| x.parse::<f64>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
-        if v.len() != SeriesRow::COLUMNS.len() {
-            // a row cut short by a crash: stop there
-            break;
+        match SeriesRow::from_values(&v) {
+            Some(r) => rows.push(r),
+            None => break, // a row cut short by a crash: stop there
         }
-        rows.push(SeriesRow {
-            step: v[0] as u64,
-            time: v[1],
-            kinetic_energy: v[2],
-            strain_energy: v[3],
-            external_work: v[4],
-            energy_error: v[5],
-            total_mass: v[6],
-            momentum_x: v[7],
-            momentum_y: v[8],
-            angular_momentum: v[9],
-            dt: v[10],
-        });
     }
     Ok(rows)
 }

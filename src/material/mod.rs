@@ -122,8 +122,63 @@ impl Elastic {
     }
 }
 
+/// Miehe's spectral split of the small-strain energy (Miehe et al. 2010,
+/// as used in seed 001 eqs. 14–16): with principal strains ε_a (the two
+/// in-plane ones and ε_zz),
+/// ψ⁺ = λ/2 ⟨tr ε⟩₊² + μ Σ ⟨ε_a⟩₊², and the in-plane stresses
+/// σ± = λ⟨tr ε⟩± I + 2μ Σ_{a in-plane} ⟨ε_a⟩± n_a⊗n_a.
+/// `e` is (xx, yy, xy); `ezz` is 0 in plane strain and −ν/(1−ν)(εxx+εyy)
+/// in plane stress, which makes σ⁺ + σ⁻ the plane-stress Hooke's law.
+/// Returns (ψ⁺, σ⁺, σ⁻) with stresses as (xx, yy, xy).
+pub fn miehe_split(lambda: f64, mu: f64, e: [f64; 3], ezz: f64) -> (f64, [f64; 3], [f64; 3]) {
+    let (a, b, c) = (e[0], e[1], e[2]);
+    let mean = 0.5 * (a + b);
+    let r = (0.25 * (a - b) * (a - b) + c * c).sqrt();
+    let (e1, e2) = (mean + r, mean - r);
+    // unit eigenvector of e1 (any direction when the strain is isotropic)
+    let (nx, ny) = if r > 1e-300 {
+        let theta = 0.5 * (2.0 * c).atan2(a - b);
+        (theta.cos(), theta.sin())
+    } else {
+        (1.0, 0.0)
+    };
+    let tr = e1 + e2 + ezz;
+    let pos = |x: f64| x.max(0.0);
+    let neg = |x: f64| x.min(0.0);
+    let psi = 0.5 * lambda * pos(tr).powi(2) + mu * (pos(e1).powi(2) + pos(e2).powi(2) + pos(ezz).powi(2));
+    // n1 = (nx, ny), n2 = (−ny, nx)
+    let proj = |s1: f64, s2: f64| {
+        [s1 * nx * nx + s2 * ny * ny, s1 * ny * ny + s2 * nx * nx, (s1 - s2) * nx * ny]
+    };
+    let sp = proj(2.0 * mu * pos(e1), 2.0 * mu * pos(e2));
+    let sn = proj(2.0 * mu * neg(e1), 2.0 * mu * neg(e2));
+    let (lp, ln) = (lambda * pos(tr), lambda * neg(tr));
+    (psi, [sp[0] + lp, sp[1] + lp, sp[2]], [sn[0] + ln, sn[1] + ln, sn[2]])
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn miehe_split_sums_to_hooke_and_separates_tension() {
+        let (lambda, mu) = (1.2e9, 0.8e9);
+        for e in [[1e-3, -2e-4, 3e-4], [-1e-3, -5e-4, 1e-4], [2e-3, 2e-3, 0.0], [0.0, 0.0, 5e-4]] {
+            let (psi, sp, sn) = super::miehe_split(lambda, mu, e, 0.0);
+            let hooke = [(lambda + 2.0 * mu) * e[0] + lambda * e[1], lambda * e[0] + (lambda + 2.0 * mu) * e[1], 2.0 * mu * e[2]];
+            for k in 0..3 {
+                assert!((sp[k] + sn[k] - hooke[k]).abs() < 1e-6 * 1e9 * 1e-3, "{e:?}: {k}");
+            }
+            let total = 0.5 * (hooke[0] * e[0] + hooke[1] * e[1] + 2.0 * hooke[2] * e[2]);
+            assert!(psi >= 0.0 && psi <= total + 1e-9, "{e:?}: psi+ {psi} of {total}");
+            // ψ⁺ = ½ σ⁺ : ε
+            let half = 0.5 * (sp[0] * e[0] + sp[1] * e[1] + 2.0 * sp[2] * e[2]);
+            assert!((psi - half).abs() < 1e-9 * total.max(1.0), "{e:?}: {psi} vs {half}");
+        }
+        // pure compression has no tensile energy
+        let (psi, sp, _) = super::miehe_split(lambda, mu, [-1e-3, -1e-3, 0.0], 0.0);
+        assert_eq!(psi, 0.0);
+        assert_eq!(sp, [0.0; 3]);
+    }
+
     use super::*;
 
     fn steel(model: MaterialModel, plane: PlaneKind) -> Elastic {
@@ -136,6 +191,7 @@ mod tests {
             poissons_ratio: nu,
             lambda: e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
             mu: e / (2.0 * (1.0 + nu)),
+            phase_field: None,
             wave_speed: 5000.0,
         };
         Elastic::new(&m, plane)

@@ -13,6 +13,7 @@
 mod g2p;
 mod grid_update;
 mod p2g;
+mod phase;
 mod setup;
 
 pub use g2p::BadKind;
@@ -51,6 +52,8 @@ pub enum SimError {
     CflViolated { step: u64, time: f64, dt: f64, limit: f64, particle: u32 },
     #[error("step {step}, t = {time:.6e} s: reached time.max_steps = {step} before time.end")]
     MaxSteps { step: u64, time: f64 },
+    #[error("step {step}, t = {time:.6e} s: {message}")]
+    PhaseField { step: u64, time: f64, message: String },
     #[error("writing results failed: {0}")]
     Observer(String),
 }
@@ -61,6 +64,7 @@ pub struct StageTimes {
     pub field_partition: f64,
     pub p2g: f64,
     pub traction: f64,
+    pub phase_field: f64,
     pub grid_update: f64,
     pub contact: f64,
     pub g2p: f64,
@@ -83,6 +87,8 @@ pub struct RunSummary {
     pub stage_seconds: StageTimes,
     /// Steps in which at least one node had fields in contact.
     pub contact_steps: u64,
+    /// Phase-field solver times and counts (with a phase field).
+    pub phase_field: Option<crate::fracture::phase_field::system::SolveStats>,
 }
 
 /// A simulation in progress: the particles, the grid, and the clock.
@@ -98,6 +104,8 @@ pub struct Simulation {
     bins: Bins,
     boundary: Boundary,
     tractions: setup::Tractions,
+    /// Present iff the plan has the phase-field stage.
+    phase: Option<phase::PhaseFields>,
     apic: bool,
     /// Modified update-stress-last (a second scatter and gather).
     musl: bool,
@@ -218,6 +226,7 @@ impl Simulation {
             last_row: last,
             stage_seconds: self.times.clone(),
             contact_steps: self.contact_steps,
+            phase_field: self.phase.as_ref().map(|p| p.stats()),
         })
     }
 
@@ -313,6 +322,16 @@ impl Simulation {
             self.add_work(w);
             self.times.traction += t1.elapsed().as_secs_f64();
         }
+        // The implicit phase-field solve (c from the history so far)
+        if let Some(pf) = self.phase.as_mut() {
+            let t = Instant::now();
+            pf.solve::<K>(&self.geom, &mut self.parts).map_err(|e| SimError::PhaseField {
+                step: self.step + 1,
+                time: self.time + dt,
+                message: e.to_string(),
+            })?;
+            self.times.phase_field += t.elapsed().as_secs_f64();
+        }
         let t2 = Instant::now();
         // Grid update and boundary conditions
         let nodes = self.geom.node_count();
@@ -366,6 +385,11 @@ impl Simulation {
                 BadKind::VolumeVanished(j) => SimError::VolumeVanished { step, time, particle, j },
             });
         }
+        if let Some(pf) = &self.phase {
+            let t = Instant::now();
+            pf.degrade(&mut self.parts, &self.mats);
+            self.times.phase_field += t.elapsed().as_secs_f64();
+        }
         self.max_signal = stats.max_signal;
         if stats.moved_tile {
             self.bins.rebuild(&self.geom);
@@ -416,6 +440,15 @@ impl Simulation {
             None
         };
         let m = measure::measure(&self.parts, &self.mats, apic_d);
+        let fracture_energy = match &self.phase {
+            None => 0.0,
+            Some(pf) => match self.scene.file.grid.shape_function {
+                ShapeFunctionKind::Linear => pf.fracture_energy::<Linear>(&self.geom),
+                ShapeFunctionKind::Gimp => pf.fracture_energy::<Gimp>(&self.geom),
+                ShapeFunctionKind::QuadraticBspline => pf.fracture_energy::<QuadraticBspline>(&self.geom),
+                ShapeFunctionKind::CubicBspline => pf.fracture_energy::<CubicBspline>(&self.geom),
+            },
+        };
         let e = m.kinetic + m.strain;
         let row = SeriesRow {
             step: self.step,
@@ -429,6 +462,7 @@ impl Simulation {
             momentum_y: m.momentum[1],
             angular_momentum: m.angular,
             dt: self.dt,
+            fracture_energy,
         };
         self.times.diagnostics += t0.elapsed().as_secs_f64();
         row

@@ -111,6 +111,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         }
     }
 
+    let phase = super::phase::PhaseFields::new(scene, &mut parts);
     let tractions = Tractions::new(scene, &parts);
     Simulation {
         scene: scene.clone(),
@@ -123,6 +124,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         friction,
         bins,
         tractions,
+        phase,
         apic,
         musl: file.transfer.stress_update == StressUpdate::Musl,
         x_next: Vec::new(),

@@ -10,7 +10,7 @@
 mod plot;
 mod vtk;
 
-pub use plot::{plot_energies, plot_polar};
+pub use plot::{plot_energies, plot_particle_field, plot_polar};
 pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
 
 use crate::diagnostics::{Observer, SeriesRow, Snapshot};
@@ -113,6 +113,11 @@ impl Observer for OutputWriter {
     }
 
     fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
+        // an image of the phase field of every snapshot that has one
+        let image = self.dir.join(format!("phase_field_{:04}.png", snap.index));
+        if plot_particle_field(&image, snap, "phase_field", 0.0, 1.0).map_err(|e| e.to_string())? {
+            self.snapshots.push(image);
+        }
         let name = format!("particles_{:04}.vtp", snap.index);
         let path = self.dir.join(&name);
         write_particles_vtp(&path, snap).map_err(|e| e.to_string())?;

@@ -136,3 +136,62 @@ pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(),
     }
     std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
 }
+
+/// An image of one scalar particle field (e.g. the phase field) on the
+/// deformed particles: each particle is a small square coloured from blue
+/// (`lo`) to red (`hi`) through white.
+pub fn plot_particle_field(
+    path: &Path,
+    snap: &crate::diagnostics::Snapshot,
+    field: &str,
+    lo: f64,
+    hi: f64,
+) -> Result<bool, OutputError> {
+    let Some(values) = snap.fields.iter().find(|f| f.name == field && f.components == 1).and_then(|f| match &f.data {
+        crate::diagnostics::FieldData::F64(v) => Some(v),
+        _ => None,
+    }) else {
+        return Ok(false);
+    };
+    if snap.positions.is_empty() {
+        return Ok(false);
+    }
+    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for p in &snap.positions {
+        x0 = x0.min(p[0]);
+        x1 = x1.max(p[0]);
+        y0 = y0.min(p[1]);
+        y1 = y1.max(p[1]);
+    }
+    let (w, h) = ((x1 - x0).max(f64::MIN_POSITIVE), (y1 - y0).max(f64::MIN_POSITIVE));
+    let width = 1000u32;
+    let height = ((width as f64 * h / w).round() as u32).clamp(50, 2000);
+    let tmp = path.with_extension("png.tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, (width, height + 30)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        root.draw(&Text::new(format!("{field} at t = {:.3e} s", snap.time), (10, 5), ("sans-serif", 18)))
+            .map_err(|e| err(e.to_string()))?;
+        // one square of about a particle's spacing
+        let per = (snap.positions.len() as f64 / (w * h)).sqrt();
+        let size = ((width as f64 / w / per).ceil() as i32).max(1);
+        let span = (hi - lo).abs().max(f64::MIN_POSITIVE);
+        for (p, &v) in snap.positions.iter().zip(values) {
+            let t = ((v - lo) / span).clamp(0.0, 1.0);
+            let colour = if t < 0.5 {
+                let u = t * 2.0;
+                RGBColor((255.0 * u) as u8, (255.0 * u) as u8, 255)
+            } else {
+                let u = (t - 0.5) * 2.0;
+                RGBColor(255, (255.0 * (1.0 - u)) as u8, (255.0 * (1.0 - u)) as u8)
+            };
+            let px = ((p[0] - x0) / w * (width as f64 - size as f64)) as i32;
+            let py = 30 + ((y1 - p[1]) / h * (height as f64 - size as f64)) as i32;
+            root.draw(&Rectangle::new([(px, py), (px + size, py + size)], colour.filled())).map_err(|e| err(e.to_string()))?;
+        }
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))?;
+    Ok(true)
+}

@@ -17,6 +17,9 @@ pub enum Stage {
     P2g,
     /// Surface tractions on the outermost particles of traction sides.
     Traction,
+    /// The implicit phase-field solve per body (seed 001): assemble
+    /// K(H) c = F, factorize, solve, map c to the particles.
+    PhaseField,
     /// Nodal momentum update and boundary conditions.
     GridUpdate,
     /// Frictional contact between velocity fields (Bardenhagen/Nairn).
@@ -31,6 +34,7 @@ impl Stage {
             Stage::FieldPartition => "field_partition",
             Stage::P2g => "p2g",
             Stage::Traction => "traction",
+            Stage::PhaseField => "phase_field",
             Stage::GridUpdate => "grid_update",
             Stage::Contact => "contact",
             Stage::G2p => "g2p",
@@ -64,6 +68,13 @@ impl Plan {
         stages.push(Stage::P2g);
         if traction {
             stages.push(Stage::Traction);
+        }
+        let phase_field = file.bodies.iter().any(|b| match &b.material {
+            super::schema::MaterialRef::Inline(m) => m.phase_field.is_some(),
+            super::schema::MaterialRef::Name(n) => file.materials.get(n).is_some_and(|m| m.phase_field.is_some()),
+        });
+        if phase_field {
+            stages.push(Stage::PhaseField);
         }
         stages.push(Stage::GridUpdate);
         if contact {

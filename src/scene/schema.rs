@@ -336,6 +336,29 @@ pub struct MaterialSpec {
     pub youngs_modulus: f64,
     /// Poisson's ratio ν, in (−1, 0.5).
     pub poissons_ratio: f64,
+    /// Phase-field fracture for bodies of this material (seed 001).
+    #[serde(default)]
+    pub phase_field: Option<PhaseFieldSpec>,
+}
+
+/// Phase-field fracture parameters (Kakouris & Triantafyllou, seed 001).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseFieldSpec {
+    /// Ḡc of the functional, J/m² (N/m). For γ = 0 it is the fracture energy.
+    pub gc: f64,
+    /// Length scale l₀, m.
+    pub l0: f64,
+    /// Residual stiffness k_f of g(c) = (1 − k_f) c² + k_f, in [0, 1).
+    #[serde(default)]
+    pub k_f: f64,
+    /// The anisotropy tensor in Voigt form, [γ1111, γ2222, γ1122, γ1212]
+    /// or with [γ1112, γ2212] appended; absent or all zero: 2nd order.
+    #[serde(default)]
+    pub gamma: Vec<f64>,
+    /// Material angle φ, degrees counter-clockwise from x.
+    #[serde(default)]
+    pub angle: f64,
 }
 
 /// A body's material: either the name of an entry of `[materials]` or an
@@ -410,6 +433,17 @@ pub struct BodySpec {
     /// interact by frictional contact; bodies in one group share a field.
     #[serde(default)]
     pub contact_group: u32,
+    /// Initial cracks (phase-field materials): polylines along which the
+    /// history field is set so that c ≈ 0 there (Borden et al. 2012).
+    #[serde(default)]
+    pub cracks: Vec<CrackSpec>,
+}
+
+/// An initial crack as a polyline of at least two points, m.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CrackSpec {
+    pub points: Vec<[f64; 2]>,
 }
 
 fn default_ppc() -> u32 {

@@ -26,6 +26,8 @@ pub struct ResolvedMaterial {
     /// Lamé constants, Pa.
     pub lambda: f64,
     pub mu: f64,
+    /// Phase-field fracture parameters, if the material has them.
+    pub phase_field: Option<PhaseFieldSpec>,
     /// Dilatational wave speed of the 2D model at rest, m/s:
     /// √((λ+2μ)/ρ) in plane strain, √(E/(ρ(1−ν²))) in plane stress.
     pub wave_speed: f64,
@@ -117,6 +119,29 @@ impl Scene {
                     })
                 }
             };
+            if mat.is_some() {
+                let pf = phase_field_of(&file, &body.material);
+                if let Some(pf) = pf {
+                    let fourth = !phase_field_gamma(pf).is_zero();
+                    let kind = file.grid.shape_function;
+                    if fourth && !matches!(kind, ShapeFunctionKind::QuadraticBspline | ShapeFunctionKind::CubicBspline) {
+                        c.err(
+                            "grid.shape_function",
+                            format!("the 4th-order phase field of {path} needs second derivatives: use quadratic_bspline or cubic_bspline, not {kind:?}"),
+                        );
+                    }
+                } else if !body.cracks.is_empty() {
+                    c.err(&format!("{path}.cracks"), "initial cracks need a material with a phase_field");
+                }
+            }
+            for (k, crack) in body.cracks.iter().enumerate() {
+                if crack.points.len() < 2 {
+                    c.err(&format!("{path}.cracks[{k}].points"), format!("a crack needs at least 2 points, got {}", crack.points.len()));
+                }
+                for (q, pt) in crack.points.iter().enumerate() {
+                    c.point(&format!("{path}.cracks[{k}].points[{q}]"), *pt);
+                }
+            }
             body_material.push(mat.unwrap_or(usize::MAX));
             groups.insert(body.contact_group);
             particle_counts.push(check_body(&mut c, &path, body, &file.grid, cells));
@@ -149,9 +174,23 @@ impl Scene {
     }
 }
 
+/// The anisotropy tensor of a phase-field spec (not yet rotated).
+pub fn phase_field_gamma(pf: &PhaseFieldSpec) -> crate::fracture::phase_field::anisotropy::Gamma {
+    let g = |k: usize| pf.gamma.get(k).copied().unwrap_or(0.0);
+    crate::fracture::phase_field::anisotropy::Gamma { g1111: g(0), g2222: g(1), g1122: g(2), g1212: g(3), g1112: g(4), g2212: g(5) }
+}
+
 /// Particles per direction for a per-cell count (a perfect square).
 pub fn per_dir(ppc: u32) -> usize {
     ((ppc as f64).sqrt().round() as usize).max(1)
+}
+
+/// The phase-field spec of a body's material, if any.
+fn phase_field_of<'a>(file: &'a SceneFile, m: &'a MaterialRef) -> Option<&'a PhaseFieldSpec> {
+    match m {
+        MaterialRef::Inline(spec) => spec.phase_field.as_ref(),
+        MaterialRef::Name(n) => file.materials.get(n).and_then(|s| s.phase_field.as_ref()),
+    }
 }
 
 fn list_or_none(names: &[&str]) -> String {
@@ -354,6 +393,26 @@ fn resolve_material(
     if c.finite(&format!("{path}.poissons_ratio"), nu) && !(nu > -1.0 && nu < 0.5) {
         c.err(&format!("{path}.poissons_ratio"), format!("must be in (-1, 0.5), got {nu}"));
     }
+    if let Some(pf) = &m.phase_field {
+        let q = format!("{path}.phase_field");
+        c.positive(&format!("{q}.gc"), pf.gc);
+        c.positive(&format!("{q}.l0"), pf.l0);
+        if c.finite(&format!("{q}.k_f"), pf.k_f) && !(0.0..1.0).contains(&pf.k_f) {
+            c.err(&format!("{q}.k_f"), format!("must be in [0, 1), got {}", pf.k_f));
+        }
+        c.finite(&format!("{q}.angle"), pf.angle);
+        if !(pf.gamma.is_empty() || pf.gamma.len() == 4 || pf.gamma.len() == 6) {
+            c.err(&format!("{q}.gamma"), format!("give 4 or 6 numbers [g1111, g2222, g1122, g1212, (g1112, g2212)], got {}", pf.gamma.len()));
+        } else if pf.gamma.iter().enumerate().all(|(k, g)| c.finite(&format!("{q}.gamma[{k}]"), *g)) {
+            let g = phase_field_gamma(pf);
+            if g.min_along() < 0.0 {
+                c.err(&format!("{q}.gamma"), "the crack-profile coefficient a(n) is negative for some direction: the functional is unbounded below");
+            }
+        }
+        if m.model != MaterialModel::LinearElastic {
+            c.err(&format!("{path}.model"), "phase-field fracture is implemented for linear_elastic materials");
+        }
+    }
     if m.model == MaterialModel::NeoHookean && plane == PlaneKind::PlaneStress {
         c.err(
             &format!("{path}.model"),
@@ -378,6 +437,7 @@ fn resolve_material(
         poissons_ratio: nu,
         lambda,
         mu,
+        phase_field: m.phase_field.clone(),
         wave_speed,
     })
 }
