@@ -327,6 +327,7 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool) ->
                         "external_work": row.external_work,
                         "energy_error": row.energy_error,
                         "stage_seconds": summary.stage_seconds,
+                        "phase_field": summary.phase_field,
                         "outputs": paths,
                     })
                 );

@@ -157,7 +157,7 @@ impl PhaseFields {
                 let fp = FieldParticles { x: &b.x, vol: &b.vol, history: &b.history };
                 system::fracture_energy::<K>(geom, &b.c, &fp, &b.params, |_| true)
             })
-            .sum()
+            .fold(0.0, |a, b| a + b) // (an empty f64 sum is −0.0)
     }
 
     /// Solver times and counts summed over the bodies.

@@ -385,5 +385,5 @@ pub fn fracture_energy<K: Kernel>(
             let (cv, g, h) = field_at::<K>(geom, c, x);
             v * p.gc_bar * crack_density(p, cv, g, h)
         })
-        .sum()
+        .fold(0.0, |a, b| a + b) // (an empty f64 sum is −0.0)
 }
