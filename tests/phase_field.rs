@@ -45,7 +45,7 @@ fn check_spd<K: Kernel>(gamma: Gamma) {
     let history: Vec<f64> = x.iter().map(|p| 10.0 * (p[0] * 3.1).sin().abs() * (p[1] * 1.7).cos().abs()).collect();
     let params = PhaseFieldParams { gc_bar: 2.0, l0: 0.4, k_f: 1e-3, gamma: gamma.rotated(0.4) };
     let mut sys = PhaseFieldSystem::new();
-    sys.assemble::<K>(&geom, &FieldParticles { x: &x, vol: &vol, history: &history }, &params);
+    sys.assemble::<K>(&geom, &FieldParticles::all(&x, &vol, &history), &params);
     let a = sys.dense();
     assert!(!a.is_empty());
     assert!(positive_definite(&a), "K is not positive definite");
@@ -88,7 +88,7 @@ fn straight_crack(gamma: Gamma, theta_deg: f64) -> (f64, f64) {
         .map(|p| if (p[0] * normal[0] + p[1] * normal[1]).abs() < 0.55 * spacing { big } else { 0.0 })
         .collect();
     let mut sys = PhaseFieldSystem::new();
-    let parts = FieldParticles { x: &x, vol: &vol, history: &history };
+    let parts = FieldParticles::all(&x, &vol, &history);
     sys.assemble::<QuadraticBspline>(&geom, &parts, &params);
     let c = sys.solve(geom.node_count()).expect("solve");
     let on_line = x.iter().zip(&history).filter(|(_, &hh)| hh > 0.0).map(|(p, _)| cleave::fracture::phase_field::system::field_at::<QuadraticBspline>(&geom, &c, *p).0).fold(0.0f64, f64::max);

@@ -325,7 +325,7 @@ impl Simulation {
         // The implicit phase-field solve (c from the history so far)
         if let Some(pf) = self.phase.as_mut() {
             let t = Instant::now();
-            pf.solve::<K>(&self.geom, &mut self.parts).map_err(|e| SimError::PhaseField {
+            pf.solve::<K>(&self.geom, &self.bins, &mut self.parts).map_err(|e| SimError::PhaseField {
                 step: self.step + 1,
                 time: self.time + dt,
                 message: e.to_string(),
@@ -443,10 +443,10 @@ impl Simulation {
         let fracture_energy = match &self.phase {
             None => 0.0,
             Some(pf) => match self.scene.file.grid.shape_function {
-                ShapeFunctionKind::Linear => pf.fracture_energy::<Linear>(&self.geom),
-                ShapeFunctionKind::Gimp => pf.fracture_energy::<Gimp>(&self.geom),
-                ShapeFunctionKind::QuadraticBspline => pf.fracture_energy::<QuadraticBspline>(&self.geom),
-                ShapeFunctionKind::CubicBspline => pf.fracture_energy::<CubicBspline>(&self.geom),
+                ShapeFunctionKind::Linear => pf.fracture_energy::<Linear>(&self.geom, &self.parts),
+                ShapeFunctionKind::Gimp => pf.fracture_energy::<Gimp>(&self.geom, &self.parts),
+                ShapeFunctionKind::QuadraticBspline => pf.fracture_energy::<QuadraticBspline>(&self.geom, &self.parts),
+                ShapeFunctionKind::CubicBspline => pf.fracture_energy::<CubicBspline>(&self.geom, &self.parts),
             },
         };
         let e = m.kinetic + m.strain;

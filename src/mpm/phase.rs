@@ -14,7 +14,7 @@
 
 use crate::fracture::phase_field::system::{self, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem, SolveStats};
 use crate::grid::shape::Kernel;
-use crate::grid::{GridGeom, SyncPtr};
+use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, Elastic};
 use crate::particles::Particles;
 use crate::scene::{phase_field_gamma, PlaneKind, Scene};
@@ -26,14 +26,12 @@ const CRACK_B: f64 = 1e6;
 
 /// One body's phase field.
 struct Body {
+    /// The body's index in the scene.
+    body: u16,
     /// Indices of the body's particles.
     particles: Vec<u32>,
     params: PhaseFieldParams,
     system: PhaseFieldSystem,
-    /// Scratch copies of the body's particle data for the assembly.
-    x: Vec<[f64; 2]>,
-    vol: Vec<f64>,
-    history: Vec<f64>,
     /// Nodal c of the last solve (all grid nodes).
     c: Vec<f64>,
 }
@@ -85,31 +83,28 @@ impl PhaseFields {
                         parts.history[p as usize] = h0;
                     }
                 }
-                Body { particles, params, system: PhaseFieldSystem::new(), x: Vec::new(), vol: Vec::new(), history: Vec::new(), c: Vec::new() }
+                Body { body: b as u16, particles, params, system: PhaseFieldSystem::new(), c: Vec::new() }
             })
             .collect();
         Some(PhaseFields { bodies: out })
     }
 
     /// Solves every body's phase field and maps c to its particles.
-    pub(super) fn solve<K: Kernel>(&mut self, geom: &GridGeom, parts: &mut Particles) -> Result<(), PhaseFieldError> {
+    pub(super) fn solve<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles) -> Result<(), PhaseFieldError> {
         for body in &mut self.bodies {
-            body.x.clear();
-            body.vol.clear();
-            body.history.clear();
-            for &p in &body.particles {
-                let p = p as usize;
-                body.x.push(parts.x[p]);
-                body.vol.push(parts.vol[p]);
-                body.history.push(parts.history[p]);
-            }
-            let fp = FieldParticles { x: &body.x, vol: &body.vol, history: &body.history };
+            let fp = FieldParticles {
+                x: &parts.x,
+                vol: &parts.vol,
+                history: &parts.history,
+                body: Some((&parts.body, body.body)),
+                bins: Some(bins),
+            };
             body.system.assemble::<K>(geom, &fp, &body.params);
             body.c = body.system.solve(geom.node_count())?;
             let phase = SyncPtr::new(&mut parts.phase);
-            let (c, xs) = (&body.c, &body.x);
-            body.particles.par_iter().zip(xs.par_iter()).for_each(|(&p, &x)| {
-                let (v, _, _) = system::field_at::<K>(geom, c, x);
+            let (c, xs) = (&body.c, &parts.x);
+            body.particles.par_iter().for_each(|&p| {
+                let (v, _, _) = system::field_at::<K>(geom, c, xs[p as usize]);
                 // SAFETY: each particle index appears once in the body's list.
                 unsafe { *phase.at(p as usize) = v.clamp(0.0, 1.0) };
             });
@@ -149,12 +144,18 @@ impl PhaseFields {
     }
 
     /// Ψ_f over all phase-field bodies with the nodal c of the last solve, J.
-    pub(super) fn fracture_energy<K: Kernel>(&self, geom: &GridGeom) -> f64 {
+    pub(super) fn fracture_energy<K: Kernel>(&self, geom: &GridGeom, parts: &Particles) -> f64 {
         self.bodies
             .iter()
             .filter(|b| !b.c.is_empty())
             .map(|b| {
-                let fp = FieldParticles { x: &b.x, vol: &b.vol, history: &b.history };
+                let fp = FieldParticles {
+                    x: &parts.x,
+                    vol: &parts.vol,
+                    history: &parts.history,
+                    body: Some((&parts.body, b.body)),
+                    bins: None,
+                };
                 system::fracture_energy::<K>(geom, &b.c, &fp, &b.params, |_| true)
             })
             .fold(0.0, |a, b| a + b) // (an empty f64 sum is −0.0)

@@ -17,7 +17,8 @@
 
 use super::anisotropy::Gamma;
 use crate::grid::shape::{Kernel, MAX_SUPPORT};
-use crate::grid::GridGeom;
+use crate::grid::{Bins, GridGeom, SyncPtr};
+use rayon::prelude::*;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymbolicCholesky, SymmetricOrdering};
@@ -69,6 +70,23 @@ pub struct FieldParticles<'a> {
     pub vol: &'a [f64],
     /// History field H = max ψ⁺, J/m³.
     pub history: &'a [f64],
+    /// Only the particles p with `body.0[p] == body.1` (None: all).
+    pub body: Option<(&'a [u16], u16)>,
+    /// Visit the particles tile by tile in four colours, in parallel (the
+    /// simulation's bins); None: serially in index order.
+    pub bins: Option<&'a Bins>,
+}
+
+impl<'a> FieldParticles<'a> {
+    /// All of the given particles, visited serially.
+    pub fn all(x: &'a [[f64; 2]], vol: &'a [f64], history: &'a [f64]) -> Self {
+        FieldParticles { x, vol, history, body: None, bins: None }
+    }
+
+    #[inline]
+    fn member(&self, p: usize) -> bool {
+        self.body.is_none_or(|(b, id)| b[p] == id)
+    }
 }
 
 /// Shape-function values, gradients and Hessians of one particle's support.
@@ -105,6 +123,75 @@ fn support<K: Kernel>(geom: &GridGeom, x: [f64; 2]) -> Support {
     s
 }
 
+/// What one particle's contribution to K and F needs.
+struct Accumulate<'a> {
+    geom: &'a GridGeom,
+    parts: &'a FieldParticles<'a>,
+    params: &'a PhaseFieldParams,
+    m: [[f64; 3]; 3],
+    fourth: bool,
+    dof_of: &'a [u32],
+    nbr: &'a [u32],
+    values: SyncPtr<f64>,
+    rhs: SyncPtr<f64>,
+}
+
+// SAFETY: the raw pointers are written only under the colouring rule.
+unsafe impl Sync for Accumulate<'_> {}
+
+impl Accumulate<'_> {
+    /// Adds particle q's terms of eq. 57 to K (lower triangle) and F.
+    ///
+    /// # Safety
+    /// No other task writes the entries of q's support nodes concurrently.
+    #[inline]
+    unsafe fn particle<K: Kernel>(&self, q: usize) {
+        let parts = self.parts;
+        if !parts.member(q) {
+            return;
+        }
+        let p = self.params;
+        let v = parts.vol[q];
+        let reaction = v * (4.0 * p.l0 * (1.0 - p.k_f) * parts.history[q] / p.gc_bar + 1.0);
+        let (c2, c4) = (4.0 * p.l0 * p.l0, 4.0 * p.l0.powi(4));
+        let s = support::<K>(self.geom, parts.x[q]);
+        let mut mh = [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT];
+        if self.fourth {
+            for a in 0..s.n {
+                for r in 0..3 {
+                    mh[a][r] = (0..3).map(|t| self.m[r][t] * s.hess[a][t]).sum();
+                }
+            }
+        }
+        let w = K::N as isize - 1;
+        let side = (2 * w + 1) as usize;
+        for a in 0..s.n {
+            let da = self.dof_of[s.node[a]];
+            if da == u32::MAX {
+                continue; // zero weight from every particle: not an unknown
+            }
+            // SAFETY: the caller's colouring.
+            unsafe { *self.rhs.at(da as usize) += v * s.w[a] };
+            let (ia, ja) = ((a % K::N) as isize, (a / K::N) as isize);
+            for b in 0..s.n {
+                let db = self.dof_of[s.node[b]];
+                if db == u32::MAX || da < db {
+                    continue; // inactive, or the upper triangle (row < col)
+                }
+                let (ib, jb) = ((b % K::N) as isize, (b / K::N) as isize);
+                let k = ((ja - jb + w) as usize) * side + (ia - ib + w) as usize;
+                let pos = self.nbr[db as usize * side * side + k] as usize;
+                let mut kab = reaction * s.w[a] * s.w[b] + v * c2 * (s.g[a][0] * s.g[b][0] + s.g[a][1] * s.g[b][1]);
+                if self.fourth {
+                    kab += v * c4 * (s.hess[b][0] * mh[a][0] + s.hess[b][1] * mh[a][1] + s.hess[b][2] * mh[a][2]);
+                }
+                // SAFETY: the caller's colouring.
+                unsafe { *self.values.at(pos) += kab };
+            }
+        }
+    }
+}
+
 /// The assembled system and the factorization kept between solves.
 pub struct PhaseFieldSystem {
     /// Active nodes (ascending); the unknowns, in this order.
@@ -113,6 +200,13 @@ pub struct PhaseFieldSystem {
     dof_of: Vec<u32>,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
+    /// For column dof c and stencil offset k (see `offset_index`), the
+    /// position of the entry in `values`, or u32::MAX: O(1) assembly.
+    nbr: Vec<u32>,
+    /// Per particle: base node and mask of positive-weight support nodes
+    /// at the last assembly (u64::MAX for non-members); the node set is
+    /// rebuilt only when one changes.
+    keys: Vec<u64>,
     values: Vec<f64>,
     rhs: Vec<f64>,
     /// The analysis and the node set it was made for.
@@ -135,6 +229,8 @@ impl PhaseFieldSystem {
             dof_of: Vec::new(),
             col_ptr: Vec::new(),
             row_idx: Vec::new(),
+            nbr: Vec::new(),
+            keys: Vec::new(),
             values: Vec::new(),
             rhs: Vec::new(),
             symbolic: None,
@@ -158,26 +254,64 @@ impl PhaseFieldSystem {
         self.row_idx.len()
     }
 
-    /// Sets the unknowns to the nodes the particles' supports cover and
-    /// rebuilds the sparsity pattern if that set changed. Returns whether
-    /// it changed (the analysis must then be redone).
-    fn set_active<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles) -> bool {
+    /// Recomputes the per-particle footprint keys; returns whether any
+    /// changed (then the node set must be rebuilt).
+    fn update_keys<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles) -> bool {
+        let n = parts.x.len();
+        let fresh = self.keys.len() != n || self.dof_of.len() != geom.node_count();
+        if fresh {
+            self.keys.clear();
+            self.keys.resize(n, u64::MAX - 1);
+        }
+        const CHUNK: usize = 4096;
+        let keys = SyncPtr::new(&mut self.keys);
+        let changed = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let mut changed = false;
+                for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                    let key = if parts.member(p) {
+                        let s = support::<K>(geom, parts.x[p]);
+                        let mask = (0..s.n).filter(|&k| s.w[k] > 0.0).fold(0u64, |m, k| m | (1 << k));
+                        ((s.node[0] as u64) << 16) | mask
+                    } else {
+                        u64::MAX
+                    };
+                    // SAFETY: particle p belongs to this chunk only.
+                    let slot = unsafe { keys.at(p) };
+                    if *slot != key {
+                        *slot = key;
+                        changed = true;
+                    }
+                }
+                changed
+            })
+            .reduce(|| false, |a, b| a || b);
+        changed || fresh
+    }
+
+    /// Sets the unknowns to the nodes the particles' supports reach with
+    /// positive weight (the GIMP window and the knots of B-splines include
+    /// nodes at exactly zero weight, whose rows would be singular), and
+    /// rebuilds the sparsity pattern and the position table.
+    fn set_active<K: Kernel>(&mut self, geom: &GridGeom) {
         let nodes = geom.node_count();
         let mut active = vec![false; nodes];
-        // A node is an unknown only if some particle gives it weight: the
-        // GIMP window and the knots of B-splines include nodes at exactly
-        // zero weight, whose rows would be singular.
-        for &x in parts.x {
-            let s = support::<K>(geom, x);
-            for k in 0..s.n {
-                if s.w[k] > 0.0 {
-                    active[s.node[k]] = true;
+        let nx = geom.nodes[0];
+        for &key in &self.keys {
+            if key >= u64::MAX - 1 {
+                continue;
+            }
+            let base = (key >> 16) as usize;
+            for k in 0..K::N * K::N {
+                if key & (1 << k) != 0 {
+                    active[base + (k % K::N) + (k / K::N) * nx] = true;
                 }
             }
         }
         let dofs: Vec<u32> = (0..nodes as u32).filter(|&n| active[n as usize]).collect();
         if dofs == self.dofs && self.dof_of.len() == nodes {
-            return false;
+            return;
         }
         self.dof_of.clear();
         self.dof_of.resize(nodes, u32::MAX);
@@ -188,11 +322,14 @@ impl PhaseFieldSystem {
         // Lower triangle: node b couples with node a ≥ b when both lie in
         // one support, i.e. within K::N − 1 nodes along each axis.
         let w = K::N as isize - 1;
+        let side = (2 * w + 1) as usize;
         let [nx, ny] = [geom.nodes[0] as isize, geom.nodes[1] as isize];
         self.col_ptr.clear();
         self.row_idx.clear();
+        self.nbr.clear();
+        self.nbr.resize(self.dofs.len() * side * side, u32::MAX);
         self.col_ptr.push(0);
-        for &node in &self.dofs {
+        for (col, &node) in self.dofs.iter().enumerate() {
             let (ix, iy) = (node as isize % nx, node as isize / nx);
             for dy in -w..=w {
                 for dx in -w..=w {
@@ -203,6 +340,8 @@ impl PhaseFieldSystem {
                     let other = (x + y * nx) as usize;
                     let d = self.dof_of[other];
                     if d != u32::MAX && other >= node as usize {
+                        let k = ((dy + w) as usize) * side + (dx + w) as usize;
+                        self.nbr[col * side * side + k] = self.row_idx.len() as u32;
                         self.row_idx.push(d as usize);
                     }
                 }
@@ -210,61 +349,45 @@ impl PhaseFieldSystem {
             self.col_ptr.push(self.row_idx.len());
         }
         self.symbolic = None;
-        true
-    }
-
-    #[inline]
-    fn position(&self, row: usize, col: usize) -> usize {
-        let (a, b) = (self.col_ptr[col], self.col_ptr[col + 1]);
-        match self.row_idx[a..b].binary_search(&row) {
-            Ok(k) => a + k,
-            // unreachable: every pair within one support is in the pattern
-            Err(_) => usize::MAX,
-        }
     }
 
     /// Assembles K and F (eq. 57) from the particles.
     pub fn assemble<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, p: &PhaseFieldParams) {
         let t0 = Instant::now();
-        self.set_active::<K>(geom, parts);
+        if self.update_keys::<K>(geom, parts) {
+            self.set_active::<K>(geom);
+        }
         self.values.clear();
         self.values.resize(self.row_idx.len(), 0.0);
         self.rhs.clear();
         self.rhs.resize(self.dofs.len(), 0.0);
-        let m = p.gamma.voigt();
-        let fourth = !p.gamma.is_zero();
-        let (c2, c4) = (4.0 * p.l0 * p.l0, 4.0 * p.l0.powi(4));
-        for (k, &x) in parts.x.iter().enumerate() {
-            let v = parts.vol[k];
-            let reaction = v * (4.0 * p.l0 * (1.0 - p.k_f) * parts.history[k] / p.gc_bar + 1.0);
-            let s = support::<K>(geom, x);
-            let mut mh = [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT];
-            if fourth {
-                for a in 0..s.n {
-                    for r in 0..3 {
-                        mh[a][r] = (0..3).map(|q| m[r][q] * s.hess[a][q]).sum();
-                    }
+        let ctx = Accumulate {
+            geom,
+            parts,
+            params: p,
+            m: p.gamma.voigt(),
+            fourth: !p.gamma.is_zero(),
+            dof_of: &self.dof_of,
+            nbr: &self.nbr,
+            values: SyncPtr::new(&mut self.values),
+            rhs: SyncPtr::new(&mut self.rhs),
+        };
+        match parts.bins {
+            Some(bins) => {
+                for colour in &bins.colours {
+                    colour.par_iter().for_each(|&tile| {
+                        for &q in bins.particles_of(tile) {
+                            // SAFETY: particles of same-colour tiles share no
+                            // node, hence no matrix entry; colours run in turn.
+                            unsafe { ctx.particle::<K>(q as usize) };
+                        }
+                    });
                 }
             }
-            for a in 0..s.n {
-                let da = self.dof_of[s.node[a]];
-                if da == u32::MAX {
-                    continue; // zero weight from every particle: not an unknown
-                }
-                let da = da as usize;
-                self.rhs[da] += v * s.w[a];
-                for b in 0..s.n {
-                    let db = self.dof_of[s.node[b]];
-                    if db == u32::MAX || da < db as usize {
-                        continue; // inactive, or the upper triangle (row < col)
-                    }
-                    let db = db as usize;
-                    let mut kab = reaction * s.w[a] * s.w[b] + v * c2 * (s.g[a][0] * s.g[b][0] + s.g[a][1] * s.g[b][1]);
-                    if fourth {
-                        kab += v * c4 * (s.hess[b][0] * mh[a][0] + s.hess[b][1] * mh[a][1] + s.hess[b][2] * mh[a][2]);
-                    }
-                    let pos = self.position(da, db);
-                    self.values[pos] += kab;
+            None => {
+                for q in 0..parts.x.len() {
+                    // SAFETY: serial.
+                    unsafe { ctx.particle::<K>(q) };
                 }
             }
         }
@@ -376,12 +499,10 @@ pub fn fracture_energy<K: Kernel>(
     p: &PhaseFieldParams,
     keep: impl Fn([f64; 2]) -> bool,
 ) -> f64 {
-    parts
-        .x
-        .iter()
-        .zip(parts.vol)
-        .filter(|(x, _)| keep(**x))
-        .map(|(&x, &v)| {
+    (0..parts.x.len())
+        .filter(|&q| parts.member(q) && keep(parts.x[q]))
+        .map(|q| (parts.x[q], parts.vol[q]))
+        .map(|(x, v)| {
             let (cv, g, h) = field_at::<K>(geom, c, x);
             v * p.gc_bar * crack_density(p, cv, g, h)
         })
