@@ -175,3 +175,40 @@ fn phase_field_scenes_are_validated() {
     let e = Scene::from_text(&text.replace("[[0.0, 0.02], [0.05, 0.02]]", "[[0.0, 0.02]]"), None).unwrap_err().to_string();
     assert!(e.contains("bodies[0].cracks[0].points: a crack needs at least 2 points"), "{e}");
 }
+
+#[test]
+fn warm_started_pcg_agrees_with_the_direct_solve() {
+    use cleave::diagnostics::Recorder;
+    use cleave::mpm::Simulation;
+    use cleave::scene::Scene;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let base = std::fs::read_to_string(dir.join("p1_plate_coarse.toml")).unwrap().replace("end = 8.0e-5", "end = 1.0e-5");
+    let run = |text: &str| {
+        let scene = Scene::from_text(text, None).unwrap();
+        let mut rec = Recorder::default();
+        let s = Simulation::new(&scene).run(&mut rec).unwrap();
+        (rec, s)
+    };
+    let (direct, ds) = run(&base);
+    let pcg_text = format!("{base}\n[phase_field_solver]\nmethod = \"pcg\"\ntolerance = 1e-10\n");
+    let (pcg, ps) = run(&pcg_text);
+    let (d, p) = (direct.rows.last().unwrap(), pcg.rows.last().unwrap());
+    for (a, b, what) in [
+        (d.fracture_energy, p.fracture_energy, "fracture energy"),
+        (d.strain_energy, p.strain_energy, "strain energy"),
+        (d.kinetic_energy, p.kinetic_energy, "kinetic energy"),
+    ] {
+        assert!((a - b).abs() <= 1e-6 * a.abs(), "{what}: direct {a} vs pcg {b}");
+    }
+    let (ds, ps) = (ds.phase_field.unwrap(), ps.phase_field.unwrap());
+    assert_eq!(ds.pcg_solves, 0);
+    assert!(ps.pcg_solves > 0);
+    assert!(ps.factorizations < ds.factorizations / 4, "pcg still factorized {} of {} times", ps.factorizations, ds.factorizations);
+    println!(
+        "pcg: {} solves, {:.2} iterations each, {} factorizations (direct: {})",
+        ps.pcg_solves,
+        ps.pcg_iterations as f64 / ps.pcg_solves as f64,
+        ps.factorizations,
+        ds.factorizations
+    );
+}

@@ -12,12 +12,12 @@
 //! One phase field per body (discrete fields). The particles' c and H live
 //! in `Particles::phase` and `Particles::history`.
 
-use crate::fracture::phase_field::system::{self, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem, SolveStats};
+use crate::fracture::phase_field::system::{self, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem, SolveMethod, SolveStats};
 use crate::grid::shape::Kernel;
 use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, Elastic};
 use crate::particles::Particles;
-use crate::scene::{phase_field_gamma, PlaneKind, Scene};
+use crate::scene::{phase_field_gamma, PhaseFieldMethod, PlaneKind, Scene};
 use rayon::prelude::*;
 
 /// Borden's B: the history on an initial crack is B·Ḡc/(4l₀), which drives
@@ -39,6 +39,7 @@ struct Body {
 /// The phase fields of a simulation.
 pub(super) struct PhaseFields {
     bodies: Vec<Body>,
+    method: SolveMethod,
 }
 
 fn distance_to_polyline(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
@@ -86,7 +87,16 @@ impl PhaseFields {
                 Body { body: b as u16, particles, params, system: PhaseFieldSystem::new(), c: Vec::new() }
             })
             .collect();
-        Some(PhaseFields { bodies: out })
+        let o = &scene.file.phase_field_solver;
+        let method = match o.method {
+            PhaseFieldMethod::Direct => SolveMethod::Direct,
+            PhaseFieldMethod::Pcg => SolveMethod::Pcg {
+                tolerance: o.tolerance,
+                max_iterations: o.max_iterations as usize,
+                refactor_after: o.refactor_after as usize,
+            },
+        };
+        Some(PhaseFields { bodies: out, method })
     }
 
     /// Solves every body's phase field and maps c to its particles.
@@ -100,7 +110,7 @@ impl PhaseFields {
                 bins: Some(bins),
             };
             body.system.assemble::<K>(geom, &fp, &body.params);
-            body.c = body.system.solve(geom.node_count())?;
+            body.c = body.system.solve_with(geom.node_count(), self.method)?;
             let phase = SyncPtr::new(&mut parts.phase);
             let (c, xs) = (&body.c, &parts.x);
             body.particles.par_iter().for_each(|&p| {
@@ -172,6 +182,8 @@ impl PhaseFields {
             s.solve += t.solve;
             s.analyses += t.analyses;
             s.factorizations += t.factorizations;
+            s.pcg_solves += t.pcg_solves;
+            s.pcg_iterations += t.pcg_iterations;
         }
         s
     }

@@ -37,6 +37,58 @@ pub struct SceneFile {
     pub output: OutputSpec,
     #[serde(default)]
     pub guards: GuardSpec,
+    /// How the phase-field systems are solved (scenes with a phase field).
+    #[serde(default)]
+    pub phase_field_solver: PhaseFieldSolverSpec,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PhaseFieldMethod {
+    /// Numeric Cholesky factorization every step.
+    #[default]
+    Direct,
+    /// Conjugate gradients warm-started from the last solution and
+    /// preconditioned by the last factorization.
+    Pcg,
+}
+
+/// Options of the phase-field solve.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PhaseFieldSolverSpec {
+    #[serde(default)]
+    pub method: PhaseFieldMethod,
+    /// PCG: converged when ‖F − Kc‖ ≤ tolerance·‖F‖.
+    #[serde(default = "default_pcg_tolerance")]
+    pub tolerance: f64,
+    /// PCG: iterations before falling back to a direct solve.
+    #[serde(default = "default_pcg_max")]
+    pub max_iterations: u32,
+    /// PCG: refactorize when a solve takes more iterations than this.
+    #[serde(default = "default_pcg_refactor")]
+    pub refactor_after: u32,
+}
+
+impl Default for PhaseFieldSolverSpec {
+    fn default() -> Self {
+        PhaseFieldSolverSpec {
+            method: PhaseFieldMethod::Direct,
+            tolerance: default_pcg_tolerance(),
+            max_iterations: default_pcg_max(),
+            refactor_after: default_pcg_refactor(),
+        }
+    }
+}
+
+fn default_pcg_tolerance() -> f64 {
+    1e-8
+}
+fn default_pcg_max() -> u32 {
+    100
+}
+fn default_pcg_refactor() -> u32 {
+    10
 }
 
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]

@@ -364,6 +364,13 @@ fn check_time(c: &mut Checker, t: &TimeSpec) {
 }
 
 fn check_output_and_guards(c: &mut Checker, file: &SceneFile) {
+    let pf = &file.phase_field_solver;
+    if c.finite("phase_field_solver.tolerance", pf.tolerance) && !(pf.tolerance > 0.0 && pf.tolerance < 1.0) {
+        c.err("phase_field_solver.tolerance", format!("must be in (0, 1), got {}", pf.tolerance));
+    }
+    if pf.max_iterations == 0 {
+        c.err("phase_field_solver.max_iterations", "must be >= 1, got 0");
+    }
     if file.output.series_rows < 2 || file.output.series_rows > 10_000_000 {
         c.err("output.series_rows", format!("must be in [2, 10000000], got {}", file.output.series_rows));
     }

@@ -21,7 +21,7 @@ use crate::grid::{Bins, GridGeom, SyncPtr};
 use rayon::prelude::*;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymbolicCholesky, SymmetricOrdering};
+use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use std::time::Instant;
@@ -60,6 +60,21 @@ pub struct SolveStats {
     /// factorizations done.
     pub analyses: u64,
     pub factorizations: u64,
+    /// Preconditioned CG solves and their iterations (method "pcg").
+    pub pcg_solves: u64,
+    pub pcg_iterations: u64,
+}
+
+/// How `K c = F` is solved each step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SolveMethod {
+    /// Numeric Cholesky factorization every step (the analysis is reused).
+    Direct,
+    /// Conjugate gradients from the last solution, preconditioned by the
+    /// last Cholesky factor; refactorizes when an iteration count exceeds
+    /// `refactor_after`, and falls back to a direct solve after
+    /// `max_iterations`. Converged when ‖F − Kc‖ ≤ tolerance·‖F‖.
+    Pcg { tolerance: f64, max_iterations: usize, refactor_after: usize },
 }
 
 /// The particles of one discrete field, as the assembly reads them.
@@ -212,6 +227,10 @@ pub struct PhaseFieldSystem {
     /// The analysis and the node set it was made for.
     symbolic: Option<SymbolicCholesky<usize>>,
     l_values: Vec<f64>,
+    /// `l_values` hold a factorization of a matrix with today's pattern.
+    factored: bool,
+    /// The last solution, per dof (PCG's starting point).
+    last: Vec<f64>,
     mem: MemBuffer,
     pub stats: SolveStats,
 }
@@ -235,6 +254,8 @@ impl PhaseFieldSystem {
             rhs: Vec::new(),
             symbolic: None,
             l_values: Vec::new(),
+            factored: false,
+            last: Vec::new(),
             mem: MemBuffer::new(faer::dyn_stack::StackReq::empty()),
             stats: SolveStats::default(),
         }
@@ -349,6 +370,8 @@ impl PhaseFieldSystem {
             self.col_ptr.push(self.row_idx.len());
         }
         self.symbolic = None;
+        self.factored = false;
+        self.last.clear();
     }
 
     /// Assembles K and F (eq. 57) from the particles.
@@ -421,11 +444,43 @@ impl PhaseFieldSystem {
     /// Factorizes K (reusing the analysis while the node set is unchanged)
     /// and solves for c. Returns c at every grid node (1 where inactive).
     pub fn solve(&mut self, nodes: usize) -> Result<Vec<f64>, PhaseFieldError> {
+        self.solve_with(nodes, SolveMethod::Direct)
+    }
+
+    /// Solves for c with the given method; c at every grid node (1 where
+    /// inactive).
+    pub fn solve_with(&mut self, nodes: usize, method: SolveMethod) -> Result<Vec<f64>, PhaseFieldError> {
         let n = self.dofs.len();
         let mut c = vec![1.0; nodes];
         if n == 0 {
             return Ok(c);
         }
+        let x = match method {
+            SolveMethod::Pcg { tolerance, max_iterations, refactor_after } if self.factored && self.last.len() == n => {
+                let t0 = Instant::now();
+                let (x, iterations) = self.pcg(tolerance, max_iterations);
+                self.stats.solve += t0.elapsed().as_secs_f64();
+                self.stats.pcg_solves += 1;
+                self.stats.pcg_iterations += iterations as u64;
+                match x {
+                    Some(x) if iterations <= refactor_after => x,
+                    // slow or no convergence: a fresh factor, which also
+                    // preconditions the next steps
+                    _ => self.direct()?,
+                }
+            }
+            _ => self.direct()?,
+        };
+        for (d, &node) in self.dofs.iter().enumerate() {
+            c[node as usize] = x[d];
+        }
+        self.last = x;
+        Ok(c)
+    }
+
+    /// Analysis (if the pattern is new), numeric factorization, solve.
+    fn direct(&mut self) -> Result<Vec<f64>, PhaseFieldError> {
+        let n = self.dofs.len();
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let t0 = Instant::now();
         if self.symbolic.as_ref().is_none_or(|s| s.nrows() != n) {
@@ -442,28 +497,96 @@ impl PhaseFieldSystem {
         let t1 = Instant::now();
         self.stats.analysis += (t1 - t0).as_secs_f64();
         let sym = self.symbolic.as_ref().ok_or_else(|| PhaseFieldError::Solver("no analysis".into()))?;
+        self.factored = false;
         let a = SparseColMatRef::new(pattern, &self.values);
-        let llt = sym
-            .factorize_numeric_llt::<f64>(
-                &mut self.l_values,
-                a,
-                Side::Lower,
-                LltRegularization::default(),
-                Par::Seq,
-                MemStack::new(&mut self.mem),
-                Default::default(),
-            )
-            .map_err(|e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}")))?;
+        sym.factorize_numeric_llt::<f64>(
+            &mut self.l_values,
+            a,
+            Side::Lower,
+            LltRegularization::default(),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+            Default::default(),
+        )
+        .map_err(|e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}")))?;
+        self.factored = true;
         self.stats.factorizations += 1;
         let t2 = Instant::now();
         self.stats.factorization += (t2 - t1).as_secs_f64();
         let mut x = self.rhs.clone();
-        llt.solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(&mut x, n, 1), Par::Seq, MemStack::new(&mut self.mem));
+        self.apply_inverse(&mut x);
         self.stats.solve += t2.elapsed().as_secs_f64();
-        for (d, &node) in self.dofs.iter().enumerate() {
-            c[node as usize] = x[d];
+        Ok(x)
+    }
+
+    /// x ← (L Lᵀ)⁻¹ x with the stored factor.
+    fn apply_inverse(&mut self, x: &mut [f64]) {
+        let n = x.len();
+        if let Some(sym) = self.symbolic.as_ref() {
+            LltRef::new(sym, &self.l_values).solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(x, n, 1),
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+            );
         }
-        Ok(c)
+    }
+
+    /// y = K x with the stored lower triangle.
+    fn multiply(&self, x: &[f64], y: &mut [f64]) {
+        y.fill(0.0);
+        for col in 0..x.len() {
+            for k in self.col_ptr[col]..self.col_ptr[col + 1] {
+                let (row, v) = (self.row_idx[k], self.values[k]);
+                y[row] += v * x[col];
+                if row != col {
+                    y[col] += v * x[row];
+                }
+            }
+        }
+    }
+
+    /// Preconditioned conjugate gradients from the last solution. Returns
+    /// the solution if it converged, and the iterations taken.
+    fn pcg(&mut self, tolerance: f64, max_iterations: usize) -> (Option<Vec<f64>>, usize) {
+        let n = self.dofs.len();
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).fold(0.0, |s, t| s + t);
+        let norm_b = dot(&self.rhs, &self.rhs).sqrt();
+        let mut x = self.last.clone();
+        let mut ap = vec![0.0; n];
+        self.multiply(&x, &mut ap);
+        let mut r: Vec<f64> = self.rhs.iter().zip(&ap).map(|(b, y)| b - y).collect();
+        if dot(&r, &r).sqrt() <= tolerance * norm_b {
+            return (Some(x), 0);
+        }
+        let mut z = r.clone();
+        self.apply_inverse(&mut z);
+        let mut p = z.clone();
+        let mut rz = dot(&r, &z);
+        for it in 1..=max_iterations {
+            self.multiply(&p, &mut ap);
+            let pap = dot(&p, &ap);
+            if !(pap > 0.0) {
+                return (None, it);
+            }
+            let alpha = rz / pap;
+            for i in 0..n {
+                x[i] += alpha * p[i];
+                r[i] -= alpha * ap[i];
+            }
+            if dot(&r, &r).sqrt() <= tolerance * norm_b {
+                return (Some(x), it);
+            }
+            z.copy_from_slice(&r);
+            self.apply_inverse(&mut z);
+            let rz_new = dot(&r, &z);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for i in 0..n {
+                p[i] = z[i] + beta * p[i];
+            }
+        }
+        (None, max_iterations)
     }
 }
 
