@@ -167,11 +167,6 @@ impl Scene {
     pub fn cfl(&self) -> f64 {
         self.file.time.cfl.unwrap_or(0.5)
     }
-
-    /// Serializes the scene (with defaults filled in) as TOML.
-    pub fn to_toml(&self) -> String {
-        toml::to_string(&self.file).unwrap_or_default()
-    }
 }
 
 /// The anisotropy tensor of a phase-field spec (not yet rotated).
