@@ -9,8 +9,8 @@
 //!   exchanged momenta cancel. Of the two gradients we take the larger
 //!   (the better resolved surface) rather than their average: averaging
 //!   tilts the normal at a body's end, and a block sliding on a plane
-//!   "plows" (its measured acceleration was 15–25 % low; with the larger
-//!   gradient it matches g(sin θ − μ cos θ) to 0.01 %);
+//!   "plows" and is held back; with the larger gradient it matches
+//!   g(sin θ − μ cos θ), see the sliding-block test;
 //! - the centre-of-mass velocity v_cm = Σ m_ς v_ς / Σ m_ς (eq. 12);
 //! - contact only if the field approaches the rest,
 //!   (v_cm − v_ς)·n_ς > 0 (no interpenetration; separation is free);

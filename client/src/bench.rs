@@ -135,7 +135,7 @@ pub fn run(out: &Path, steps: usize, largest: usize, transfers: &str) -> anyhow:
          has no atomics: tiles of 8 × 8 cells are coloured so that tiles of one colour never share a node, and \
          the particles are stored tile by tile, so each tile reads a contiguous range of every particle array. \
          Storing them in seeding order instead (rows across the whole body) cost 40 % at 1 M particles \
-         (P2G 58 ms instead of 29 ms on one thread).\n",
+         (P2G 58 ms instead of 29 ms on one thread; `cleave bench` at commit fe9ff49, before the sort).\n",
         std::thread::available_parallelism().map_or(0, |n| n.get())
     );
     if let Some(dir) = out.parent() {

@@ -562,7 +562,7 @@ pub struct GuardSpec {
     /// Nodes lighter than this fraction of the lightest particle mass are
     /// treated as empty (zero velocity). Off (0) by default: B-splines and
     /// GIMP keep the force at a nearly empty node as small as its mass, and
-    /// the cutoff costs exact momentum conservation (1e-9 leaks ~1e-10 of
+    /// the cutoff costs exact momentum conservation (a small leak of
     /// the momentum over a thousand steps). Raise it for linear shape
     /// functions if thin free surfaces misbehave.
     #[serde(default = "default_mass_fraction")]
