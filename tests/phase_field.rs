@@ -212,3 +212,74 @@ fn warm_started_pcg_agrees_with_the_direct_solve() {
         ds.factorizations
     );
 }
+
+/// Runs a text scene to the end and keeps everything.
+fn run_text(text: &str) -> (cleave::diagnostics::Recorder, cleave::mpm::RunSummary) {
+    let scene = cleave::scene::Scene::from_text(text, None).unwrap();
+    let mut rec = cleave::diagnostics::Recorder::default();
+    let s = cleave::mpm::Simulation::new(&scene).run(&mut rec).unwrap();
+    (rec, s)
+}
+
+fn p1_coarse(end: &str) -> String {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::read_to_string(dir.join("p1_plate_coarse.toml")).unwrap().replace("end = 8.0e-5", &format!("end = {end}"))
+}
+
+#[test]
+fn staggered_iterations_resolve_the_history_update_at_no_extra_solve() {
+    let base = p1_coarse("1.2e-5").replace("series_rows = 81", "series_rows = 13");
+    // one iteration (the default): the history update leaves a residual,
+    // which the rows report
+    let (one, s1) = run_text(&base);
+    let iters = one.column("pf_stagger_iterations").unwrap();
+    let res = one.column("pf_residual").unwrap();
+    assert!(iters[1..].iter().all(|&k| k == 1.0), "{iters:?}");
+    assert!(res[1..].iter().all(|r| r.is_finite() && *r >= 0.0), "{res:?}");
+    let worst = res[1..].iter().cloned().fold(0.0, f64::max);
+    assert!(worst > 1e-6, "loading grows the history: residual {worst}");
+    // up to four: every step solves again after its history update, which
+    // leaves no history residual, and replaces the next step's first solve
+    let (many, s4) = run_text(&format!("{base}\n[phase_field_solver]\nmax_staggers = 4\nstagger_tolerance = 1e-6\n"));
+    let iters = many.column("pf_stagger_iterations").unwrap();
+    let res = many.column("pf_residual").unwrap();
+    assert!(iters[1..].iter().all(|&k| k == 2.0), "{iters:?}");
+    assert!(res[1..].iter().all(|&r| r <= 1e-6), "{res:?}");
+    let (f1, f4) = (s1.phase_field.unwrap().factorizations, s4.phase_field.unwrap().factorizations);
+    assert_eq!(f1, s1.steps);
+    assert!(f4 <= s4.steps + 1, "{f4} factorizations in {} steps", s4.steps);
+    // the per-step solver times are reported
+    for name in ["pf_assembly_s", "pf_factorization_s", "pf_solve_s"] {
+        let t = one.column(name).unwrap();
+        assert!(t[1..].iter().all(|&x| x > 0.0 && x < 10.0), "{name}: {t:?}");
+    }
+    // the fixed point is close to the lagged one at these small steps
+    let (a, b) = (one.rows.last().unwrap().fracture_energy, many.rows.last().unwrap().fracture_energy);
+    assert!((a - b).abs() < 0.02 * a, "fracture energy {a} (1 iteration) vs {b} (staggered)");
+}
+
+#[test]
+fn the_crack_tip_is_the_cracked_particle_farthest_from_the_origin() {
+    // one step: only the 50 mm pre-crack along y = 20 mm is cracked
+    let base = p1_coarse("1.0e-7");
+    let spacing = 0.5e-3 / 2.0;
+    let (rec, _) = run_text(&base);
+    let (x, y, len) = (rec.column("crack_tip_x").unwrap(), rec.column("crack_tip_y").unwrap(), rec.column("crack_length").unwrap());
+    let k = rec.rows.len() - 1;
+    assert!((x[k] - 0.05).abs() < spacing && (y[k] - 0.02).abs() < spacing, "tip ({}, {})", x[k], y[k]);
+    assert!((len[k] - 0.05).abs() < spacing, "length {}", len[k]);
+    // measured from the other end, the crack's far end is its mouth
+    let (rec, _) = run_text(&base.replace("material = \"concrete\"", "material = \"concrete\"\ncrack_origin = [0.1, 0.02]"));
+    let (x, len) = (rec.column("crack_tip_x").unwrap(), rec.column("crack_length").unwrap());
+    assert!(x[k] < spacing && (len[k] - 0.1).abs() < spacing, "tip x {} length {}", x[k], len[k]);
+    // a body without a phase field cannot ask for a tip
+    let e = cleave::scene::Scene::from_text(
+        &std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/two_disks.toml"))
+            .unwrap()
+            .replacen("[[bodies]]\n", "[[bodies]]\ncrack_origin = [0.0, 0.0]\n", 1),
+        None,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("bodies[0].crack_origin"), "{e}");
+}

@@ -73,7 +73,7 @@ fn free_spinning_disk_conserves_mass_momentum_and_angular_momentum() {
     let mut rec = Recorder::default();
     let summary = sim.run(&mut rec).expect("the disk flies");
     assert!(summary.steps > 50);
-    let (first, last) = (rec.rows[0], *rec.rows.last().unwrap());
+    let (first, last) = (&rec.rows[0], rec.rows.last().unwrap());
     for r in &rec.rows {
         assert_eq!(r.total_mass.to_bits(), first.total_mass.to_bits(), "mass changes at t = {}", r.time);
         let scale = first.total_mass * 1.0;
@@ -103,7 +103,7 @@ fn sulsky_disks_conserve_momentum_and_energy() {
     let mut sim = Simulation::new(&scene);
     let mut rec = Recorder::default();
     sim.run(&mut rec).expect("the disks collide");
-    let first = rec.rows[0];
+    let first = &rec.rows[0];
     let e0 = first.kinetic_energy + first.strain_energy;
     let mut min_ke = f64::INFINITY;
     let (mut worst_e, mut worst_p) = (0.0f64, 0.0f64);

@@ -319,6 +319,9 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
 struct NoOutput;
 
 impl cleave::diagnostics::Observer for NoOutput {
+    fn series_columns(&mut self, _: &[String]) -> Result<(), String> {
+        Ok(())
+    }
     fn series_row(&mut self, _: &cleave::diagnostics::SeriesRow) -> Result<(), String> {
         Ok(())
     }

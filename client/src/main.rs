@@ -245,6 +245,9 @@ struct RunObserver {
 }
 
 impl Observer for RunObserver {
+    fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
+        self.writer.series_columns(columns)
+    }
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
         self.writer.series_row(row)
     }

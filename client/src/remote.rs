@@ -308,9 +308,13 @@ pub async fn fetch(client: &mut Client, id: &str, out: &Path) -> Result<OutputPa
     let write_err = |e: String| RemoteError::new(EXIT_FAILED, format!("writing results to {}: {e}", out.display()));
     let mut writer = OutputWriter::create(out).map_err(|e| write_err(e.to_string()))?;
     let cols = series.columns.len();
-    if cols != SeriesRow::COLUMNS.len() {
-        return Err(RemoteError::new(EXIT_FAILED, format!("the server's series has {cols} columns, this client expects {}", SeriesRow::COLUMNS.len())));
+    if cols < SeriesRow::COLUMNS.len() || series.columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS {
+        return Err(RemoteError::new(
+            EXIT_FAILED,
+            format!("the server's series starts with columns {:?}, this client expects {:?}", series.columns, SeriesRow::COLUMNS),
+        ));
     }
+    writer.series_columns(&series.columns).map_err(write_err)?;
     for v in series.values.chunks_exact(cols) {
         let row = SeriesRow::from_values(v).ok_or_else(|| RemoteError::new(EXIT_FAILED, "malformed series row"))?;
         writer.series_row(&row).map_err(write_err)?;

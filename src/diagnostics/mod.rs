@@ -8,7 +8,12 @@ use serde::Serialize;
 /// One row of the time series (`series.csv`). Energies are per the analysis
 /// thickness (J for plane stress with a thickness, J/m for plane strain with
 /// the default 1 m).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+///
+/// The first twelve columns ([`SeriesRow::COLUMNS`]) are in every series;
+/// `extra` holds the columns of the stages a scene has (e.g. the phase
+/// field's solver times and crack tip), named by
+/// [`Simulation::series_columns`](crate::mpm::Simulation::series_columns).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct SeriesRow {
     pub step: u64,
     /// Simulated time, s.
@@ -36,6 +41,8 @@ pub struct SeriesRow {
     /// Ψ_f = Σ Ḡc Z V over phase-field bodies (seed 001 eq. 3), J; zero
     /// without a fracture model.
     pub fracture_energy: f64,
+    /// The scene's stage-specific columns, after the core ones.
+    pub extra: Vec<f64>,
 }
 
 impl SeriesRow {
@@ -55,10 +62,10 @@ impl SeriesRow {
         "fracture_energy",
     ];
 
-    /// The row back from [`SeriesRow::values`]; None if `v` has another
-    /// length.
+    /// The row back from [`SeriesRow::values`]; None if `v` is shorter
+    /// than the core columns. Values past them become `extra`.
     pub fn from_values(v: &[f64]) -> Option<SeriesRow> {
-        if v.len() != Self::COLUMNS.len() {
+        if v.len() < Self::COLUMNS.len() {
             return None;
         }
         Some(SeriesRow {
@@ -74,12 +81,13 @@ impl SeriesRow {
             angular_momentum: v[9],
             dt: v[10],
             fracture_energy: v[11],
+            extra: v[12..].to_vec(),
         })
     }
 
-    /// The row's values in the order of [`SeriesRow::COLUMNS`].
-    pub fn values(&self) -> [f64; 12] {
-        [
+    /// The row's values: [`SeriesRow::COLUMNS`], then `extra`.
+    pub fn values(&self) -> Vec<f64> {
+        let mut v = vec![
             self.step as f64,
             self.time,
             self.kinetic_energy,
@@ -92,7 +100,18 @@ impl SeriesRow {
             self.angular_momentum,
             self.dt,
             self.fracture_energy,
-        ]
+        ];
+        v.extend_from_slice(&self.extra);
+        v
+    }
+
+    /// The value of a named column of a series with `columns`.
+    pub fn get(&self, columns: &[String], name: &str) -> Option<f64> {
+        let i = columns.iter().position(|c| c == name)?;
+        match i.checked_sub(Self::COLUMNS.len()) {
+            None => Some(self.values()[i]),
+            Some(k) => self.extra.get(k).copied(),
+        }
     }
 }
 
@@ -187,6 +206,9 @@ pub enum Control {
 /// Receives what a run produces. Errors from an observer (e.g. a full disk)
 /// stop the run and are reported as such.
 pub trait Observer {
+    /// The series' column names (the core ones, then the scene's), once,
+    /// before the first row.
+    fn series_columns(&mut self, columns: &[String]) -> Result<(), String>;
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String>;
     fn snapshot(&mut self, snapshot: &Snapshot) -> Result<(), String>;
     /// Called after every step; return [`Control::Stop`] to cancel.
@@ -198,13 +220,26 @@ pub trait Observer {
 /// An observer that keeps everything in memory (tests, studies).
 #[derive(Debug, Default)]
 pub struct Recorder {
+    pub columns: Vec<String>,
     pub rows: Vec<SeriesRow>,
     pub snapshots: Vec<Snapshot>,
 }
 
+impl Recorder {
+    /// The values of a named column, one per row (None if no such column).
+    pub fn column(&self, name: &str) -> Option<Vec<f64>> {
+        self.columns.iter().position(|c| c == name)?;
+        self.rows.iter().map(|r| r.get(&self.columns, name)).collect()
+    }
+}
+
 impl Observer for Recorder {
+    fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
+        self.columns = columns.to_vec();
+        Ok(())
+    }
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
-        self.rows.push(*row);
+        self.rows.push(row.clone());
         Ok(())
     }
     fn snapshot(&mut self, snapshot: &Snapshot) -> Result<(), String> {

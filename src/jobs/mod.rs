@@ -333,8 +333,8 @@ impl JobManager {
         snapfile::SnapshotReader::open(&path).map_err(JobError::Store)
     }
 
-    /// A job's time series so far.
-    pub fn series(&self, id: &str) -> Result<Vec<SeriesRow>, JobError> {
+    /// A job's time series so far: the column names and the rows.
+    pub fn series(&self, id: &str) -> Result<(Vec<String>, Vec<SeriesRow>), JobError> {
         let record = self.inner.store.get(id)?;
         let path = self.inner.store.job_dir(id).join("series.csv");
         let text = match std::fs::read_to_string(&path) {
@@ -352,22 +352,31 @@ fn snapshot_path(dir: &Path, index: u32) -> PathBuf {
     dir.join(format!("snapshot_{index:04}.bin"))
 }
 
-/// Reads `series.csv` back (the columns of [`SeriesRow::COLUMNS`]).
-fn parse_series(text: &str) -> Result<Vec<SeriesRow>, String> {
+/// Reads `series.csv` back: its columns (the core ones of
+/// [`SeriesRow::COLUMNS`] first, then the scene's) and rows. A file without
+/// a header yet (the job failed before its first row) has the core columns
+/// and no rows.
+fn parse_series(text: &str) -> Result<(Vec<String>, Vec<SeriesRow>), String> {
     let mut lines = text.lines();
-    let header = lines.next().ok_or("empty series")?;
-    if header != SeriesRow::COLUMNS.join(",") {
+    let Some(header) = lines.next() else {
+        return Ok((SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect(), Vec::new()));
+    };
+    let columns: Vec<String> = header.split(',').map(str::to_string).collect();
+    if columns.len() < SeriesRow::COLUMNS.len() || columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS {
         return Err(format!("unexpected columns {header:?}"));
     }
     let mut rows = Vec::new();
     for line in lines {
-        let v: Vec<f64> = line.split(',').map(|x| x.parse::<f64>().map_err(|e| format!("{x:?}: {e}"))).collect::<Result<_, _>>()?;
-        match SeriesRow::from_values(&v) {
-            Some(r) => rows.push(r),
-            None => break, // a row cut short by a crash: stop there
+        let v: Vec<f64> = match line.split(',').map(|x| x.parse::<f64>()).collect::<Result<_, _>>() {
+            Ok(v) => v,
+            Err(_) => break, // a row cut short by a crash: stop there
+        };
+        if v.len() != columns.len() {
+            break;
         }
+        rows.extend(SeriesRow::from_values(&v));
     }
-    Ok(rows)
+    Ok((columns, rows))
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -425,7 +434,6 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
         rows: 0,
         last_row: None,
     };
-    observer.write_header().map_err(|e| JobError::Store(format!("series.csv: {e}")))?;
     let threads = inner.config.threads_per_job.max(1);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -488,21 +496,19 @@ struct JobObserver<'a> {
     last_row: Option<SeriesRow>,
 }
 
-impl JobObserver<'_> {
-    fn write_header(&mut self) -> std::io::Result<()> {
-        use std::io::Write;
-        writeln!(self.series, "{}", SeriesRow::COLUMNS.join(","))
-    }
-}
-
 impl Observer for JobObserver<'_> {
+    fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
+        use std::io::Write;
+        writeln!(self.series, "{}", columns.join(",")).map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))
+    }
+
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
         use std::io::Write;
         crate::output::write_series_line(&mut self.series, row)
             .and_then(|_| self.series.flush())
             .map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))?;
         self.rows += 1;
-        self.last_row = Some(*row);
+        self.last_row = Some(row.clone());
         Ok(())
     }
 
@@ -542,5 +548,31 @@ impl Observer for JobObserver<'_> {
             self.last_emit = Some((now, fraction));
         }
         Control::Continue
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn series_files_read_back_with_the_scenes_columns() {
+        let core = SeriesRow::COLUMNS.join(",");
+        let ones = vec!["1"; SeriesRow::COLUMNS.len()].join(",");
+        // a phase-field series: two extra columns; the last row was cut
+        // short by a crash
+        let text = format!("{core},pf_residual,crack_length\n{ones},NaN,0.05\n{ones},1e-3,0.06\n{ones},2e-3\n");
+        let (columns, rows) = parse_series(&text).unwrap();
+        assert_eq!(columns.len(), SeriesRow::COLUMNS.len() + 2);
+        assert_eq!(rows.len(), 2);
+        assert!(rows[0].get(&columns, "pf_residual").unwrap().is_nan());
+        assert_eq!(rows[1].get(&columns, "crack_length"), Some(0.06));
+        assert_eq!(rows[1].get(&columns, "kinetic_energy"), Some(1.0));
+        // a job that failed before its first row: no header yet
+        let (columns, rows) = parse_series("").unwrap();
+        assert_eq!(columns, SeriesRow::COLUMNS);
+        assert!(rows.is_empty());
+        // a foreign file is an error
+        assert!(parse_series("a,b\n1,2\n").is_err());
     }
 }

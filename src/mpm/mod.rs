@@ -130,6 +130,9 @@ pub struct Simulation {
     contact_steps: u64,
     snapshot_index: u32,
     grid_valid: bool,
+    /// The step about to run ends on a series row (the phase field then
+    /// measures its stagger residual even with one iteration allowed).
+    row_due: bool,
 }
 
 impl Simulation {
@@ -159,6 +162,30 @@ impl Simulation {
         &self.times
     }
 
+    /// The series' column names: [`SeriesRow::COLUMNS`], then the scene's.
+    /// With a phase field: the solver's mean seconds per step since the
+    /// last row (`pf_assembly_s`, `pf_factorization_s`, `pf_solve_s`), the
+    /// most stagger iterations of a step (`pf_stagger_iterations`), the
+    /// last stagger residual (`pf_residual`), Ψ_f per body
+    /// (`fracture_energy_b<i>`, with two or more phase-field bodies), and
+    /// per tracked body the crack tip (`crack_tip_x`, `crack_tip_y`,
+    /// `crack_length`, `crack_speed`, suffixed `_b<i>` with two or more).
+    pub fn series_columns(&self) -> Vec<String> {
+        let mut c: Vec<String> = SeriesRow::COLUMNS.iter().map(|s| s.to_string()).collect();
+        if let Some(pf) = &self.phase {
+            c.extend(["pf_assembly_s", "pf_factorization_s", "pf_solve_s", "pf_stagger_iterations", "pf_residual"].map(String::from));
+            let (all, tracked) = pf.bodies();
+            if all.len() > 1 {
+                c.extend(all.iter().map(|b| format!("fracture_energy_b{b}")));
+            }
+            for b in &tracked {
+                let suffix = if tracked.len() > 1 { format!("_b{b}") } else { String::new() };
+                c.extend(["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"].map(|n| format!("{n}{suffix}")));
+            }
+        }
+        c
+    }
+
     /// Runs to `time.end`, reporting rows, snapshots and progress to `obs`.
     /// Returns early (with `cancelled`) when the observer asks to stop.
     pub fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {
@@ -170,6 +197,7 @@ impl Simulation {
         let row_time = |k: u64| end * k as f64 / (rows - 1) as f64;
         let snap_time = |k: u64| if snaps <= 1 { end } else { end * k as f64 / (snaps - 1) as f64 };
 
+        obs.series_columns(&self.series_columns()).map_err(SimError::Observer)?;
         let mut last = self.row();
         self.initial_energy = last.kinetic_energy + last.strain_energy;
         obs.series_row(&last).map_err(SimError::Observer)?;
@@ -184,6 +212,10 @@ impl Simulation {
                 return Err(SimError::MaxSteps { step: self.step, time: self.time });
             }
             let dt = self.next_dt(end)?;
+            self.row_due = next_row < rows && {
+                let t = self.time + dt;
+                t >= row_time(next_row) * (1.0 - 1e-12) || t >= end * (1.0 - 1e-12)
+            };
             self.advance(dt)?;
             let at_end = self.time >= end * (1.0 - 1e-12);
             if next_row < rows && (self.time >= row_time(next_row) * (1.0 - 1e-12) || at_end) {
@@ -223,7 +255,7 @@ impl Simulation {
             particles: self.parts.len(),
             stages: self.scene.plan.names(),
             cancelled,
-            last_row: last,
+            last_row: last.clone(),
             stage_seconds: self.times.clone(),
             contact_steps: self.contact_steps,
             phase_field: self.phase.as_ref().map(|p| p.stats()),
@@ -385,16 +417,26 @@ impl Simulation {
                 BadKind::VolumeVanished(j) => SimError::VolumeVanished { step, time, particle, j },
             });
         }
-        if let Some(pf) = &self.phase {
+        if let Some(pf) = self.phase.as_mut() {
             let t = Instant::now();
             pf.degrade(&mut self.parts, &self.mats);
             self.times.phase_field += t.elapsed().as_secs_f64();
         }
         self.max_signal = stats.max_signal;
+        let t6 = Instant::now();
         if stats.moved_tile {
             self.bins.rebuild(&self.geom);
         }
-        self.times.bins += t5.elapsed().as_secs_f64();
+        self.times.bins += t6.elapsed().as_secs_f64();
+        if let Some(pf) = self.phase.as_mut() {
+            let t = Instant::now();
+            pf.stagger::<K>(&self.geom, &self.bins, &mut self.parts, &self.mats, self.row_due).map_err(|e| SimError::PhaseField {
+                step: self.step,
+                time: self.time,
+                message: e.to_string(),
+            })?;
+            self.times.phase_field += t.elapsed().as_secs_f64();
+        }
         Ok(())
     }
 
@@ -440,15 +482,25 @@ impl Simulation {
             None
         };
         let m = measure::measure(&self.parts, &self.mats, apic_d);
-        let fracture_energy = match &self.phase {
-            None => 0.0,
-            Some(pf) => match self.scene.file.grid.shape_function {
-                ShapeFunctionKind::Linear => pf.fracture_energy::<Linear>(&self.geom, &self.parts),
-                ShapeFunctionKind::Gimp => pf.fracture_energy::<Gimp>(&self.geom, &self.parts),
-                ShapeFunctionKind::QuadraticBspline => pf.fracture_energy::<QuadraticBspline>(&self.geom, &self.parts),
-                ShapeFunctionKind::CubicBspline => pf.fracture_energy::<CubicBspline>(&self.geom, &self.parts),
-            },
-        };
+        let mut extra = Vec::new();
+        let mut fracture_energy = 0.0;
+        if let Some(pf) = self.phase.as_mut() {
+            let energies = match self.scene.file.grid.shape_function {
+                ShapeFunctionKind::Linear => pf.fracture_energies::<Linear>(&self.geom, &self.parts),
+                ShapeFunctionKind::Gimp => pf.fracture_energies::<Gimp>(&self.geom, &self.parts),
+                ShapeFunctionKind::QuadraticBspline => pf.fracture_energies::<QuadraticBspline>(&self.geom, &self.parts),
+                ShapeFunctionKind::CubicBspline => pf.fracture_energies::<CubicBspline>(&self.geom, &self.parts),
+            };
+            fracture_energy = energies.iter().fold(0.0, |a, b| a + b); // (an empty f64 sum is −0.0)
+            let s = pf.row_stats();
+            extra.extend([s.assembly, s.factorization, s.solve, s.staggers as f64, s.residual]);
+            if energies.len() > 1 {
+                extra.extend(&energies);
+            }
+            for tip in pf.crack_tips(&self.parts, self.time) {
+                extra.extend([tip.x[0], tip.x[1], tip.length, tip.speed]);
+            }
+        }
         let e = m.kinetic + m.strain;
         let row = SeriesRow {
             step: self.step,
@@ -463,6 +515,7 @@ impl Simulation {
             angular_momentum: m.angular,
             dt: self.dt,
             fracture_energy,
+            extra,
         };
         self.times.diagnostics += t0.elapsed().as_secs_f64();
         row

@@ -1,13 +1,21 @@
-//! The phase-field stage (seed 001, Algorithm 1 with one stagger iteration,
-//! which the paper found sufficient at explicit time steps):
+//! The phase-field stage (seed 001, Algorithm 1):
 //!
 //! - [`PhaseFields::solve`], after P2G: per phase-field body, assemble
 //!   K(H) c = F on its active nodes (eq. 57), solve, and map c to its
-//!   particles;
+//!   particles (skipped when the last stagger iteration of the previous
+//!   step already solved with today's positions and history);
 //! - [`PhaseFields::degrade`], after G2P: per particle, the tensile energy
 //!   ψ⁺ of the new strain (Miehe split), the history H = max(H, ψ⁺), and the
 //!   degraded stress σ = g(c) σ⁺ + σ⁻ with g(c) = (1 − k_f) c² + k_f, which
-//!   the next P2G uses.
+//!   the next P2G uses;
+//! - [`PhaseFields::stagger`], after the particles were re-binned: the
+//!   staggered iterations. The residual of eq. 50 with the updated history
+//!   is measured; while it exceeds the tolerance (and the iteration limit
+//!   allows), c is solved again with the new history and the stress
+//!   degraded again. In this explicit scheme the step's momentum update
+//!   used the stress of the previous step, so the strain and hence H do not
+//!   change between iterations: a second solve leaves only the linear
+//!   solver's residual, and it replaces the next step's first solve.
 //!
 //! One phase field per body (discrete fields). The particles' c and H live
 //! in `Particles::phase` and `Particles::history`.
@@ -34,12 +42,72 @@ struct Body {
     system: PhaseFieldSystem,
     /// Nodal c of the last solve (all grid nodes).
     c: Vec<f64>,
+    /// The crack-tip diagnostic's origin, if tracked.
+    origin: Option<[f64; 2]>,
+    /// (time, crack length) at the last series row, for the tip speed.
+    last_tip: Option<(f64, f64)>,
+}
+
+/// The crack tip of one body: the particle with c < [`TIP_C`] farthest
+/// from the body's crack origin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct CrackTip {
+    /// Tip position, m (NaN while no particle has c < 0.1).
+    pub x: [f64; 2],
+    /// Distance of the tip from the origin, m (0 while there is no crack).
+    pub length: f64,
+    /// Change of `length` per time since the last series row, m/s.
+    pub speed: f64,
+}
+
+/// Particles with c below this count as cracked for the crack tip.
+const TIP_C: f64 = 0.1;
+
+/// Solver work since the last series row.
+#[derive(Debug, Clone, Copy, Default)]
+struct Interval {
+    steps: u64,
+    /// The most solves any step of the interval did.
+    max_staggers: u32,
+    /// The residual after the last step's stagger loop (NaN if it was not
+    /// measured: one iteration allowed and no row due).
+    residual: f64,
+    /// Solver totals at the start of the interval.
+    mark: SolveStats,
+}
+
+/// Per-step phase-field figures of a series row.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct RowStats {
+    /// Mean wall seconds per step since the last row.
+    pub assembly: f64,
+    /// Symbolic analysis plus numeric factorization.
+    pub factorization: f64,
+    /// Triangular solves and PCG.
+    pub solve: f64,
+    /// The most stagger iterations (solves) of one step since the last row.
+    pub staggers: u32,
+    /// ‖K(H)c − F‖/‖F‖ after the last step's stagger loop, as far as the
+    /// history update is concerned (the linear solver's own residual is
+    /// bounded by its tolerance and not included).
+    pub residual: f64,
 }
 
 /// The phase fields of a simulation.
 pub(super) struct PhaseFields {
     bodies: Vec<Body>,
     method: SolveMethod,
+    max_staggers: u32,
+    stagger_tolerance: f64,
+    /// Per particle, w_p of [`PhaseFieldSystem::history_residual`] for the
+    /// last history update.
+    dh: Vec<f64>,
+    /// c was solved with the present positions and history: the next
+    /// step's first solve would repeat it.
+    current: bool,
+    /// Solves in the present step.
+    staggers: u32,
+    interval: Interval,
 }
 
 fn distance_to_polyline(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
@@ -66,7 +134,8 @@ impl PhaseFields {
             let gamma = phase_field_gamma(pf).rotated(pf.angle.to_radians());
             let params = PhaseFieldParams { gc_bar: pf.gc, l0: pf.l0, k_f: pf.k_f, gamma };
             let particles: Vec<u32> = (0..parts.len() as u32).filter(|&p| parts.body[p as usize] as usize == b).collect();
-            bodies.push((b, spec.cracks.clone(), params, particles));
+            let origin = spec.crack_origin.or_else(|| spec.cracks.first().map(|c| c.points[0]));
+            bodies.push((b, spec.cracks.clone(), params, particles, origin));
         }
         if bodies.is_empty() {
             return None;
@@ -75,7 +144,7 @@ impl PhaseFields {
         parts.history = vec![0.0; parts.len()];
         let out = bodies
             .into_iter()
-            .map(|(b, cracks, params, particles)| {
+            .map(|(b, cracks, params, particles, origin)| {
                 let spacing = scene.file.grid.cell_size / scene.lattice(b).per_dir as f64;
                 let h0 = CRACK_B * params.gc_bar / (4.0 * params.l0);
                 for &p in &particles {
@@ -84,7 +153,7 @@ impl PhaseFields {
                         parts.history[p as usize] = h0;
                     }
                 }
-                Body { body: b as u16, particles, params, system: PhaseFieldSystem::new(), c: Vec::new() }
+                Body { body: b as u16, particles, params, system: PhaseFieldSystem::new(), c: Vec::new(), origin, last_tip: None }
             })
             .collect();
         let o = &scene.file.phase_field_solver;
@@ -96,11 +165,31 @@ impl PhaseFields {
                 refactor_after: o.refactor_after as usize,
             },
         };
-        Some(PhaseFields { bodies: out, method })
+        let n = parts.len();
+        Some(PhaseFields {
+            bodies: out,
+            method,
+            max_staggers: o.max_staggers,
+            stagger_tolerance: o.stagger_tolerance,
+            dh: vec![0.0; n],
+            current: false,
+            staggers: 0,
+            interval: Interval { residual: f64::NAN, ..Default::default() },
+        })
     }
 
-    /// Solves every body's phase field and maps c to its particles.
+    /// The step's first stagger iteration: solves every body's phase field
+    /// and maps c to its particles, unless the last stagger iteration of
+    /// the previous step already did so for the same positions and history.
     pub(super) fn solve<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles) -> Result<(), PhaseFieldError> {
+        self.staggers = 1;
+        if std::mem::take(&mut self.current) {
+            return Ok(());
+        }
+        self.solve_all::<K>(geom, bins, parts)
+    }
+
+    fn solve_all<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles) -> Result<(), PhaseFieldError> {
         for body in &mut self.bodies {
             let fp = FieldParticles {
                 x: &parts.x,
@@ -122,14 +211,65 @@ impl PhaseFields {
         Ok(())
     }
 
+    /// The staggered iterations after the history update (see the module
+    /// docs); `bins` must hold the particles' present tiles. With a row
+    /// due (`measure`), the residual is measured even when one iteration is
+    /// allowed.
+    pub(super) fn stagger<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        bins: &Bins,
+        parts: &mut Particles,
+        mats: &[Elastic],
+        measure: bool,
+    ) -> Result<(), PhaseFieldError> {
+        let mut residual = f64::NAN;
+        if self.max_staggers > 1 || measure {
+            loop {
+                residual = self.history_residual::<K>(geom, bins, parts);
+                if residual <= self.stagger_tolerance || self.staggers >= self.max_staggers {
+                    break;
+                }
+                self.solve_all::<K>(geom, bins, parts)?;
+                self.degrade(parts, mats);
+                self.staggers += 1;
+                self.current = true;
+            }
+        }
+        let i = &mut self.interval;
+        i.steps += 1;
+        i.max_staggers = i.max_staggers.max(self.staggers);
+        i.residual = residual;
+        Ok(())
+    }
+
+    /// max over bodies of ‖ΔK c‖/‖F‖ for the last history update.
+    fn history_residual<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &Particles) -> f64 {
+        let mut r: f64 = 0.0;
+        for body in &mut self.bodies {
+            let fp = FieldParticles {
+                x: &parts.x,
+                vol: &parts.vol,
+                history: &parts.history,
+                body: Some((&parts.body, body.body)),
+                bins: Some(bins),
+            };
+            r = r.max(body.system.history_residual::<K>(geom, &fp, &self.dh));
+        }
+        r
+    }
+
     /// History update and stress degradation after the particles' strains
-    /// were updated (linear elastic, small strain).
-    pub(super) fn degrade(&self, parts: &mut Particles, mats: &[Elastic]) {
+    /// were updated (linear elastic, small strain). Also records each
+    /// particle's history increment for the stagger residual.
+    pub(super) fn degrade(&mut self, parts: &mut Particles, mats: &[Elastic]) {
         let history = SyncPtr::new(&mut parts.history);
         let stress = SyncPtr::new(&mut parts.stress);
-        let (strain, phase, material) = (&parts.strain, &parts.phase, &parts.material);
+        let dh = SyncPtr::new(&mut self.dh);
+        let (strain, phase, material, vol) = (&parts.strain, &parts.phase, &parts.material, &parts.vol);
         for body in &self.bodies {
             let k_f = body.params.k_f;
+            let reaction = 4.0 * body.params.l0 * (1.0 - k_f) / body.params.gc_bar;
             body.particles.par_iter().for_each(|&p| {
                 let p = p as usize;
                 let m = &mats[material[p] as usize];
@@ -144,6 +284,7 @@ impl PhaseFields {
                 // SAFETY: each particle index appears once in the body's list.
                 unsafe {
                     let h = history.at(p);
+                    *dh.at(p) = if psi > *h { vol[p] * reaction * (psi - *h) * c } else { 0.0 };
                     if psi > *h {
                         *h = psi;
                     }
@@ -153,12 +294,15 @@ impl PhaseFields {
         }
     }
 
-    /// Ψ_f over all phase-field bodies with the nodal c of the last solve, J.
-    pub(super) fn fracture_energy<K: Kernel>(&self, geom: &GridGeom, parts: &Particles) -> f64 {
+    /// Ψ_f of each phase-field body with the nodal c of the last solve, J
+    /// (0 before the first solve).
+    pub(super) fn fracture_energies<K: Kernel>(&self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
         self.bodies
             .iter()
-            .filter(|b| !b.c.is_empty())
             .map(|b| {
+                if b.c.is_empty() {
+                    return 0.0;
+                }
                 let fp = FieldParticles {
                     x: &parts.x,
                     vol: &parts.vol,
@@ -168,7 +312,56 @@ impl PhaseFields {
                 };
                 system::fracture_energy::<K>(geom, &b.c, &fp, &b.params, |_| true)
             })
-            .fold(0.0, |a, b| a + b) // (an empty f64 sum is −0.0)
+            .collect()
+    }
+
+    /// The scene indices of the phase-field bodies, and of those whose
+    /// crack tip is tracked.
+    pub(super) fn bodies(&self) -> (Vec<usize>, Vec<usize>) {
+        let all = self.bodies.iter().map(|b| b.body as usize).collect();
+        let tracked = self.bodies.iter().filter(|b| b.origin.is_some()).map(|b| b.body as usize).collect();
+        (all, tracked)
+    }
+
+    /// The crack tips of the tracked bodies at `time`; the speeds are
+    /// measured from the previous call.
+    pub(super) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
+        let mut tips = Vec::new();
+        for body in &mut self.bodies {
+            let Some(o) = body.origin else { continue };
+            let (d2, p) = body
+                .particles
+                .par_iter()
+                .filter(|&&p| parts.phase[p as usize] < TIP_C)
+                .map(|&p| {
+                    let x = parts.x[p as usize];
+                    ((x[0] - o[0]).powi(2) + (x[1] - o[1]).powi(2), p)
+                })
+                // the farthest; the lowest index among equals (deterministic)
+                .reduce(|| (-1.0, u32::MAX), |a, b| if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
+            let (x, length) = if p == u32::MAX { ([f64::NAN; 2], 0.0) } else { (parts.x[p as usize], d2.sqrt()) };
+            let speed = match body.last_tip {
+                Some((t, l)) if time > t => (length - l) / (time - t),
+                _ => 0.0,
+            };
+            body.last_tip = Some((time, length));
+            tips.push(CrackTip { x, length, speed });
+        }
+        tips
+    }
+
+    /// The per-step solver figures since the last call.
+    pub(super) fn row_stats(&mut self) -> RowStats {
+        let now = self.stats();
+        let i = std::mem::replace(&mut self.interval, Interval { residual: f64::NAN, mark: now, ..Default::default() });
+        let per = |a: f64, b: f64| if i.steps > 0 { (a - b) / i.steps as f64 } else { 0.0 };
+        RowStats {
+            assembly: per(now.assembly, i.mark.assembly),
+            factorization: per(now.analysis + now.factorization, i.mark.analysis + i.mark.factorization),
+            solve: per(now.solve, i.mark.solve),
+            staggers: i.max_staggers,
+            residual: i.residual,
+        }
     }
 
     /// Solver times and counts summed over the bodies.

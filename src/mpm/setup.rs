@@ -147,6 +147,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         contact_steps: 0,
         snapshot_index: 0,
         grid_valid: false,
+        row_due: false,
     }
 }
 

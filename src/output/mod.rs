@@ -58,13 +58,13 @@ pub struct OutputWriter {
 }
 
 impl OutputWriter {
-    /// Creates `dir` (and parents) and starts `series.csv`.
+    /// Creates `dir` (and parents) and `series.csv` (its header comes with
+    /// [`Observer::series_columns`]).
     pub fn create(dir: &Path) -> Result<OutputWriter, OutputError> {
         std::fs::create_dir_all(dir).map_err(|e| OutputError::new(dir, e))?;
         let series_path = dir.join("series.csv");
         let file = File::create(&series_path).map_err(|e| OutputError::new(&series_path, e))?;
-        let mut series = BufWriter::new(file);
-        writeln!(series, "{}", SeriesRow::COLUMNS.join(",")).map_err(|e| OutputError::new(&series_path, e))?;
+        let series = BufWriter::new(file);
         Ok(OutputWriter {
             dir: dir.to_path_buf(),
             series,
@@ -104,11 +104,15 @@ impl OutputWriter {
 }
 
 impl Observer for OutputWriter {
+    fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
+        writeln!(self.series, "{}", columns.join(",")).map_err(|e| OutputError::new(&self.series_path, e).to_string())
+    }
+
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
         write_series_line(&mut self.series, row)
             .and_then(|_| self.series.flush())
             .map_err(|e| OutputError::new(&self.series_path, e).to_string())?;
-        self.rows.push(*row);
+        self.rows.push(row.clone());
         Ok(())
     }
 
@@ -145,9 +149,9 @@ pub(crate) fn write_series_line(w: &mut impl Write, row: &SeriesRow) -> std::io:
 }
 
 /// Writes a whole series to `path` (atomically), as [`OutputWriter`] does.
-pub fn write_series_csv(path: &Path, rows: &[SeriesRow]) -> Result<(), OutputError> {
+pub fn write_series_csv(path: &Path, columns: &[String], rows: &[SeriesRow]) -> Result<(), OutputError> {
     write_atomic(path, |w| {
-        writeln!(w, "{}", SeriesRow::COLUMNS.join(","))?;
+        writeln!(w, "{}", columns.join(","))?;
         for r in rows {
             write_series_line(w, r)?;
         }
@@ -189,18 +193,22 @@ mod tests {
                 kinetic_energy: 0.1 + k as f64 / 7.0,
                 strain_energy: 1e-300,
                 momentum_x: -2.5e12,
+                extra: vec![f64::NAN, 3.0e-9 * k as f64],
                 ..Default::default()
             })
             .collect();
         let p = dir.path().join("s.csv");
-        write_series_csv(&p, &rows).unwrap();
+        let mut columns: Vec<String> = SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect();
+        columns.extend(["a".to_string(), "b".to_string()]);
+        write_series_csv(&p, &columns, &rows).unwrap();
         let text = std::fs::read_to_string(&p).unwrap();
         let mut lines = text.lines();
-        assert_eq!(lines.next().unwrap(), SeriesRow::COLUMNS.join(","));
+        assert_eq!(lines.next().unwrap(), columns.join(","));
         for (line, row) in lines.zip(&rows) {
             let parsed: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
             let want = row.values();
-            assert_eq!(parsed.len(), want.len());
+            assert_eq!(parsed.len(), 14);
+            assert_eq!(SeriesRow::from_values(&parsed).as_ref().map(|r| r.extra.len()), Some(2));
             for (a, b) in parsed.iter().zip(want.iter()) {
                 assert_eq!(a.to_bits(), b.to_bits());
             }

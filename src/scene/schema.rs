@@ -68,6 +68,15 @@ pub struct PhaseFieldSolverSpec {
     /// PCG: refactorize when a solve takes more iterations than this.
     #[serde(default = "default_pcg_refactor")]
     pub refactor_after: u32,
+    /// Staggered iterations per step (seed 001 Algorithm 1): after the
+    /// history update, c is solved again while the relative phase-field
+    /// residual exceeds `stagger_tolerance`, up to this many solves per step.
+    /// 1 (the default, the paper's finding) does no re-solve.
+    #[serde(default = "default_max_staggers")]
+    pub max_staggers: u32,
+    /// Relative residual ‖K(H)c − F‖/‖F‖ below which the stagger loop stops.
+    #[serde(default = "default_stagger_tolerance")]
+    pub stagger_tolerance: f64,
 }
 
 impl Default for PhaseFieldSolverSpec {
@@ -77,8 +86,17 @@ impl Default for PhaseFieldSolverSpec {
             tolerance: default_pcg_tolerance(),
             max_iterations: default_pcg_max(),
             refactor_after: default_pcg_refactor(),
+            max_staggers: default_max_staggers(),
+            stagger_tolerance: default_stagger_tolerance(),
         }
     }
+}
+
+fn default_max_staggers() -> u32 {
+    1
+}
+fn default_stagger_tolerance() -> f64 {
+    1e-6
 }
 
 fn default_pcg_tolerance() -> f64 {
@@ -489,6 +507,12 @@ pub struct BodySpec {
     /// history field is set so that c ≈ 0 there (Borden et al. 2012).
     #[serde(default)]
     pub cracks: Vec<CrackSpec>,
+    /// Where the crack-tip diagnostic measures from (phase-field bodies):
+    /// the tip is the particle with c < 0.1 farthest from this point.
+    /// Default: the first point of the first initial crack; without either,
+    /// the body's tip is not tracked.
+    #[serde(default)]
+    pub crack_origin: Option<[f64; 2]>,
 }
 
 /// An initial crack as a polyline of at least two points, m.

@@ -132,7 +132,12 @@ impl Scene {
                     }
                 } else if !body.cracks.is_empty() {
                     c.err(&format!("{path}.cracks"), "initial cracks need a material with a phase_field");
+                } else if body.crack_origin.is_some() {
+                    c.err(&format!("{path}.crack_origin"), "a crack-tip origin needs a material with a phase_field");
                 }
+            }
+            if let Some(o) = body.crack_origin {
+                c.point(&format!("{path}.crack_origin"), o);
             }
             for (k, crack) in body.cracks.iter().enumerate() {
                 if crack.points.len() < 2 {
@@ -365,6 +370,12 @@ fn check_output_and_guards(c: &mut Checker, file: &SceneFile) {
     }
     if pf.max_iterations == 0 {
         c.err("phase_field_solver.max_iterations", "must be >= 1, got 0");
+    }
+    if !(1..=100).contains(&pf.max_staggers) {
+        c.err("phase_field_solver.max_staggers", format!("must be in [1, 100], got {}", pf.max_staggers));
+    }
+    if c.finite("phase_field_solver.stagger_tolerance", pf.stagger_tolerance) && !(pf.stagger_tolerance > 0.0) {
+        c.err("phase_field_solver.stagger_tolerance", format!("must be > 0, got {}", pf.stagger_tolerance));
     }
     if file.output.series_rows < 2 || file.output.series_rows > 10_000_000 {
         c.err("output.series_rows", format!("must be in [2, 10000000], got {}", file.output.series_rows));

@@ -309,9 +309,9 @@ impl Cleave for CleaveService {
     async fn fetch_series(&self, req: Request<proto::FetchSeriesRequest>) -> Result<Response<proto::FetchSeriesResponse>, Status> {
         let id = req.into_inner().job_id;
         let jobs = self.jobs.clone();
-        let rows = blocking(move || jobs.series(&id)).await?;
+        let (columns, rows) = blocking(move || jobs.series(&id)).await?;
         Ok(Response::new(proto::FetchSeriesResponse {
-            columns: crate::diagnostics::SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect(),
+            columns,
             values: rows.iter().flat_map(|r| r.values()).collect(),
             rows: rows.len() as u32,
         }))

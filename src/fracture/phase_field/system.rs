@@ -232,6 +232,9 @@ pub struct PhaseFieldSystem {
     /// The last solution, per dof (PCG's starting point).
     last: Vec<f64>,
     mem: MemBuffer,
+    /// Nodal scratch of [`PhaseFieldSystem::history_residual`] (all grid
+    /// nodes, zero between calls).
+    scratch: Vec<f64>,
     pub stats: SolveStats,
 }
 
@@ -257,6 +260,7 @@ impl PhaseFieldSystem {
             factored: false,
             last: Vec::new(),
             mem: MemBuffer::new(faer::dyn_stack::StackReq::empty()),
+            scratch: Vec::new(),
             stats: SolveStats::default(),
         }
     }
@@ -415,6 +419,47 @@ impl PhaseFieldSystem {
             }
         }
         self.stats.assembly += t0.elapsed().as_secs_f64();
+    }
+
+    /// The relative phase-field residual that a history update leaves,
+    /// ‖ΔK c‖ / ‖F‖ with ΔK c = Σ_p w_p N_I(x_p) (seed 001 eq. 50 with the
+    /// K of eq. 57: only its reaction term depends on H, so for a history
+    /// increment ΔH_p the caller passes w_p = V_p·4l₀(1−k_f)ΔH_p/Ḡc·c_p,
+    /// zero where H did not grow). ‖F‖ is that of the last assembly; 0 if
+    /// there was none. Scattered over the bins' colours when `parts` has
+    /// bins, serially otherwise.
+    pub fn history_residual<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, w: &[f64]) -> f64 {
+        let norm_f = self.rhs.iter().map(|f| f * f).fold(0.0, |a, b| a + b).sqrt();
+        if norm_f == 0.0 {
+            return 0.0;
+        }
+        self.scratch.resize(geom.node_count(), 0.0);
+        let r = SyncPtr::new(&mut self.scratch);
+        let add = |q: usize| {
+            if w[q] == 0.0 || !parts.member(q) {
+                return;
+            }
+            let s = support::<K>(geom, parts.x[q]);
+            for k in 0..s.n {
+                // SAFETY: the caller's colouring (or a serial loop).
+                unsafe { *r.at(s.node[k]) += w[q] * s.w[k] };
+            }
+        };
+        match parts.bins {
+            Some(bins) => {
+                for colour in &bins.colours {
+                    // particles of same-colour tiles share no node
+                    colour.par_iter().for_each(|&tile| bins.particles_of(tile).iter().for_each(|&q| add(q as usize)));
+                }
+            }
+            None => (0..parts.x.len()).for_each(add),
+        }
+        let mut sum = 0.0;
+        for v in &mut self.scratch {
+            sum += *v * *v;
+            *v = 0.0;
+        }
+        sum.sqrt() / norm_f
     }
 
     /// The assembled matrix as dense rows (tests and diagnostics only).
