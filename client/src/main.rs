@@ -4,6 +4,7 @@
 //! 2 invalid scene or usage.
 
 mod bench;
+mod bench_pf;
 mod gc_polar;
 mod remote;
 
@@ -74,6 +75,21 @@ enum Command {
         /// Runs of each kind (medians are reported).
         #[arg(long, default_value_t = 3)]
         repeats: usize,
+    },
+    /// Where the time of a phase-field step goes (MPM, assembly,
+    /// factorization, solve), direct against PCG, for a scene with a fixed
+    /// dt (default: P1 at the paper's resolution).
+    BenchPhaseField {
+        #[arg(long, default_value = "scenes/p1_plate.toml")]
+        scene: PathBuf,
+        #[arg(long, default_value = "docs/phase-field-performance.md")]
+        out: PathBuf,
+        /// Untimed steps first (they include the symbolic analysis).
+        #[arg(long, default_value_t = 5)]
+        warmup: usize,
+        /// Timed steps per method.
+        #[arg(long, default_value_t = 40)]
+        steps: usize,
     },
     /// The effective surface energy Gc(θ) of the anisotropic phase field
     /// (eq. 8 of Kakouris & Triantafyllou) as a table and a polar plot.
@@ -180,6 +196,13 @@ fn main() -> ExitCode {
         }
         Command::GcPolar { gamma, gc_bar, angle_step, json, out } => gc_polar::run(&gamma, gc_bar, angle_step, json, &out),
         Command::BenchService { out, repeats } => match bench::run_service(&out, repeats.max(1)) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                ExitCode::from(EXIT_FAILED)
+            }
+        },
+        Command::BenchPhaseField { scene, out, warmup, steps } => match bench_pf::run(&scene, &out, warmup, steps.max(1)) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");
@@ -371,7 +394,7 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
         | Command::List { json, .. }
         | Command::Get { json, .. }
         | Command::Cancel { json, .. } => *json,
-        Command::Bench { .. } | Command::BenchService { .. } | Command::GcPolar { .. } => false,
+        Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::GcPolar { .. } => false,
     };
     let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
         Ok(r) => r,
@@ -460,7 +483,7 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
                     remote::print_job(&remote::cancel(&mut client, &job).await?, json);
                     Ok(ExitCode::SUCCESS)
                 }
-                Command::Bench { .. } | Command::BenchService { .. } | Command::GcPolar { .. } => {
+                Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::GcPolar { .. } => {
                     eprintln!("error: this command runs in this process; drop --server");
                     Ok(ExitCode::from(EXIT_INVALID))
                 }

@@ -157,6 +157,11 @@ impl Simulation {
         self.step
     }
 
+    /// Phase-field solver times and counts so far (with a phase field).
+    pub fn phase_field_stats(&self) -> Option<crate::fracture::phase_field::system::SolveStats> {
+        self.phase.as_ref().map(|p| p.stats())
+    }
+
     /// Wall time spent in each stage so far.
     pub fn stage_times(&self) -> &StageTimes {
         &self.times

@@ -165,8 +165,8 @@ pub fn plot_particle_field(
         y1 = y1.max(p[1]);
     }
     let (w, h) = ((x1 - x0).max(f64::MIN_POSITIVE), (y1 - y0).max(f64::MIN_POSITIVE));
-    let width = 1000u32;
-    let height = ((width as f64 * h / w).round() as u32).clamp(50, 2000);
+    // at most 1000 × 2000 pixels, in the particles' aspect ratio
+    let (width, height) = if h > 2.0 * w { (((2000.0 * w / h).round() as u32).max(50), 2000) } else { (1000, ((1000.0 * h / w).round() as u32).max(50)) };
     let tmp = path.with_extension("png.tmp.png");
     {
         let root = BitMapBackend::new(&tmp, (width, height + 30)).into_drawing_area();

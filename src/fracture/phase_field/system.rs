@@ -26,6 +26,10 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use std::time::Instant;
 
+/// The diagonal penalty of [`PhaseFieldSystem::assemble`], relative to the
+/// largest diagonal entry.
+const PIVOT_FLOOR: f64 = 1e-12;
+
 /// Material parameters of one discrete field's phase field.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PhaseFieldParams {
@@ -223,6 +227,8 @@ pub struct PhaseFieldSystem {
     /// rebuilt only when one changes.
     keys: Vec<u64>,
     values: Vec<f64>,
+    /// Position in `values` of each dof's diagonal entry.
+    diag: Vec<u32>,
     rhs: Vec<f64>,
     /// The analysis and the node set it was made for.
     symbolic: Option<SymbolicCholesky<usize>>,
@@ -254,6 +260,7 @@ impl PhaseFieldSystem {
             nbr: Vec::new(),
             keys: Vec::new(),
             values: Vec::new(),
+            diag: Vec::new(),
             rhs: Vec::new(),
             symbolic: None,
             l_values: Vec::new(),
@@ -351,6 +358,7 @@ impl PhaseFieldSystem {
         let [nx, ny] = [geom.nodes[0] as isize, geom.nodes[1] as isize];
         self.col_ptr.clear();
         self.row_idx.clear();
+        self.diag.clear();
         self.nbr.clear();
         self.nbr.resize(self.dofs.len() * side * side, u32::MAX);
         self.col_ptr.push(0);
@@ -365,6 +373,9 @@ impl PhaseFieldSystem {
                     let other = (x + y * nx) as usize;
                     let d = self.dof_of[other];
                     if d != u32::MAX && other >= node as usize {
+                        if other == node as usize {
+                            self.diag.push(self.row_idx.len() as u32);
+                        }
                         let k = ((dy + w) as usize) * side + (dx + w) as usize;
                         self.nbr[col * side * side + k] = self.row_idx.len() as u32;
                         self.row_idx.push(d as usize);
@@ -417,6 +428,18 @@ impl PhaseFieldSystem {
                     unsafe { ctx.particle::<K>(q) };
                 }
             }
+        }
+        // A node at the fringe of the particles' supports sees only tiny
+        // weights: its row is all but singular, and round-off in the
+        // factorization can leave a negative pivot (seen on a fast disk in
+        // contact). The penalty δ(c_I − 1) with δ = PIVOT_FLOOR·max K_II
+        // holds such nodes at the undamaged c = 1 and changes c at
+        // well-supported nodes by a relative 1e-12.
+        let max_diag = self.diag.iter().map(|&k| self.values[k as usize]).fold(0.0, f64::max);
+        let delta = PIVOT_FLOOR * max_diag;
+        for (d, &k) in self.diag.iter().enumerate() {
+            self.values[k as usize] += delta;
+            self.rhs[d] += delta;
         }
         self.stats.assembly += t0.elapsed().as_secs_f64();
     }

@@ -1,0 +1,124 @@
+//! `cleave bench-phase-field`: where the time of a phase-field step goes,
+//! for a scene (by default P1 at the paper's resolution), with the direct
+//! solve (the baseline) and the warm-started PCG in the same run. Prints
+//! the table and writes it to a Markdown file.
+
+use anyhow::Context;
+use cleave::mpm::Simulation;
+use cleave::scene::{PhaseFieldMethod, Scene};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+/// Seconds per step of one method.
+struct Split {
+    method: &'static str,
+    /// P2G, traction, grid update, G2P, re-binning.
+    mpm: f64,
+    assembly: f64,
+    /// Symbolic analysis and numeric factorization.
+    factorization: f64,
+    /// Triangular solves, PCG iterations.
+    solve: f64,
+    /// Mapping c to particles, degradation, stagger check.
+    other_pf: f64,
+    /// Wall time per step (includes the series diagnostics: none here).
+    wall: f64,
+    factorizations: u64,
+    analyses: u64,
+    pcg_iterations: f64,
+}
+
+fn measure(scene: &Scene, method: PhaseFieldMethod, warmup: usize, steps: usize) -> anyhow::Result<Split> {
+    let mut scene = scene.clone();
+    scene.file.phase_field_solver.method = method;
+    let t = Instant::now();
+    let mut sim = Simulation::new(&scene);
+    eprintln!("{method:?}: {} particles set up in {:.1} s", sim.particles().len(), t.elapsed().as_secs_f64());
+    for _ in 0..warmup {
+        sim.step()?;
+    }
+    let (t0, s0) = (sim.stage_times().clone(), sim.phase_field_stats().context("the scene has no phase field")?);
+    let wall = Instant::now();
+    for _ in 0..steps {
+        sim.step()?;
+    }
+    let wall = wall.elapsed().as_secs_f64();
+    let (t1, s1) = (sim.stage_times(), sim.phase_field_stats().context("the scene has no phase field")?);
+    let per = |a: f64, b: f64| (a - b) / steps as f64;
+    let mpm = per(t1.p2g + t1.traction + t1.grid_update + t1.g2p + t1.bins + t1.contact + t1.field_partition, t0.p2g + t0.traction + t0.grid_update + t0.g2p + t0.bins + t0.contact + t0.field_partition);
+    let assembly = per(s1.assembly, s0.assembly);
+    let factorization = per(s1.analysis + s1.factorization, s0.analysis + s0.factorization);
+    let solve = per(s1.solve, s0.solve);
+    let pf = per(t1.phase_field, t0.phase_field);
+    let solves = (s1.pcg_solves - s0.pcg_solves).max(1) as f64;
+    Ok(Split {
+        method: match method {
+            PhaseFieldMethod::Direct => "direct (Cholesky every step)",
+            PhaseFieldMethod::Pcg => "PCG (warm start, last factor)",
+        },
+        mpm,
+        assembly,
+        factorization,
+        solve,
+        other_pf: (pf - assembly - factorization - solve).max(0.0),
+        wall: wall / steps as f64,
+        factorizations: s1.factorizations - s0.factorizations,
+        analyses: s1.analyses - s0.analyses,
+        pcg_iterations: (s1.pcg_iterations - s0.pcg_iterations) as f64 / solves,
+    })
+}
+
+pub fn run(scene_path: &Path, out: &Path, warmup: usize, steps: usize) -> anyhow::Result<()> {
+    let scene = Scene::from_path(scene_path).map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?;
+    let dt = scene.file.time.dt.context("the benchmark needs a scene with a fixed time.dt (to extrapolate to time.end)")?;
+    let total_steps = (scene.file.time.end / dt).round();
+    let threads = rayon::current_num_threads();
+    let mut rows = Vec::new();
+    for method in [PhaseFieldMethod::Direct, PhaseFieldMethod::Pcg] {
+        rows.push(measure(&scene, method, warmup, steps)?);
+    }
+    let mut md = String::new();
+    writeln!(md, "# Phase-field step: where the time goes\n")?;
+    writeln!(
+        md,
+        "`cargo run --release -p cleave-client -- bench-phase-field --scene {} --warmup {warmup} --steps {steps}` \
+         on this machine ({threads} threads). The scene has {} particles on {} × {} cells. \
+         Seconds per step over {steps} steps after {warmup} warm-up steps (the warm-up includes the \
+         symbolic analysis); both methods in the same run, the direct solve is the baseline. \
+         *Full run* extrapolates the wall time per step to the scene's {total_steps} steps \
+         (series rows and snapshots not included).\n",
+        scene_path.display(),
+        scene.particle_counts.iter().sum::<usize>(),
+        scene.cells[0],
+        scene.cells[1],
+    )?;
+    writeln!(md, "| method | MPM | assembly | factorization | solve | other phase field | wall per step | full run | factorizations | PCG iterations per solve |")?;
+    writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")?;
+    for r in &rows {
+        writeln!(
+            md,
+            "| {} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.1} min | {} ({} analyses) | {} |",
+            r.method,
+            r.mpm,
+            r.assembly,
+            r.factorization,
+            r.solve,
+            r.other_pf,
+            r.wall,
+            r.wall * total_steps / 60.0,
+            r.factorizations,
+            r.analyses,
+            if r.method.starts_with("PCG") { format!("{:.2}", r.pcg_iterations) } else { "–".into() },
+        )?;
+    }
+    let (d, p) = (&rows[0], &rows[1]);
+    writeln!(md, "\nPCG against the direct solve: {:.2}× the wall time per step.", p.wall / d.wall)?;
+    print!("{md}");
+    if let Some(dir) = out.parent() {
+        std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
+    }
+    std::fs::write(out, md).with_context(|| out.display().to_string())?;
+    eprintln!("wrote {}", out.display());
+    Ok(())
+}
