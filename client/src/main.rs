@@ -109,6 +109,14 @@ enum Command {
         #[arg(long, default_value = "gc-polar.png")]
         out: PathBuf,
     },
+    /// Draw energies.png (and crack.png, with a crack tip) from a
+    /// series.csv, e.g. one fetched from a server or cut short.
+    Plot {
+        series: PathBuf,
+        /// Directory for the plots (default: the series' directory).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Check a scene without running it; prints its plan.
     Validate {
         scene: PathBuf,
@@ -195,6 +203,13 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INVALID)
         }
         Command::GcPolar { gamma, gc_bar, angle_step, json, out } => gc_polar::run(&gamma, gc_bar, angle_step, json, &out),
+        Command::Plot { series, out } => match plot(&series, out.as_deref()) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                ExitCode::from(EXIT_FAILED)
+            }
+        },
         Command::BenchService { out, repeats } => match bench::run_service(&out, repeats.max(1)) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -217,6 +232,23 @@ fn main() -> ExitCode {
             }
         },
     }
+}
+
+/// `cleave plot`: the run's plots from its series.
+fn plot(series: &Path, out: Option<&Path>) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(series).with_context(|| series.display().to_string())?;
+    let (columns, rows) = cleave::output::parse_series(&text).map_err(|e| anyhow::anyhow!("{}: {e}", series.display()))?;
+    let dir = out.or(series.parent()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
+    for (name, drawn) in [
+        ("energies.png", cleave::output::plot_energies(&dir.join("energies.png"), &rows)?),
+        ("crack.png", cleave::output::plot_crack(&dir.join("crack.png"), &columns, &rows)?),
+    ] {
+        if drawn {
+            println!("{}", dir.join(name).display());
+        }
+    }
+    Ok(())
 }
 
 fn report_invalid(path: &Path, e: &SceneError, json: bool) -> ExitCode {
@@ -394,7 +426,7 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
         | Command::List { json, .. }
         | Command::Get { json, .. }
         | Command::Cancel { json, .. } => *json,
-        Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::GcPolar { .. } => false,
+        Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::GcPolar { .. } | Command::Plot { .. } => false,
     };
     let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
         Ok(r) => r,
@@ -483,7 +515,7 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
                     remote::print_job(&remote::cancel(&mut client, &job).await?, json);
                     Ok(ExitCode::SUCCESS)
                 }
-                Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::GcPolar { .. } => {
+                Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::GcPolar { .. } | Command::Plot { .. } => {
                     eprintln!("error: this command runs in this process; drop --server");
                     Ok(ExitCode::from(EXIT_INVALID))
                 }

@@ -344,39 +344,12 @@ impl JobManager {
             }
             Err(e) => return Err(JobError::Store(format!("{}: {e}", path.display()))),
         };
-        parse_series(&text).map_err(|e| JobError::Store(format!("{}: {e}", path.display())))
+        crate::output::parse_series(&text).map_err(|e| JobError::Store(format!("{}: {e}", path.display())))
     }
 }
 
 fn snapshot_path(dir: &Path, index: u32) -> PathBuf {
     dir.join(format!("snapshot_{index:04}.bin"))
-}
-
-/// Reads `series.csv` back: its columns (the core ones of
-/// [`SeriesRow::COLUMNS`] first, then the scene's) and rows. A file without
-/// a header yet (the job failed before its first row) has the core columns
-/// and no rows.
-fn parse_series(text: &str) -> Result<(Vec<String>, Vec<SeriesRow>), String> {
-    let mut lines = text.lines();
-    let Some(header) = lines.next() else {
-        return Ok((SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect(), Vec::new()));
-    };
-    let columns: Vec<String> = header.split(',').map(str::to_string).collect();
-    if columns.len() < SeriesRow::COLUMNS.len() || columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS {
-        return Err(format!("unexpected columns {header:?}"));
-    }
-    let mut rows = Vec::new();
-    for line in lines {
-        let v: Vec<f64> = match line.split(',').map(|x| x.parse::<f64>()).collect::<Result<_, _>>() {
-            Ok(v) => v,
-            Err(_) => break, // a row cut short by a crash: stop there
-        };
-        if v.len() != columns.len() {
-            break;
-        }
-        rows.extend(SeriesRow::from_values(&v));
-    }
-    Ok((columns, rows))
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -554,6 +527,8 @@ impl Observer for JobObserver<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::output::parse_series;
 
     #[test]
     fn series_files_read_back_with_the_scenes_columns() {

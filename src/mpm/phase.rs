@@ -52,11 +52,14 @@ struct Body {
 /// from the body's crack origin.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct CrackTip {
-    /// Tip position, m (NaN while no particle has c < 0.1).
+    /// Tip position, m (NaN while no particle has c < 0.1, or before the
+    /// first solve).
     pub x: [f64; 2],
-    /// Distance of the tip from the origin, m (0 while there is no crack).
+    /// Distance of the tip from the origin, m (0 while there is no crack;
+    /// NaN before the first solve).
     pub length: f64,
-    /// Change of `length` per time since the last series row, m/s.
+    /// Change of `length` per time since the last series row, m/s (NaN at
+    /// the first measured row).
     pub speed: f64,
 }
 
@@ -108,6 +111,11 @@ pub(super) struct PhaseFields {
     /// Solves in the present step.
     staggers: u32,
     interval: Interval,
+}
+
+/// One body's particles as the phase-field system reads them.
+fn of_body<'a>(parts: &'a Particles, body: u16, bins: Option<&'a Bins>) -> FieldParticles<'a> {
+    FieldParticles { x: &parts.x, vol: &parts.vol, history: &parts.history, body: Some((&parts.body, body)), bins }
 }
 
 fn distance_to_polyline(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
@@ -191,13 +199,7 @@ impl PhaseFields {
 
     fn solve_all<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles) -> Result<(), PhaseFieldError> {
         for body in &mut self.bodies {
-            let fp = FieldParticles {
-                x: &parts.x,
-                vol: &parts.vol,
-                history: &parts.history,
-                body: Some((&parts.body, body.body)),
-                bins: Some(bins),
-            };
+            let fp = of_body(parts, body.body, Some(bins));
             body.system.assemble::<K>(geom, &fp, &body.params);
             body.c = body.system.solve_with(geom.node_count(), self.method)?;
             let phase = SyncPtr::new(&mut parts.phase);
@@ -247,13 +249,7 @@ impl PhaseFields {
     fn history_residual<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &Particles) -> f64 {
         let mut r: f64 = 0.0;
         for body in &mut self.bodies {
-            let fp = FieldParticles {
-                x: &parts.x,
-                vol: &parts.vol,
-                history: &parts.history,
-                body: Some((&parts.body, body.body)),
-                bins: Some(bins),
-            };
+            let fp = of_body(parts, body.body, Some(bins));
             r = r.max(body.system.history_residual::<K>(geom, &fp, &self.dh));
         }
         r
@@ -303,13 +299,7 @@ impl PhaseFields {
                 if b.c.is_empty() {
                     return 0.0;
                 }
-                let fp = FieldParticles {
-                    x: &parts.x,
-                    vol: &parts.vol,
-                    history: &parts.history,
-                    body: Some((&parts.body, b.body)),
-                    bins: None,
-                };
+                let fp = of_body(parts, b.body, None);
                 system::fracture_energy::<K>(geom, &b.c, &fp, &b.params, |_| true)
             })
             .collect()
@@ -329,6 +319,11 @@ impl PhaseFields {
         let mut tips = Vec::new();
         for body in &mut self.bodies {
             let Some(o) = body.origin else { continue };
+            if body.c.is_empty() {
+                // before the first solve c is not known yet
+                tips.push(CrackTip { x: [f64::NAN; 2], length: f64::NAN, speed: f64::NAN });
+                continue;
+            }
             let (d2, p) = body
                 .particles
                 .par_iter()
@@ -342,7 +337,7 @@ impl PhaseFields {
             let (x, length) = if p == u32::MAX { ([f64::NAN; 2], 0.0) } else { (parts.x[p as usize], d2.sqrt()) };
             let speed = match body.last_tip {
                 Some((t, l)) if time > t => (length - l) / (time - t),
-                _ => 0.0,
+                _ => f64::NAN,
             };
             body.last_tip = Some((time, length));
             tips.push(CrackTip { x, length, speed });

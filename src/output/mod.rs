@@ -10,7 +10,7 @@
 mod plot;
 mod vtk;
 
-pub use plot::{plot_energies, plot_particle_field, plot_polar};
+pub use plot::{plot_crack, plot_energies, plot_particle_field, plot_polar};
 pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
 
 use crate::diagnostics::{Observer, SeriesRow, Snapshot};
@@ -42,6 +42,8 @@ pub struct OutputPaths {
     pub particles_pvd: Option<PathBuf>,
     pub grid_pvd: Option<PathBuf>,
     pub energy_plot: Option<PathBuf>,
+    /// `crack.png`, for series with a crack tip.
+    pub crack_plot: Option<PathBuf>,
     /// Snapshot files in the order written (particles, then grid).
     pub snapshots: Vec<PathBuf>,
 }
@@ -51,6 +53,7 @@ pub struct OutputWriter {
     dir: PathBuf,
     series: BufWriter<File>,
     series_path: PathBuf,
+    columns: Vec<String>,
     rows: Vec<SeriesRow>,
     particle_entries: Vec<(f64, String)>,
     grid_entries: Vec<(f64, String)>,
@@ -69,6 +72,7 @@ impl OutputWriter {
             dir: dir.to_path_buf(),
             series,
             series_path,
+            columns: Vec::new(),
             rows: Vec::new(),
             particle_entries: Vec::new(),
             grid_entries: Vec::new(),
@@ -99,12 +103,17 @@ impl OutputWriter {
         if plot_energies(&p, &self.rows)? {
             paths.energy_plot = Some(p);
         }
+        let p = self.dir.join("crack.png");
+        if plot_crack(&p, &self.columns, &self.rows)? {
+            paths.crack_plot = Some(p);
+        }
         Ok(paths)
     }
 }
 
 impl Observer for OutputWriter {
     fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
+        self.columns = columns.to_vec();
         writeln!(self.series, "{}", columns.join(",")).map_err(|e| OutputError::new(&self.series_path, e).to_string())
     }
 
@@ -157,6 +166,33 @@ pub fn write_series_csv(path: &Path, columns: &[String], rows: &[SeriesRow]) -> 
         }
         Ok(())
     })
+}
+
+/// Reads a `series.csv` back: its columns (the core ones of
+/// [`SeriesRow::COLUMNS`] first, then the scene's) and rows. A file without
+/// a header yet (a job that failed before its first row) has the core
+/// columns and no rows; a last row cut short by a crash is dropped.
+pub fn parse_series(text: &str) -> Result<(Vec<String>, Vec<SeriesRow>), String> {
+    let mut lines = text.lines();
+    let Some(header) = lines.next() else {
+        return Ok((SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect(), Vec::new()));
+    };
+    let columns: Vec<String> = header.split(',').map(str::to_string).collect();
+    if columns.len() < SeriesRow::COLUMNS.len() || columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS {
+        return Err(format!("unexpected columns {header:?}"));
+    }
+    let mut rows = Vec::new();
+    for line in lines {
+        let v: Vec<f64> = match line.split(',').map(|x| x.parse::<f64>()).collect::<Result<_, _>>() {
+            Ok(v) => v,
+            Err(_) => break,
+        };
+        if v.len() != columns.len() {
+            break;
+        }
+        rows.extend(SeriesRow::from_values(&v));
+    }
+    Ok((columns, rows))
 }
 
 /// Writes through `fill` into `path.tmp`, then renames it over `path`.

@@ -1,77 +1,122 @@
-//! The energy plot: kinetic, strain, total and external work against time.
+//! Plots of a run: energies against time, the crack tip against time, and
+//! a particle field as an image.
 
 use super::OutputError;
 use crate::diagnostics::SeriesRow;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// Draws `energies.png`. Non-finite values are skipped. Returns Ok(false)
-/// and writes nothing when there is nothing to plot (fewer than two rows).
+/// One line of a chart: name, colour, points (non-finite ones are skipped).
+type Line = (String, RGBColor, Vec<(f64, f64)>);
+
+const BLUE_: RGBColor = RGBColor(31, 119, 180);
+const ORANGE: RGBColor = RGBColor(255, 127, 14);
+const GREEN_: RGBColor = RGBColor(44, 160, 44);
+const GREY: RGBColor = RGBColor(120, 120, 120);
+const PURPLE: RGBColor = RGBColor(148, 103, 189);
+
+/// Draws one chart of `lines` against time into `area`.
+fn chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str, y_desc: &str, lines: &[Line]) -> Result<(), String> {
+    let pts = || lines.iter().flat_map(|l| l.2.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
+    let t_max = pts().map(|p| p.0).fold(0.0f64, f64::max).max(f64::MIN_POSITIVE);
+    let (lo, mut hi) = pts().fold((0.0f64, 0.0f64), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
+    if hi - lo <= 0.0 {
+        hi = lo + 1.0;
+    }
+    let pad = 0.05 * (hi - lo);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(80)
+        .build_cartesian_2d(0.0..t_max, (lo - pad)..(hi + pad))
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc("time in s")
+        .y_desc(y_desc)
+        .x_label_formatter(&|x| format!("{x:.2e}"))
+        .y_label_formatter(&|y| format!("{y:.2e}"))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for (name, colour, points) in lines {
+        let p: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+        let colour = *colour;
+        chart
+            .draw_series(LineSeries::new(p, colour.stroke_width(2)))
+            .map_err(|e| e.to_string())?
+            .label(name.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
+/// Draws `charts` stacked vertically into a PNG at `path` (atomically).
+fn draw(path: &Path, charts: &[(&str, &str, Vec<Line>)]) -> Result<(), OutputError> {
+    // plotters reports its errors as its own type; keep the message.
+    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
+    let tmp = path.with_extension("png.tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, (900, 520 * charts.len() as u32)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        for (area, (title, y_desc, lines)) in root.split_evenly((charts.len(), 1)).iter().zip(charts) {
+            chart(area, title, y_desc, lines).map_err(err)?;
+        }
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
+}
+
+/// Draws `energies.png`: kinetic, strain, their sum, the external work and
+/// (when there is one) the fracture energy. Returns Ok(false) and writes
+/// nothing when there is nothing to plot (fewer than two rows).
 pub fn plot_energies(path: &Path, rows: &[SeriesRow]) -> Result<bool, OutputError> {
     let rows: Vec<&SeriesRow> = rows.iter().filter(|r| r.time.is_finite()).collect();
     if rows.len() < 2 {
         return Ok(false);
     }
-    let series: [(&str, RGBColor, fn(&SeriesRow) -> f64); 4] = [
-        ("kinetic", RGBColor(31, 119, 180), |r| r.kinetic_energy),
-        ("strain", RGBColor(255, 127, 14), |r| r.strain_energy),
-        ("kinetic + strain", RGBColor(44, 160, 44), |r| r.kinetic_energy + r.strain_energy),
-        ("external work", RGBColor(120, 120, 120), |r| r.external_work),
+    let line = |name: &str, colour, f: fn(&SeriesRow) -> f64| -> Line { (name.to_string(), colour, rows.iter().map(|r| (r.time, f(r))).collect()) };
+    let mut lines = vec![
+        line("kinetic", BLUE_, |r| r.kinetic_energy),
+        line("strain", ORANGE, |r| r.strain_energy),
+        line("kinetic + strain", GREEN_, |r| r.kinetic_energy + r.strain_energy),
+        line("external work", GREY, |r| r.external_work),
     ];
-    let t_max = rows.iter().map(|r| r.time).fold(0.0f64, f64::max).max(f64::MIN_POSITIVE);
-    let (mut lo, mut hi) = (0.0f64, 0.0f64);
-    for r in &rows {
-        for (_, _, f) in &series {
-            let v = f(r);
-            if v.is_finite() {
-                lo = lo.min(v);
-                hi = hi.max(v);
-            }
-        }
+    if rows.iter().any(|r| r.fracture_energy != 0.0) {
+        lines.push(line("fracture", PURPLE, |r| r.fracture_energy));
     }
-    if hi - lo <= 0.0 {
-        hi = lo + 1.0;
+    draw(path, &[("Energies", "energy in J", lines)])?;
+    Ok(true)
+}
+
+/// Draws `crack.png` from a series with the crack-tip columns: crack
+/// length (mm) and tip speed (m/s) against time, one line per tracked body.
+/// Returns Ok(false) and writes nothing without such columns.
+pub fn plot_crack(path: &Path, columns: &[String], rows: &[SeriesRow]) -> Result<bool, OutputError> {
+    if rows.len() < 2 {
+        return Ok(false);
     }
-    let pad = 0.05 * (hi - lo);
-    // plotters reports its errors as its own type; keep the message.
-    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
-    let tmp = path.with_extension("png.tmp.png");
-    {
-        let root = BitMapBackend::new(&tmp, (900, 520)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption("Energies", ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(45)
-            .y_label_area_size(80)
-            .build_cartesian_2d(0.0..t_max, (lo - pad)..(hi + pad))
-            .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc("time in s")
-            .y_desc("energy in J")
-            .x_label_formatter(&|x| format!("{x:.2e}"))
-            .y_label_formatter(&|y| format!("{y:.2e}"))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
-        for (name, colour, f) in &series {
-            let pts: Vec<(f64, f64)> = rows.iter().map(|r| (r.time, f(r))).filter(|p| p.1.is_finite()).collect();
-            chart
-                .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
-                .map_err(|e| err(e.to_string()))?
-                .label(*name)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
-        root.present().map_err(|e| err(e.to_string()))?;
+    let colours = [BLUE_, ORANGE, GREEN_, PURPLE, GREY];
+    let (mut length, mut speed) = (Vec::new(), Vec::new());
+    for (k, name) in columns.iter().filter(|c| c.starts_with("crack_length")).enumerate() {
+        let suffix = &name["crack_length".len()..];
+        let label = if suffix.is_empty() { "tip".to_string() } else { format!("tip{suffix}") };
+        let colour = colours[k % colours.len()];
+        let at = |col: &str, scale: f64| -> Vec<(f64, f64)> { rows.iter().filter_map(|r| Some((r.time, scale * r.get(columns, col)?))).collect() };
+        length.push((label.clone(), colour, at(name, 1e3)));
+        speed.push((label, colour, at(&format!("crack_speed{suffix}"), 1.0)));
     }
-    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))?;
+    if length.is_empty() {
+        return Ok(false);
+    }
+    draw(path, &[("Crack length (tip distance from the crack origin)", "length in mm", length), ("Crack-tip speed", "speed in m/s", speed)])?;
     Ok(true)
 }
 

@@ -65,7 +65,10 @@ pub struct PhaseFieldSolverSpec {
     /// PCG: iterations before falling back to a direct solve.
     #[serde(default = "default_pcg_max")]
     pub max_iterations: u32,
-    /// PCG: refactorize when a solve takes more iterations than this.
+    /// PCG: what a numeric factorization costs, in PCG iterations. A solve
+    /// that takes more iterations than this is redone directly, and the
+    /// factor is renewed when a solve costs more than the average per solve
+    /// since the last factorization (this cost included).
     #[serde(default = "default_pcg_refactor")]
     pub refactor_after: u32,
     /// Staggered iterations per step (seed 001 Algorithm 1): after the

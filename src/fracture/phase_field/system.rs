@@ -237,6 +237,12 @@ pub struct PhaseFieldSystem {
     factored: bool,
     /// The last solution, per dof (PCG's starting point).
     last: Vec<f64>,
+    /// PCG's renewal rule, in units of one PCG iteration: the cost of the
+    /// solves since the last factorization (the factorization included)
+    /// and their number; `refactor_next` asks for a fresh factor.
+    cycle_cost: f64,
+    cycle_solves: u32,
+    refactor_next: bool,
     mem: MemBuffer,
     /// Nodal scratch of [`PhaseFieldSystem::history_residual`] (all grid
     /// nodes, zero between calls).
@@ -266,6 +272,9 @@ impl PhaseFieldSystem {
             l_values: Vec::new(),
             factored: false,
             last: Vec::new(),
+            cycle_cost: 0.0,
+            cycle_solves: 0,
+            refactor_next: false,
             mem: MemBuffer::new(faer::dyn_stack::StackReq::empty()),
             scratch: Vec::new(),
             stats: SolveStats::default(),
@@ -524,26 +533,46 @@ impl PhaseFieldSystem {
             return Ok(c);
         }
         let x = match method {
-            SolveMethod::Pcg { tolerance, max_iterations, refactor_after } if self.factored && self.last.len() == n => {
+            SolveMethod::Pcg { tolerance, max_iterations, refactor_after } if self.factored && self.last.len() == n && !self.refactor_next => {
                 let t0 = Instant::now();
                 let (x, iterations) = self.pcg(tolerance, max_iterations);
                 self.stats.solve += t0.elapsed().as_secs_f64();
                 self.stats.pcg_solves += 1;
                 self.stats.pcg_iterations += iterations as u64;
+                // The renewal rule: as the history grows the old factor
+                // preconditions worse and the iterations climb. Refactorize
+                // when a solve costs more than the average per solve since
+                // the last factorization (which counts as `refactor_after`
+                // iterations): that keeps the average near its minimum.
+                // Counted in iterations, not seconds, so runs repeat exactly.
+                self.cycle_cost += iterations as f64;
+                self.cycle_solves += 1;
+                self.refactor_next = iterations as f64 > self.cycle_cost / self.cycle_solves as f64;
                 match x {
                     Some(x) if iterations <= refactor_after => x,
                     // slow or no convergence: a fresh factor, which also
                     // preconditions the next steps
-                    _ => self.direct()?,
+                    _ => self.renew(refactor_after)?,
                 }
             }
-            _ => self.direct()?,
+            SolveMethod::Pcg { refactor_after, .. } => self.renew(refactor_after)?,
+            SolveMethod::Direct => self.direct()?,
         };
         for (d, &node) in self.dofs.iter().enumerate() {
             c[node as usize] = x[d];
         }
         self.last = x;
         Ok(c)
+    }
+
+    /// A direct solve that starts a new cycle of PCG's renewal rule: a
+    /// factorization (`refactor_after` iterations) and one pair of
+    /// triangular solves (one iteration).
+    fn renew(&mut self, refactor_after: usize) -> Result<Vec<f64>, PhaseFieldError> {
+        let x = self.direct()?;
+        self.cycle_cost = refactor_after as f64 + 1.0;
+        self.cycle_solves = 1;
+        Ok(x)
     }
 
     /// Analysis (if the pattern is new), numeric factorization, solve.
@@ -578,6 +607,7 @@ impl PhaseFieldSystem {
         )
         .map_err(|e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}")))?;
         self.factored = true;
+        self.refactor_next = false;
         self.stats.factorizations += 1;
         let t2 = Instant::now();
         self.stats.factorization += (t2 - t1).as_secs_f64();
