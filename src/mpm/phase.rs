@@ -142,7 +142,7 @@ impl PhaseFields {
             let gamma = phase_field_gamma(pf).rotated(pf.angle.to_radians());
             let params = PhaseFieldParams { gc_bar: pf.gc, l0: pf.l0, k_f: pf.k_f, gamma };
             let particles: Vec<u32> = (0..parts.len() as u32).filter(|&p| parts.body[p as usize] as usize == b).collect();
-            let origin = spec.crack_origin.or_else(|| spec.cracks.first().map(|c| c.points[0]));
+            let origin = spec.crack_origin.or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()));
             bodies.push((b, spec.cracks.clone(), params, particles, origin));
         }
         if bodies.is_empty() {
