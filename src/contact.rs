@@ -33,18 +33,32 @@ use rayon::prelude::*;
 #[derive(Debug, Clone, Default)]
 pub struct ContactLaw {
     pub groups: usize,
+    /// μ between contact groups a and b at `mu[a * groups + b]`.
     pub mu: Vec<f64>,
+    /// Velocity fields per contact group: 1, or 2 with DFG partitioning
+    /// (field 2g + side).
+    pub fields_per_group: usize,
+    /// μ between the two sides of one group (DFG crack faces and
+    /// self-contact).
+    pub self_friction: f64,
     /// Mass of a node fully covered by the lightest material, ρ h² t, kg.
     pub full_node_mass: f64,
 }
 
 impl ContactLaw {
+    /// μ between velocity fields (mask bits) `a` and `b`.
     pub fn friction(&self, a: usize, b: usize) -> f64 {
-        self.mu[a * self.groups + b]
+        let k = self.fields_per_group.max(1);
+        let (ga, gb) = (a / k, b / k);
+        if ga == gb {
+            self.self_friction
+        } else {
+            self.mu[ga * self.groups + gb]
+        }
     }
 }
 
-/// Most fields at one node (one per contact group).
+/// Most fields at one node (one per contact group, or two with DFG).
 const MAX_FIELDS: usize = 32;
 
 /// A field takes part in contact at a node only if it holds at least this

@@ -248,4 +248,5 @@ impl Observer for Recorder {
     }
 }
 
+pub mod crack;
 pub mod measure;

@@ -147,6 +147,32 @@ pub fn seed(shape: &ShapeSpec, holes: &[ShapeSpec], lat: &Lattice, mut emit: imp
     }
 }
 
+/// Distance from `p` to the polyline through `pts`, m.
+pub fn distance_to_polyline(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
+    pts.windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let ab = [b[0] - a[0], b[1] - a[1]];
+            let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+            let t = if len2 > 0.0 {
+                (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            ((p[0] - a[0] - t * ab[0]).powi(2) + (p[1] - a[1] - t * ab[1]).powi(2)).sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Whether a particle at `p` with lattice spacing `spacing` lies on one of
+/// the initial cracks: within 0.55 spacings of its polyline (one particle
+/// row for a crack along a row, two for a crack between rows).
+pub fn on_cracks(p: [f64; 2], cracks: &[crate::scene::CrackSpec], spacing: f64) -> bool {
+    cracks
+        .iter()
+        .any(|c| distance_to_polyline(p, &c.points) < 0.55 * spacing)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

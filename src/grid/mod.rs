@@ -14,6 +14,10 @@
 
 pub mod shape;
 
+use crate::particles::Particles;
+use rayon::prelude::*;
+use shape::{Kernel, Weights1};
+
 use std::ops::Range;
 
 /// Ghost nodes beyond the domain on each side.
@@ -147,9 +151,10 @@ pub struct MultiField {
     pub multi_nodes: Vec<u32>,
 }
 
-/// Maps (node, contact group) to a velocity-field slot.
+/// Maps a (node, particle) pair to the velocity-field slot the particle
+/// maps to at that node.
 pub trait FieldSlots: Sync {
-    fn slot(&self, node: usize, group: u8) -> usize;
+    fn slot(&self, node: usize, particle: usize) -> usize;
 }
 
 /// Every particle in one field: the slot is the node.
@@ -157,7 +162,7 @@ pub struct SingleField;
 
 impl FieldSlots for SingleField {
     #[inline(always)]
-    fn slot(&self, node: usize, _group: u8) -> usize {
+    fn slot(&self, node: usize, _particle: usize) -> usize {
         node
     }
 }
@@ -166,18 +171,52 @@ impl FieldSlots for SingleField {
 pub struct GroupFields<'a> {
     pub nodes: usize,
     pub multi: &'a MultiField,
+    /// Dense contact group of each particle.
+    pub group: &'a [u8],
+}
+
+impl MultiField {
+    /// The slot of field bit `field` at `node` (the bit must be set).
+    #[inline(always)]
+    pub fn slot_of(&self, nodes: usize, node: usize, field: u32) -> usize {
+        let rank = (self.mask[node] & ((1u32 << field) - 1)).count_ones() as usize;
+        if rank == 0 {
+            node
+        } else {
+            nodes + self.offset[node] as usize + rank - 1
+        }
+    }
+
+    /// Lays out the extra slots for the current masks; returns the number
+    /// of slots (nodes + extra).
+    pub fn layout(&mut self) -> usize {
+        let nodes = self.mask.len();
+        self.offset.clear();
+        self.offset.reserve(nodes + 1);
+        self.extra_node.clear();
+        self.multi_nodes.clear();
+        let mut total = 0u32;
+        for (n, &m) in self.mask.iter().enumerate() {
+            self.offset.push(total);
+            let k = m.count_ones();
+            if k > 1 {
+                self.multi_nodes.push(n as u32);
+                for _ in 1..k {
+                    self.extra_node.push(n as u32);
+                }
+                total += k - 1;
+            }
+        }
+        self.offset.push(total);
+        nodes + total as usize
+    }
 }
 
 impl FieldSlots for GroupFields<'_> {
     #[inline(always)]
-    fn slot(&self, node: usize, group: u8) -> usize {
-        let mask = self.multi.mask[node];
-        let rank = (mask & ((1u32 << group) - 1)).count_ones() as usize;
-        if rank == 0 {
-            node
-        } else {
-            self.nodes + self.multi.offset[node] as usize + rank - 1
-        }
+    fn slot(&self, node: usize, particle: usize) -> usize {
+        self.multi
+            .slot_of(self.nodes, node, self.group[particle] as u32)
     }
 }
 
@@ -258,6 +297,42 @@ impl Bins {
 
     pub fn particles_of(&self, tile: u32) -> &[u32] {
         &self.order[self.start[tile as usize] as usize..self.start[tile as usize + 1] as usize]
+    }
+}
+
+/// Kernel weights of particle `p`: its position in node units and the 1D
+/// weights along x and y (GIMP uses the particle's half-width).
+#[inline(always)]
+pub fn weights<K: Kernel>(
+    geom: &GridGeom,
+    parts: &Particles,
+    p: usize,
+) -> ([f64; 2], Weights1, Weights1) {
+    let xi = geom.xi(parts.x[p]);
+    let lp = parts.half_size.get(p).copied().unwrap_or(0.0);
+    (xi, K::eval(xi[0], lp), K::eval(xi[1], lp))
+}
+
+/// Runs `scatter(p, xi, wx, wy)` for every particle: colour by colour, the
+/// tiles of one colour in parallel, the particles of a tile in ascending
+/// order. Writes from one tile never meet writes from another tile of the
+/// same colour (see [`crate::grid::TILE`]), so `scatter` may add into the
+/// nodes of the particle's support through a [`SyncPtr`], and the order of
+/// the additions at every node is the same for any number of threads.
+pub fn scatter_coloured<K: Kernel>(
+    geom: &GridGeom,
+    parts: &Particles,
+    bins: &Bins,
+    scatter: impl Fn(usize, [f64; 2], Weights1, Weights1) + Sync,
+) {
+    for colour in &bins.colours {
+        colour.par_iter().for_each(|&tile| {
+            for &p in bins.particles_of(tile) {
+                let p = p as usize;
+                let (xi, wx, wy) = weights::<K>(geom, parts, p);
+                scatter(p, xi, wx, wy);
+            }
+        });
     }
 }
 

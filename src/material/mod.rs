@@ -192,6 +192,7 @@ mod tests {
             lambda: e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
             mu: e / (2.0 * (1.0 + nu)),
             phase_field: None,
+            damage: None,
             wave_speed: 5000.0,
         };
         Elastic::new(&m, plane)

@@ -182,7 +182,7 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
     let def_grad = SyncPtr::new(&mut parts.def_grad);
     let affine = SyncPtr::new(&mut parts.affine);
     let tile_of = SyncPtr::new(&mut bins.tile_of);
-    let (material, group, vol0, half_size) = (&parts.material, &parts.group, &parts.vol0, &parts.half_size);
+    let (material, vol0, half_size) = (&parts.material, &parts.vol0, &parts.half_size);
     let alpha = transfer.flip;
     let dinv = K::APIC_DINV_H2.map(|d| d * geom.inv_h * geom.inv_h);
     (0..n.div_ceil(CHUNK))
@@ -196,7 +196,6 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
                 let lp = if gimp { half_size[p] } else { 0.0 };
                 let wx = K::eval(xi[0], lp);
                 let wy = K::eval(xi[1], lp);
-                let g = group[p];
                 let mut vpic = [0.0; 2];
                 let mut dflip = [0.0; 2];
                 let mut l = [0.0; 4]; // ∂v_a/∂x_b: (xx, xy, yx, yy)
@@ -206,7 +205,7 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
                     let dy = (wy.base + j as isize) as f64 - xi[1];
                     for i in 0..K::N {
                         let node = (wx.base + i as isize) as usize + ny * geom.nodes[0];
-                        let s = slots.slot(node, g);
+                        let s = slots.slot(node, p);
                         let w = wx.w[i] * wy.w[j];
                         let gx = wx.dw[i] * wy.w[j] * geom.inv_h;
                         let gy = wx.w[i] * wy.dw[j] * geom.inv_h;
@@ -290,7 +289,7 @@ pub fn musl_stress<K: Kernel, S: FieldSlots>(
     let strain = SyncPtr::new(&mut parts.strain);
     let def_grad = SyncPtr::new(&mut parts.def_grad);
     let tile_of = SyncPtr::new(&mut bins.tile_of);
-    let (material, group, vol0, half_size, v) = (&parts.material, &parts.group, &parts.vol0, &parts.half_size, &parts.v);
+    let (material, vol0, half_size, v) = (&parts.material, &parts.vol0, &parts.half_size, &parts.v);
     (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
@@ -307,7 +306,7 @@ pub fn musl_stress<K: Kernel, S: FieldSlots>(
                     let ny = (wy.base + j as isize) as usize;
                     for i in 0..K::N {
                         let node = (wx.base + i as isize) as usize + ny * geom.nodes[0];
-                        let vi = vel[slots.slot(node, group[p])];
+                        let vi = vel[slots.slot(node, p)];
                         let gx = wx.dw[i] * wy.w[j] * geom.inv_h;
                         let gy = wx.w[i] * wy.dw[j] * geom.inv_h;
                         l[0] += vi[0] * gx;

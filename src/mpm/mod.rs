@@ -10,6 +10,7 @@
 //!
 //! Entry points: [`Simulation::new`] then [`Simulation::run`].
 
+mod damage;
 mod g2p;
 mod grid_update;
 mod p2g;
@@ -20,12 +21,14 @@ pub use g2p::BadKind;
 
 use crate::contact::{self, ContactLaw};
 use crate::diagnostics::{measure, Control, Observer, Progress, SeriesRow};
+use crate::fracture::dfg::{Dfg, DfgFields};
 use crate::grid::shape::{CubicBspline, Gimp, Kernel, Linear, QuadraticBspline};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::{Scene, ShapeFunctionKind};
 use grid_update::Boundary;
+use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -61,6 +64,7 @@ pub enum SimError {
 /// Wall time spent in each stage, s.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct StageTimes {
+    pub damage_field: f64,
     pub field_partition: f64,
     pub p2g: f64,
     pub traction: f64,
@@ -68,6 +72,7 @@ pub struct StageTimes {
     pub grid_update: f64,
     pub contact: f64,
     pub g2p: f64,
+    pub damage: f64,
     pub bins: f64,
     pub diagnostics: f64,
 }
@@ -89,6 +94,8 @@ pub struct RunSummary {
     pub contact_steps: u64,
     /// Phase-field solver times and counts (with a phase field).
     pub phase_field: Option<crate::fracture::phase_field::system::SolveStats>,
+    /// Neighbour-list builds and separated nodes (with `[dfg]`).
+    pub dfg: Option<crate::fracture::dfg::DfgStats>,
 }
 
 /// A simulation in progress: the particles, the grid, and the clock.
@@ -106,6 +113,13 @@ pub struct Simulation {
     tractions: setup::Tractions,
     /// Present iff the plan has the phase-field stage.
     phase: Option<phase::PhaseFields>,
+    /// Present iff the plan has the damage stage.
+    damage: Option<damage::DamageState>,
+    /// Present iff the plan has the damage-field stage.
+    dfg: Option<Dfg>,
+    /// Dense contact group of each particle (a copy of `parts.group` the
+    /// field slots borrow while the step mutates the particles).
+    group_of: Vec<u8>,
     apic: bool,
     /// Modified update-stress-last (a second scatter and gather).
     musl: bool,
@@ -175,6 +189,10 @@ impl Simulation {
     /// (`fracture_energy_b<i>`, with two or more phase-field bodies), and
     /// per tracked body the crack tip (`crack_tip_x`, `crack_tip_y`,
     /// `crack_length`, `crack_speed`, suffixed `_b<i>` with two or more).
+    /// With `[dfg]` (seed 000): the separated nodes of the last step and
+    /// the neighbour-list builds so far. With damage: `energy_balance`
+    /// (kinetic + strain + dissipated − initial − external work),
+    /// `failed_particles`, and the crack tips of bodies with a crack origin.
     pub fn series_columns(&self) -> Vec<String> {
         let mut c: Vec<String> = SeriesRow::COLUMNS.iter().map(|s| s.to_string()).collect();
         if let Some(pf) = &self.phase {
@@ -186,6 +204,24 @@ impl Simulation {
             for b in &tracked {
                 let suffix = if tracked.len() > 1 { format!("_b{b}") } else { String::new() };
                 c.extend(["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"].map(|n| format!("{n}{suffix}")));
+            }
+        }
+        if self.dfg.is_some() {
+            c.extend(["dfg_separated_nodes", "dfg_neighbour_builds"].map(String::from));
+        }
+        if let Some(d) = &self.damage {
+            c.extend(["energy_balance", "failed_particles"].map(String::from));
+            let tracked = d.tracked();
+            for b in &tracked {
+                let suffix = if tracked.len() > 1 {
+                    format!("_b{b}")
+                } else {
+                    String::new()
+                };
+                c.extend(
+                    ["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"]
+                        .map(|n| format!("{n}{suffix}")),
+                );
             }
         }
         c
@@ -264,6 +300,7 @@ impl Simulation {
             stage_seconds: self.times.clone(),
             contact_steps: self.contact_steps,
             phase_field: self.phase.as_ref().map(|p| p.stats()),
+            dfg: self.dfg.as_ref().map(|d| d.stats()),
         })
     }
 
@@ -324,62 +361,151 @@ impl Simulation {
 
     fn advance_k<K: Kernel>(&mut self, dt: f64) -> Result<(), SimError> {
         if let Some(mut multi) = self.multi.take() {
+            let group = std::mem::take(&mut self.group_of);
+            let mut dfg = self.dfg.take();
             let t0 = Instant::now();
-            let slots_n = p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi);
-            self.grid.reset(self.geom.node_count(), slots_n, true, &self.written);
+            let slots_n = match dfg.as_mut() {
+                Some(d) => {
+                    d.field::<K>(&self.geom, &self.parts, &self.bins);
+                    self.times.damage_field += t0.elapsed().as_secs_f64();
+                    d.partition::<K>(&self.geom, &self.parts, &self.bins, &mut multi)
+                }
+                None => p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi),
+            };
+            self.grid
+                .reset(self.geom.node_count(), slots_n, true, &self.written);
             self.written.clone_from(&self.bins.active);
             self.times.field_partition += t0.elapsed().as_secs_f64();
-            let slots = GroupFields { nodes: self.geom.node_count(), multi: &multi };
-            let r = self.stages::<K, _>(dt, &slots, Some(&multi));
+            let nodes = self.geom.node_count();
+            let r = match &dfg {
+                Some(d) => {
+                    let slots = DfgFields {
+                        nodes,
+                        multi: &multi,
+                        group: &group,
+                        grad: &d.grad,
+                        node_grad: &d.node_grad,
+                    };
+                    self.stages::<K, _>(dt, &slots, Some(&multi))
+                }
+                None => {
+                    let slots = GroupFields {
+                        nodes,
+                        multi: &multi,
+                        group: &group,
+                    };
+                    self.stages::<K, _>(dt, &slots, Some(&multi))
+                }
+            };
             self.multi = Some(multi);
+            self.group_of = group;
+            self.dfg = dfg;
             r
         } else {
-            self.grid.reset(self.geom.node_count(), self.geom.node_count(), false, &self.written);
+            self.grid.reset(
+                self.geom.node_count(),
+                self.geom.node_count(),
+                false,
+                &self.written,
+            );
             self.written.clone_from(&self.bins.active);
             self.stages::<K, _>(dt, &SingleField, None)
         }
     }
 
-    fn stages<K: Kernel, S: FieldSlots>(&mut self, dt: f64, slots: &S, multi: Option<&MultiField>) -> Result<(), SimError> {
+    fn stages<K: Kernel, S: FieldSlots>(
+        &mut self,
+        dt: f64,
+        slots: &S,
+        multi: Option<&MultiField>,
+    ) -> Result<(), SimError> {
         let contact = multi.is_some();
         // P2G
         let t0 = Instant::now();
         match (self.apic, contact) {
-            (false, false) => p2g::p2g::<K, S, false, false>(&self.geom, &self.parts, &self.bins, slots, &mut self.grid),
-            (true, false) => p2g::p2g::<K, S, true, false>(&self.geom, &self.parts, &self.bins, slots, &mut self.grid),
-            (false, true) => p2g::p2g::<K, S, false, true>(&self.geom, &self.parts, &self.bins, slots, &mut self.grid),
-            (true, true) => p2g::p2g::<K, S, true, true>(&self.geom, &self.parts, &self.bins, slots, &mut self.grid),
+            (false, false) => p2g::p2g::<K, S, false, false>(
+                &self.geom,
+                &self.parts,
+                &self.bins,
+                slots,
+                &mut self.grid,
+            ),
+            (true, false) => p2g::p2g::<K, S, true, false>(
+                &self.geom,
+                &self.parts,
+                &self.bins,
+                slots,
+                &mut self.grid,
+            ),
+            (false, true) => p2g::p2g::<K, S, false, true>(
+                &self.geom,
+                &self.parts,
+                &self.bins,
+                slots,
+                &mut self.grid,
+            ),
+            (true, true) => p2g::p2g::<K, S, true, true>(
+                &self.geom,
+                &self.parts,
+                &self.bins,
+                slots,
+                &mut self.grid,
+            ),
         }
         let t1 = Instant::now();
         self.times.p2g += (t1 - t0).as_secs_f64();
         // Tractions at mid-step: the impulse of a linear ramp is then exact
         if !self.tractions.is_empty() {
             let t_mid = self.time + 0.5 * dt;
-            let w = self.tractions.apply::<K, S>(t_mid, dt, &self.geom, &self.parts, slots, &mut self.grid);
+            let w = self.tractions.apply::<K, S>(
+                t_mid,
+                dt,
+                &self.geom,
+                &self.parts,
+                slots,
+                &mut self.grid,
+            );
             self.add_work(w);
             self.times.traction += t1.elapsed().as_secs_f64();
         }
         // The implicit phase-field solve (c from the history so far)
         if let Some(pf) = self.phase.as_mut() {
             let t = Instant::now();
-            pf.solve::<K>(&self.geom, &self.bins, &mut self.parts).map_err(|e| SimError::PhaseField {
-                step: self.step + 1,
-                time: self.time + dt,
-                message: e.to_string(),
-            })?;
+            pf.solve::<K>(&self.geom, &self.bins, &mut self.parts)
+                .map_err(|e| SimError::PhaseField {
+                    step: self.step + 1,
+                    time: self.time + dt,
+                    message: e.to_string(),
+                })?;
             self.times.phase_field += t.elapsed().as_secs_f64();
         }
         let t2 = Instant::now();
         // Grid update and boundary conditions
         let nodes = self.geom.node_count();
-        let (w, negative) = grid_update::update(&mut self.grid, &self.bins.active, nodes, dt, self.body_force, self.m_min);
+        let (w, negative) = grid_update::update(
+            &mut self.grid,
+            &self.bins.active,
+            nodes,
+            dt,
+            self.body_force,
+            self.m_min,
+        );
         if let Some((slot, mass)) = negative {
             let node = match multi {
-                Some(m) if slot >= self.geom.node_count() => m.extra_node[slot - self.geom.node_count()] as usize,
+                Some(m) if slot >= self.geom.node_count() => {
+                    m.extra_node[slot - self.geom.node_count()] as usize
+                }
                 _ => slot,
             };
             let [x, y] = self.geom.node_position(node);
-            return Err(SimError::NegativeMass { step: self.step + 1, time: self.time + dt, node, mass, x, y });
+            return Err(SimError::NegativeMass {
+                step: self.step + 1,
+                time: self.time + dt,
+                node,
+                mass,
+                x,
+                y,
+            });
         }
         self.add_work(w);
         let t_bc = self.time + dt;
@@ -426,6 +552,11 @@ impl Simulation {
             let t = Instant::now();
             pf.degrade(&mut self.parts, &self.mats);
             self.times.phase_field += t.elapsed().as_secs_f64();
+        }
+        if let Some(d) = self.damage.as_mut() {
+            let t = Instant::now();
+            d.update(&mut self.parts, dt);
+            self.times.damage += t.elapsed().as_secs_f64();
         }
         self.max_signal = stats.max_signal;
         let t6 = Instant::now();
@@ -503,6 +634,25 @@ impl Simulation {
                 extra.extend(&energies);
             }
             for tip in pf.crack_tips(&self.parts, self.time) {
+                extra.extend([tip.x[0], tip.x[1], tip.length, tip.speed]);
+            }
+        }
+        if let Some(dfg) = &self.dfg {
+            let st = dfg.stats();
+            extra.extend([st.separated_nodes as f64, st.neighbour_builds as f64]);
+        }
+        if let Some(d) = self.damage.as_mut() {
+            fracture_energy = d.dissipated;
+            let balance =
+                m.kinetic + m.strain + d.dissipated - self.initial_energy - self.external_work;
+            let failed = self
+                .parts
+                .damage
+                .par_iter()
+                .filter(|&&x| x >= crate::fracture::damage::FAILED)
+                .count();
+            extra.extend([if self.step == 0 { 0.0 } else { balance }, failed as f64]);
+            for tip in d.crack_tips(&self.parts, self.time) {
                 extra.extend([tip.x[0], tip.x[1], tip.length, tip.speed]);
             }
         }

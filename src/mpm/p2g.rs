@@ -14,42 +14,11 @@
 //! tile particles are visited in ascending index. The sum at each node is
 //! therefore taken in the same order for any number of threads.
 
-use crate::grid::shape::{Kernel, Weights1};
-use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, SyncPtr};
+use crate::grid::shape::Kernel;
+pub(super) use crate::grid::weights;
+use crate::grid::{scatter_coloured, Bins, FieldSlots, GridFields, GridGeom, SyncPtr};
 use crate::particles::Particles;
 use rayon::prelude::*;
-
-/// Kernel weights of particle `p`: its position in node units and the 1D
-/// weights along x and y (GIMP uses the particle's half-width).
-#[inline(always)]
-pub(super) fn weights<K: Kernel>(geom: &GridGeom, parts: &Particles, p: usize) -> ([f64; 2], Weights1, Weights1) {
-    let xi = geom.xi(parts.x[p]);
-    let lp = parts.half_size.get(p).copied().unwrap_or(0.0);
-    (xi, K::eval(xi[0], lp), K::eval(xi[1], lp))
-}
-
-/// Runs `scatter(p, xi, wx, wy)` for every particle: colour by colour, the
-/// tiles of one colour in parallel, the particles of a tile in ascending
-/// order. Writes from one tile never meet writes from another tile of the
-/// same colour (see [`crate::grid::TILE`]), so `scatter` may add into the
-/// nodes of the particle's support through a [`SyncPtr`], and the order of
-/// the additions at every node is the same for any number of threads.
-fn scatter_coloured<K: Kernel>(
-    geom: &GridGeom,
-    parts: &Particles,
-    bins: &Bins,
-    scatter: impl Fn(usize, [f64; 2], Weights1, Weights1) + Sync,
-) {
-    for colour in &bins.colours {
-        colour.par_iter().for_each(|&tile| {
-            for &p in bins.particles_of(tile) {
-                let p = p as usize;
-                let (xi, wx, wy) = weights::<K>(geom, parts, p);
-                scatter(p, xi, wx, wy);
-            }
-        });
-    }
-}
 
 /// Scatters all particles to the grid. `grid` must have been reset.
 pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
@@ -69,7 +38,6 @@ pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
         let vol = parts.vol[p];
         let s = parts.stress[p];
         let c = if APIC { parts.affine[p] } else { [0.0; 4] };
-        let g = parts.group[p];
         let h = geom.h;
         let inv_h = geom.inv_h;
         for j in 0..K::N {
@@ -81,7 +49,7 @@ pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
                 let w = wx.w[i] * wy.w[j];
                 let gx = wx.dw[i] * wy.w[j] * inv_h;
                 let gy = wx.w[i] * wy.dw[j] * inv_h;
-                let slot = slots.slot(node, g);
+                let slot = slots.slot(node, p);
                 let wm = w * m;
                 let (mx, my) = if APIC {
                     let dx = ((wx.base + i as isize) as f64 - xi[0]) * h;
@@ -134,24 +102,7 @@ pub fn partition_fields<K: Kernel>(
             }
         }
     });
-    multi.offset.clear();
-    multi.offset.reserve(nodes + 1);
-    multi.extra_node.clear();
-    multi.multi_nodes.clear();
-    let mut total = 0u32;
-    for (n, &m) in multi.mask.iter().enumerate() {
-        multi.offset.push(total);
-        let k = m.count_ones();
-        if k > 1 {
-            multi.multi_nodes.push(n as u32);
-            for _ in 1..k {
-                multi.extra_node.push(n as u32);
-            }
-            total += k - 1;
-        }
-    }
-    multi.offset.push(total);
-    nodes + total as usize
+    multi.layout()
 }
 
 /// MUSL remap: the updated particle momenta back to the grid (same
@@ -174,7 +125,7 @@ pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
     grid.momentum[nodes..].fill([0.0; 2]);
     let mom = SyncPtr::new(&mut grid.momentum);
     scatter_coloured::<K>(geom, parts, bins, |p, xi, wx, wy| {
-        let (m, v, g) = (parts.mass[p], parts.v[p], parts.group[p]);
+        let (m, v) = (parts.mass[p], parts.v[p]);
         let c = if APIC { parts.affine[p] } else { [0.0; 4] };
         for j in 0..K::N {
             let dy = ((wy.base + j as isize) as f64 - xi[1]) * geom.h;
@@ -183,7 +134,7 @@ pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
                 let wm = wx.w[i] * wy.w[j] * m;
                 let dx = ((wx.base + i as isize) as f64 - xi[0]) * geom.h;
                 // SAFETY: coloured scatter (see `scatter_coloured`).
-                let q = unsafe { mom.at(slots.slot(node, g)) };
+                let q = unsafe { mom.at(slots.slot(node, p)) };
                 q[0] += wm * (v[0] + c[0] * dx + c[1] * dy);
                 q[1] += wm * (v[1] + c[2] * dx + c[3] * dy);
             }

@@ -20,7 +20,11 @@
 //! One phase field per body (discrete fields). The particles' c and H live
 //! in `Particles::phase` and `Particles::history`.
 
-use crate::fracture::phase_field::system::{self, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem, SolveMethod, SolveStats};
+use crate::diagnostics::crack::{CrackTip, TipTracker};
+use crate::fracture::phase_field::system::{
+    self, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem, SolveMethod,
+    SolveStats,
+};
 use crate::grid::shape::Kernel;
 use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, Elastic};
@@ -42,25 +46,8 @@ struct Body {
     system: PhaseFieldSystem,
     /// Nodal c of the last solve (all grid nodes).
     c: Vec<f64>,
-    /// The crack-tip diagnostic's origin, if tracked.
-    origin: Option<[f64; 2]>,
-    /// (time, crack length) at the last series row, for the tip speed.
-    last_tip: Option<(f64, f64)>,
-}
-
-/// The crack tip of one body: the particle with c < [`TIP_C`] farthest
-/// from the body's crack origin.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct CrackTip {
-    /// Tip position, m (NaN while no particle has c < 0.1, or before the
-    /// first solve).
-    pub x: [f64; 2],
-    /// Distance of the tip from the origin, m (0 while there is no crack;
-    /// NaN before the first solve).
-    pub length: f64,
-    /// Change of `length` per time since the last series row, m/s (NaN at
-    /// the first measured row).
-    pub speed: f64,
+    /// The crack-tip diagnostic, if tracked.
+    tip: Option<TipTracker>,
 }
 
 /// Particles with c below this count as cracked for the crack tip.
@@ -118,18 +105,6 @@ fn of_body<'a>(parts: &'a Particles, body: u16, bins: Option<&'a Bins>) -> Field
     FieldParticles { x: &parts.x, vol: &parts.vol, history: &parts.history, body: Some((&parts.body, body)), bins }
 }
 
-fn distance_to_polyline(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
-    pts.windows(2)
-        .map(|w| {
-            let (a, b) = (w[0], w[1]);
-            let ab = [b[0] - a[0], b[1] - a[1]];
-            let len2 = ab[0] * ab[0] + ab[1] * ab[1];
-            let t = if len2 > 0.0 { (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0) } else { 0.0 };
-            ((p[0] - a[0] - t * ab[0]).powi(2) + (p[1] - a[1] - t * ab[1]).powi(2)).sqrt()
-        })
-        .fold(f64::INFINITY, f64::min)
-}
-
 impl PhaseFields {
     /// Builds the phase fields of the scene's phase-field bodies, sets up the
     /// particles' c (1) and history (with the initial cracks). None if no
@@ -157,11 +132,18 @@ impl PhaseFields {
                 let h0 = CRACK_B * params.gc_bar / (4.0 * params.l0);
                 for &p in &particles {
                     let x = parts.x[p as usize];
-                    if cracks.iter().any(|c| distance_to_polyline(x, &c.points) < 0.55 * spacing) {
+                    if crate::geometry::on_cracks(x, &cracks, spacing) {
                         parts.history[p as usize] = h0;
                     }
                 }
-                Body { body: b as u16, particles, params, system: PhaseFieldSystem::new(), c: Vec::new(), origin, last_tip: None }
+                Body {
+                    body: b as u16,
+                    particles,
+                    params,
+                    system: PhaseFieldSystem::new(),
+                    c: Vec::new(),
+                    tip: origin.map(TipTracker::new),
+                }
             })
             .collect();
         let o = &scene.file.phase_field_solver;
@@ -309,7 +291,12 @@ impl PhaseFields {
     /// crack tip is tracked.
     pub(super) fn bodies(&self) -> (Vec<usize>, Vec<usize>) {
         let all = self.bodies.iter().map(|b| b.body as usize).collect();
-        let tracked = self.bodies.iter().filter(|b| b.origin.is_some()).map(|b| b.body as usize).collect();
+        let tracked = self
+            .bodies
+            .iter()
+            .filter(|b| b.tip.is_some())
+            .map(|b| b.body as usize)
+            .collect();
         (all, tracked)
     }
 
@@ -318,29 +305,14 @@ impl PhaseFields {
     pub(super) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
         let mut tips = Vec::new();
         for body in &mut self.bodies {
-            let Some(o) = body.origin else { continue };
-            if body.c.is_empty() {
-                // before the first solve c is not known yet
-                tips.push(CrackTip { x: [f64::NAN; 2], length: f64::NAN, speed: f64::NAN });
+            let Some(tracker) = body.tip.as_mut() else {
                 continue;
-            }
-            let (d2, p) = body
-                .particles
-                .par_iter()
-                .filter(|&&p| parts.phase[p as usize] < TIP_C)
-                .map(|&p| {
-                    let x = parts.x[p as usize];
-                    ((x[0] - o[0]).powi(2) + (x[1] - o[1]).powi(2), p)
-                })
-                // the farthest; the lowest index among equals (deterministic)
-                .reduce(|| (-1.0, u32::MAX), |a, b| if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
-            let (x, length) = if p == u32::MAX { ([f64::NAN; 2], 0.0) } else { (parts.x[p as usize], d2.sqrt()) };
-            let speed = match body.last_tip {
-                Some((t, l)) if time > t => (length - l) / (time - t),
-                _ => f64::NAN,
             };
-            body.last_tip = Some((time, length));
-            tips.push(CrackTip { x, length, speed });
+            tips.push(if body.c.is_empty() {
+                CrackTip::UNKNOWN // before the first solve c is not known yet
+            } else {
+                tracker.measure(&parts.x, &body.particles, |p| parts.phase[p] < TIP_C, time)
+            });
         }
         tips
     }

@@ -75,6 +75,9 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         }
     }
 
+    // Damage strengths are drawn in seeding order (same seed, same result).
+    let mut damage = super::damage::DamageState::new(scene, &mut parts);
+
     // Store the particles tile by tile (stable, so ids ascend within a
     // tile): the coloured P2G then walks memory in order.
     let tile_of: Vec<u32> = parts.x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect();
@@ -97,6 +100,8 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     let mut friction = ContactLaw {
         groups,
         mu: vec![file.contact.friction; groups * groups],
+        fields_per_group: if file.dfg.is_some() { 2 } else { 1 },
+        self_friction: file.dfg.as_ref().map_or(0.0, |d| d.friction),
         full_node_mass: mats.iter().map(|m| m.density).fold(f64::INFINITY, f64::min)
             * file.grid.cell_size
             * file.grid.cell_size
@@ -111,6 +116,22 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         }
     }
 
+    if let Some(d) = damage.as_mut() {
+        d.place_cracks(scene, &mut parts);
+    }
+    let dfg = file.dfg.as_ref().map(|spec| {
+        let params = crate::fracture::dfg::DfgParams {
+            radius: spec.radius * file.grid.cell_size * std::f64::consts::SQRT_2,
+            rebuild_fraction: spec.rebuild_fraction,
+            separability: spec.separability,
+        };
+        crate::fracture::dfg::Dfg::new(
+            params,
+            &geom,
+            &parts,
+            spec.self_contact.then_some(spec.surface_threshold),
+        )
+    });
     let phase = super::phase::PhaseFields::new(scene, &mut parts);
     let tractions = Tractions::new(scene, &parts);
     Simulation {
@@ -118,13 +139,16 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         boundary: Boundary::new(&geom, &file.grid.boundary),
         geom,
         mats,
-        parts,
         grid: GridFields::default(),
         multi: scene.plan.has(Stage::Contact).then(MultiField::default),
         friction,
         bins,
         tractions,
         phase,
+        damage,
+        dfg,
+        group_of: parts.group.clone(),
+        parts,
         apic,
         musl: file.transfer.stress_update == StressUpdate::Musl,
         x_next: Vec::new(),
@@ -173,6 +197,8 @@ fn permute(parts: &mut Particles, order: &[u32]) {
     apply(&mut parts.def_grad, order);
     apply(&mut parts.affine, order);
     apply(&mut parts.half_size, order);
+    apply(&mut parts.damage, order);
+    apply(&mut parts.strength, order);
 }
 
 /// Surface tractions of the grid sides that ask for one, carried by the
@@ -261,8 +287,9 @@ impl Tractions {
                 let (_, wx, wy) = super::p2g::weights::<K>(geom, parts, p);
                 for j in 0..K::N {
                     for i in 0..K::N {
-                        let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
-                        let s = slots.slot(node, parts.group[p]);
+                        let node = (wx.base + i as isize) as usize
+                            + (wy.base + j as isize) as usize * geom.nodes[0];
+                        let s = slots.slot(node, p);
                         let w = wx.w[i] * wy.w[j];
                         grid.force[s][0] += w * f[0];
                         grid.force[s][1] += w * f[1];

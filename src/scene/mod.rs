@@ -11,7 +11,9 @@ mod validate;
 
 pub use plan::{Plan, Stage};
 pub use schema::*;
-pub use validate::{phase_field_gamma, ResolvedMaterial, Scene, MAX_CONTACT_GROUPS};
+pub use validate::{
+    phase_field_gamma, ResolvedDamage, ResolvedMaterial, Scene, MAX_CONTACT_GROUPS,
+};
 
 use std::fmt;
 use std::path::Path;

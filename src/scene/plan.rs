@@ -10,8 +10,13 @@ use std::fmt;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Stage {
+    /// The kernel damage field and its gradient at the particles, and the
+    /// nodal gradient (seed 000 eqs. 17–19, Algorithm 1); only with `[dfg]`.
+    DamageField,
     /// Assigns each particle–node pair a velocity field (one per contact
-    /// group present at the node); only with more than one contact group.
+    /// group present at the node, each split in two by the damage-field
+    /// gradient with `[dfg]`, Algorithm 2 and the separability rule); only
+    /// with more than one contact group or with `[dfg]`.
     FieldPartition,
     /// Particle-to-grid: mass, momentum, internal and external force.
     P2g,
@@ -26,11 +31,14 @@ pub enum Stage {
     Contact,
     /// Grid-to-particle: velocity, position, velocity gradient, stress.
     G2p,
+    /// Damage update and tensile stress degradation (seed 000 eqs. 23–27).
+    Damage,
 }
 
 impl Stage {
     pub fn name(self) -> &'static str {
         match self {
+            Stage::DamageField => "damage_field",
             Stage::FieldPartition => "field_partition",
             Stage::P2g => "p2g",
             Stage::Traction => "traction",
@@ -38,6 +46,7 @@ impl Stage {
             Stage::GridUpdate => "grid_update",
             Stage::Contact => "contact",
             Stage::G2p => "g2p",
+            Stage::Damage => "damage",
         }
     }
 }
@@ -60,8 +69,12 @@ impl Plan {
         let traction = [&b.left, &b.right, &b.bottom, &b.top]
             .iter()
             .any(|s| matches!(s, SideCondition::Traction { .. }));
-        let contact = contact_groups.len() > 1;
+        let dfg = file.dfg.is_some();
+        let contact = contact_groups.len() > 1 || dfg;
         let mut stages = Vec::new();
+        if dfg {
+            stages.push(Stage::DamageField);
+        }
         if contact {
             stages.push(Stage::FieldPartition);
         }
@@ -69,9 +82,9 @@ impl Plan {
         if traction {
             stages.push(Stage::Traction);
         }
-        let phase_field = file.bodies.iter().any(|b| match &b.material {
-            super::schema::MaterialRef::Inline(m) => m.phase_field.is_some(),
-            super::schema::MaterialRef::Name(n) => file.materials.get(n).is_some_and(|m| m.phase_field.is_some()),
+        let phase_field = file.bodies.iter().any(|b| {
+            file.material_of(&b.material)
+                .is_some_and(|m| m.phase_field.is_some())
         });
         if phase_field {
             stages.push(Stage::PhaseField);
@@ -81,6 +94,13 @@ impl Plan {
             stages.push(Stage::Contact);
         }
         stages.push(Stage::G2p);
+        let damage = file.bodies.iter().any(|b| {
+            file.material_of(&b.material)
+                .is_some_and(|m| m.damage.is_some())
+        });
+        if damage {
+            stages.push(Stage::Damage);
+        }
         Plan { stages }
     }
 

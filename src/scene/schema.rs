@@ -40,6 +40,58 @@ pub struct SceneFile {
     /// How the phase-field systems are solved (scenes with a phase field).
     #[serde(default)]
     pub phase_field_solver: PhaseFieldSolverSpec,
+    /// Damage-field-gradient partitioning (Homel & Herbold, seed 000):
+    /// cracks of damaged material, and self-contact, as contacting
+    /// velocity fields. Absent: damage models run in single-field mode.
+    #[serde(default)]
+    pub dfg: Option<DfgSpec>,
+}
+
+/// Options of damage-field-gradient partitioning (seed 000, section 2).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DfgSpec {
+    /// Separability threshold D_min of section 2.3, in (0, 1): the two
+    /// sides of a node separate only where one particle is fully damaged
+    /// and both sides' mean damage exceeds it.
+    #[serde(default = "default_separability")]
+    pub separability: f64,
+    /// Coulomb friction μ between the two sides (crack faces, self-contact).
+    #[serde(default)]
+    pub friction: f64,
+    /// Kernel radius of the damage field (eq. 18) in cell diagonals
+    /// (the paper: 1, one cell diagonal).
+    #[serde(default = "default_radius")]
+    pub radius: f64,
+    /// The neighbour lists are rebuilt when a particle has moved this
+    /// fraction of the kernel radius since the last build (section 2.5).
+    #[serde(default = "default_rebuild_fraction")]
+    pub rebuild_fraction: f64,
+    /// Self-contact (section 2.4): particles whose kernel sum (eq. 19,
+    /// over their own body) is below `surface_threshold` times the
+    /// interior value are surface particles, and max(s_p, D_p) builds the
+    /// field, so one body can slide on itself and on others. The default
+    /// 0.99 flags every particle whose kernel reaches past the surface, a
+    /// layer as thick as the kernel radius (the paper's choice); it must
+    /// be at least two particles thick for the two sides of a contact to
+    /// be separable one node into either body.
+    #[serde(default)]
+    pub self_contact: bool,
+    #[serde(default = "default_surface_threshold")]
+    pub surface_threshold: f64,
+}
+
+fn default_separability() -> f64 {
+    0.25
+}
+fn default_radius() -> f64 {
+    1.0
+}
+fn default_rebuild_fraction() -> f64 {
+    0.1
+}
+fn default_surface_threshold() -> f64 {
+    0.99
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
@@ -412,6 +464,56 @@ pub struct MaterialSpec {
     /// Phase-field fracture for bodies of this material (seed 001).
     #[serde(default)]
     pub phase_field: Option<PhaseFieldSpec>,
+    /// A continuum damage model (seed 000, section 2.7), run in
+    /// single-field mode or, with `[dfg]`, with field-gradient partitioning.
+    #[serde(default)]
+    pub damage: Option<DamageSpec>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DamageModel {
+    /// Rankine with linear strain softening scaled by the characteristic
+    /// length (eq. 23, Cervera et al.): dissipates G_f per unit crack area.
+    Rankine,
+    /// Time to failure (eq. 24): once the strength is exceeded, damage
+    /// grows at Δt/τ with τ = l_ch / c_f (a crack crosses a particle at c_f).
+    TimeToFailure,
+}
+
+/// Damage parameters (seed 000, section 2.7).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DamageSpec {
+    pub model: DamageModel,
+    /// Tensile strength σ_f (the Weibull median at the reference volume), Pa.
+    pub strength: f64,
+    /// Mode I fracture energy G_f, J/m² (rankine).
+    #[serde(default)]
+    pub fracture_energy: Option<f64>,
+    /// Crack speed c_f, m/s (time_to_failure).
+    #[serde(default)]
+    pub crack_speed: Option<f64>,
+    /// Characteristic length l_ch, m; default the cell diagonal (as in the
+    /// paper).
+    #[serde(default)]
+    pub char_length: Option<f64>,
+    /// Size-dependent random strength (eq. 25).
+    #[serde(default)]
+    pub weibull: Option<WeibullSpec>,
+}
+
+/// Weibull strength: σ_f/σ̄_f = (V̄/V · ln R / ln ½)^(1/m), R uniform in (0, 1).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WeibullSpec {
+    /// Weibull modulus m.
+    pub modulus: f64,
+    /// Reference volume V̄ of the median strength, m³.
+    pub ref_volume: f64,
+    /// Seed of the random generator (same seed, same strengths).
+    #[serde(default)]
+    pub seed: u64,
 }
 
 /// Phase-field fracture parameters (Kakouris & Triantafyllou, seed 001).
@@ -441,6 +543,16 @@ pub struct PhaseFieldSpec {
 pub enum MaterialRef {
     Name(String),
     Inline(MaterialSpec),
+}
+
+impl SceneFile {
+    /// The material spec a body refers to (`None` for an unknown name).
+    pub fn material_of<'a>(&'a self, m: &'a MaterialRef) -> Option<&'a MaterialSpec> {
+        match m {
+            MaterialRef::Inline(spec) => Some(spec),
+            MaterialRef::Name(n) => self.materials.get(n),
+        }
+    }
 }
 
 impl<'de> Deserialize<'de> for MaterialRef {
@@ -506,12 +618,15 @@ pub struct BodySpec {
     /// interact by frictional contact; bodies in one group share a field.
     #[serde(default)]
     pub contact_group: u32,
-    /// Initial cracks (phase-field materials): polylines along which the
-    /// history field is set so that c ≈ 0 there (Borden et al. 2012).
+    /// Initial cracks: polylines along which, for a phase-field material,
+    /// the history field is set so that c ≈ 0 there (Borden et al. 2012),
+    /// and for a damage material the particles are fully damaged (those
+    /// within 0.55 particle spacings of the line).
     #[serde(default)]
     pub cracks: Vec<CrackSpec>,
-    /// Where the crack-tip diagnostic measures from (phase-field bodies):
-    /// the tip is the particle with c < 0.1 farthest from this point.
+    /// Where the crack-tip diagnostic measures from (phase-field or damage
+    /// bodies): the tip is the particle with c < 0.1 (D > 0.9) farthest
+    /// from this point.
     /// Default: the first point of the first initial crack; without either,
     /// the body's tip is not tracked.
     #[serde(default)]

@@ -28,9 +28,27 @@ pub struct ResolvedMaterial {
     pub mu: f64,
     /// Phase-field fracture parameters, if the material has them.
     pub phase_field: Option<PhaseFieldSpec>,
+    /// Damage model with its derived constants, if the material has one.
+    pub damage: Option<ResolvedDamage>,
     /// Dilatational wave speed of the 2D model at rest, m/s:
     /// √((λ+2μ)/ρ) in plane strain, √(E/(ρ(1−ν²))) in plane stress.
     pub wave_speed: f64,
+}
+
+/// A damage model with the constants the update uses (seed 000, section 2.7).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ResolvedDamage {
+    pub model: DamageModel,
+    /// σ̄_f, Pa.
+    pub strength: f64,
+    /// l_ch, m (given, or the cell diagonal).
+    pub char_length: f64,
+    /// Rankine: the scaled softening modulus H_s = H̄ l/(1 − H̄ l) of eq. 23,
+    /// H̄ = σ_f²/(2 E G_f). Zero for time to failure.
+    pub softening: f64,
+    /// Time to failure: τ = l_ch / c_f, s. Zero for Rankine.
+    pub tau: f64,
+    pub weibull: Option<WeibullSpec>,
 }
 
 /// A validated scene, ready to run.
@@ -85,7 +103,14 @@ impl Scene {
         let mut by_name = BTreeMap::new();
         for (name, spec) in &file.materials {
             let path = format!("materials.{name}");
-            if let Some(m) = resolve_material(&mut c, &path, name, spec, file.analysis.plane) {
+            if let Some(m) = resolve_material(
+                &mut c,
+                &path,
+                name,
+                spec,
+                file.analysis.plane,
+                file.grid.cell_size,
+            ) {
                 by_name.insert(name.clone(), materials.len());
                 materials.push(m);
             }
@@ -106,34 +131,54 @@ impl Scene {
                             let known: Vec<_> = file.materials.keys().map(String::as_str).collect();
                             c.err(
                                 &format!("{path}.material"),
-                                format!("no material named `{name}` in [materials] (known: {})", list_or_none(&known)),
+                                format!(
+                                    "no material named `{name}` in [materials] (known: {})",
+                                    list_or_none(&known)
+                                ),
                             );
                         }
                         None
                     }
                 },
-                MaterialRef::Inline(spec) => {
-                    resolve_material(&mut c, &format!("{path}.material"), &path, spec, file.analysis.plane).map(|m| {
-                        materials.push(m);
-                        materials.len() - 1
-                    })
-                }
+                MaterialRef::Inline(spec) => resolve_material(
+                    &mut c,
+                    &format!("{path}.material"),
+                    &path,
+                    spec,
+                    file.analysis.plane,
+                    file.grid.cell_size,
+                )
+                .map(|m| {
+                    materials.push(m);
+                    materials.len() - 1
+                }),
             };
             if mat.is_some() {
                 let pf = phase_field_of(&file, &body.material);
                 if let Some(pf) = pf {
                     let fourth = !phase_field_gamma(pf).is_zero();
                     let kind = file.grid.shape_function;
-                    if fourth && !matches!(kind, ShapeFunctionKind::QuadraticBspline | ShapeFunctionKind::CubicBspline) {
+                    if fourth
+                        && !matches!(
+                            kind,
+                            ShapeFunctionKind::QuadraticBspline | ShapeFunctionKind::CubicBspline
+                        )
+                    {
                         c.err(
                             "grid.shape_function",
                             format!("the 4th-order phase field of {path} needs second derivatives: use quadratic_bspline or cubic_bspline, not {kind:?}"),
                         );
                     }
-                } else if !body.cracks.is_empty() {
-                    c.err(&format!("{path}.cracks"), "initial cracks need a material with a phase_field");
-                } else if body.crack_origin.is_some() {
-                    c.err(&format!("{path}.crack_origin"), "a crack-tip origin needs a material with a phase_field");
+                } else if !body.cracks.is_empty() && !has_damage(&file, &body.material) {
+                    c.err(
+                        &format!("{path}.cracks"),
+                        "initial cracks need a material with a phase_field or damage",
+                    );
+                } else if body.crack_origin.is_some() && !has_damage(&file, &body.material) {
+                    c.err(
+                        &format!("{path}.crack_origin"),
+                        "a crack-tip origin needs a material with a phase_field or damage",
+                    );
                 }
             }
             if let Some(o) = body.crack_origin {
@@ -159,6 +204,27 @@ impl Scene {
             c.err("bodies", format!("{total} particles in all; at most {MAX_PARTICLES} are supported"));
         }
         check_contact(&mut c, &file.contact, &groups);
+        if let Some(dfg) = &file.dfg {
+            c.in_range("dfg.separability", dfg.separability, 0.0, 1.0);
+            c.in_range("dfg.friction", dfg.friction, 0.0, 1e3);
+            c.in_range("dfg.radius", dfg.radius, 0.5, 4.0);
+            c.in_range("dfg.rebuild_fraction", dfg.rebuild_fraction, 0.0, 1.0);
+            c.in_range("dfg.surface_threshold", dfg.surface_threshold, 0.0, 1.0);
+            if groups.len() > MAX_CONTACT_GROUPS / 2 {
+                c.err(
+                    "dfg",
+                    format!(
+                        "{} contact groups; with DFG partitioning at most {} are supported",
+                        groups.len(),
+                        MAX_CONTACT_GROUPS / 2
+                    ),
+                );
+            }
+            let any_damage = file.bodies.iter().any(|b| has_damage(&file, &b.material));
+            if !any_damage && !dfg.self_contact {
+                c.err("dfg", "partitioning needs a material with damage or dfg.self_contact = true: nothing would be partitioned");
+            }
+        }
 
         if !c.errors.is_empty() {
             return Err(SceneError { errors: c.errors });
@@ -185,12 +251,14 @@ pub fn per_dir(ppc: u32) -> usize {
     ((ppc as f64).sqrt().round() as usize).max(1)
 }
 
+/// Whether a body's material has a damage model.
+fn has_damage(file: &SceneFile, m: &MaterialRef) -> bool {
+    file.material_of(m).is_some_and(|s| s.damage.is_some())
+}
+
 /// The phase-field spec of a body's material, if any.
 fn phase_field_of<'a>(file: &'a SceneFile, m: &'a MaterialRef) -> Option<&'a PhaseFieldSpec> {
-    match m {
-        MaterialRef::Inline(spec) => spec.phase_field.as_ref(),
-        MaterialRef::Name(n) => file.materials.get(n).and_then(|s| s.phase_field.as_ref()),
-    }
+    file.material_of(m).and_then(|s| s.phase_field.as_ref())
 }
 
 fn list_or_none(names: &[&str]) -> String {
@@ -398,6 +466,7 @@ fn resolve_material(
     name: &str,
     m: &MaterialSpec,
     plane: PlaneKind,
+    h: f64,
 ) -> Option<ResolvedMaterial> {
     let before = c.errors.len();
     c.positive(&format!("{path}.density"), m.density);
@@ -426,6 +495,16 @@ fn resolve_material(
             c.err(&format!("{path}.model"), "phase-field fracture is implemented for linear_elastic materials");
         }
     }
+    let damage = m
+        .damage
+        .as_ref()
+        .and_then(|d| resolve_damage(c, &format!("{path}.damage"), d, m, h));
+    if m.damage.is_some() && m.phase_field.is_some() {
+        c.err(
+            &format!("{path}.damage"),
+            "a material has either a phase_field or a damage model, not both",
+        );
+    }
     if m.model == MaterialModel::NeoHookean && plane == PlaneKind::PlaneStress {
         c.err(
             &format!("{path}.model"),
@@ -451,7 +530,101 @@ fn resolve_material(
         lambda,
         mu,
         phase_field: m.phase_field.clone(),
+        damage,
         wave_speed,
+    })
+}
+
+/// Checks a damage spec and derives its constants.
+fn resolve_damage(
+    c: &mut Checker,
+    q: &str,
+    d: &DamageSpec,
+    m: &MaterialSpec,
+    h: f64,
+) -> Option<ResolvedDamage> {
+    let before = c.errors.len();
+    c.positive(&format!("{q}.strength"), d.strength);
+    let char_length = match d.char_length {
+        Some(l) => {
+            c.positive(&format!("{q}.char_length"), l);
+            l
+        }
+        None => h * std::f64::consts::SQRT_2,
+    };
+    if m.model != MaterialModel::LinearElastic {
+        c.err(
+            &format!("{q}.model"),
+            "damage models are implemented for linear_elastic materials (the damaged neo-Hookean energy is not)",
+        );
+    }
+    let (mut softening, mut tau) = (0.0, 0.0);
+    match d.model {
+        DamageModel::Rankine => {
+            if d.crack_speed.is_some() {
+                c.err(
+                    &format!("{q}.crack_speed"),
+                    "belongs to model = \"time_to_failure\", not rankine",
+                );
+            }
+            match d.fracture_energy {
+                None => c.err(
+                    &format!("{q}.fracture_energy"),
+                    "the rankine model needs the fracture energy G_f, J/m²",
+                ),
+                Some(gf) => {
+                    if c.positive(&format!("{q}.fracture_energy"), gf)
+                        && d.strength > 0.0
+                        && m.youngs_modulus > 0.0
+                    {
+                        let hb =
+                            d.strength * d.strength / (2.0 * m.youngs_modulus * gf) * char_length;
+                        if hb >= 1.0 {
+                            c.err(
+                                &format!("{q}.char_length"),
+                                format!(
+                                    "σ_f² l_ch / (2 E G_f) = {hb:.3} ≥ 1: the softening branch snaps back; \
+                                     use a smaller char_length or cell size, or a larger fracture_energy"
+                                ),
+                            );
+                        } else {
+                            softening = hb / (1.0 - hb);
+                        }
+                    }
+                }
+            }
+        }
+        DamageModel::TimeToFailure => {
+            if d.fracture_energy.is_some() {
+                c.err(
+                    &format!("{q}.fracture_energy"),
+                    "belongs to model = \"rankine\", not time_to_failure",
+                );
+            }
+            match d.crack_speed {
+                None => c.err(
+                    &format!("{q}.crack_speed"),
+                    "the time_to_failure model needs the crack speed c_f, m/s",
+                ),
+                Some(cf) => {
+                    if c.positive(&format!("{q}.crack_speed"), cf) {
+                        tau = char_length / cf;
+                    }
+                }
+            }
+        }
+    }
+    if let Some(w) = &d.weibull {
+        c.positive(&format!("{q}.weibull.modulus"), w.modulus);
+        c.positive(&format!("{q}.weibull.ref_volume"), w.ref_volume);
+    }
+    (c.errors.len() == before).then(|| ResolvedDamage {
+        model: d.model,
+        strength: d.strength,
+        char_length,
+        softening,
+        tau,
+        weibull: d.weibull.clone(),
     })
 }
 

@@ -1,0 +1,605 @@
+//! Damage-field-gradient (DFG) partitioning (Homel & Herbold, seed 000,
+//! section 2): the particles at a node are split into two velocity fields
+//! by the direction of the gradient of a smooth damage field, so that
+//! material on either side of a band of failed particles can separate,
+//! slide with friction, and come back into contact.
+//!
+//! Per step ([`Dfg::field`], the `damage_field` stage, then
+//! [`Dfg::partition`], the `field_partition` stage):
+//! 1. the kernel damage field normalized by the kernel sum, eqs. 17–19,
+//!    D̄(x) = Σ d_q ω(|x − x_q|/r) / Σ ω(|x − x_q|/r), ω(r̄) = 1 − 3r̄² + 2r̄³,
+//!    and its gradient at every particle near damage, with d_q = max(s_q,
+//!    D_q) (s_q the self-contact surface flag, section 2.4). The sums run
+//!    over the particle's own contact group; r is `dfg.radius` cell
+//!    diagonals (the paper: one);
+//! 2. the approximate nonlocal node gradient of Algorithm 1: each node takes
+//!    the particle gradient of largest magnitude among the particles that
+//!    map to it;
+//! 3. Algorithm 2: at each node a particle maps to side 0 of its contact
+//!    group if ∇D̄_p·∇D̄_i ≥ 0, else side 1;
+//! 4. the separability condition of section 2.3: the two sides of a group
+//!    stay separate fields at a node only if a particle mapping there is
+//!    fully damaged and both sides' mass-weighted mean damage (eq. 21)
+//!    exceeds `dfg.separability`; otherwise they are one field, which is
+//!    Algorithm 3's "treat as single field" (both fields move with the
+//!    centre-of-mass velocity) done before the scatter rather than after.
+//!    Separable fields then meet in the core's frictional contact
+//!    ([`crate::contact`], eqs. 11–16) with `dfg.friction`.
+//!
+//! Neighbour lists come from binning the particles in cells of the build
+//! reach r(1 + 2f) and are rebuilt only when a particle has moved more than
+//! f·r since the last build (section 2.5; f = `dfg.rebuild_fraction`), so
+//! every pair closer than r is always in the list.
+//!
+//! Approximation: the side statistics of the separability test are summed
+//! per node over all contact groups; they differ from the paper's per-field
+//! sums only at nodes where two groups and damage meet.
+
+use crate::fracture::damage::FAILED;
+use crate::grid::shape::Kernel;
+use crate::grid::{
+    scatter_coloured, weights, Bins, FieldSlots, GridGeom, MultiField, SyncPtr, TILE,
+};
+use crate::particles::Particles;
+use rayon::prelude::*;
+use std::ops::Range;
+
+/// The kernel of eq. 18 and its derivative factor: ω(r̄) and
+/// (dω/dr̄)/(r̄ R²), so that ∇_x ω = factor · (x − x_q).
+#[inline(always)]
+fn kernel(rbar: f64, radius: f64) -> (f64, f64) {
+    (
+        1.0 - 3.0 * rbar * rbar + 2.0 * rbar * rbar * rbar,
+        6.0 * (rbar - 1.0) / (radius * radius),
+    )
+}
+
+/// Neighbour lists by cell binning (section 2.5).
+#[derive(Debug, Clone, Default)]
+pub struct Neighbours {
+    /// `list[start[p]..start[p+1]]` are the particles within the build
+    /// reach of p (p included), in bin order.
+    start: Vec<u32>,
+    list: Vec<u32>,
+    /// Positions at the last build.
+    x_built: Vec<[f64; 2]>,
+    /// Lists built so far.
+    pub builds: u64,
+}
+
+impl Neighbours {
+    pub fn of(&self, p: usize) -> &[u32] {
+        &self.list[self.start[p] as usize..self.start[p + 1] as usize]
+    }
+
+    /// Builds the lists: pairs closer than `reach` with the same `key`.
+    pub fn build(&mut self, x: &[[f64; 2]], key: &[u16], reach: f64, min: [f64; 2], max: [f64; 2]) {
+        let n = x.len();
+        let nb = [
+            ((max[0] - min[0]) / reach).ceil() as usize + 1,
+            ((max[1] - min[1]) / reach).ceil() as usize + 1,
+        ];
+        // counting sort by bin (stable: ascending index inside a bin)
+        let mut bin_start = vec![0u32; nb[0] * nb[1] + 1];
+        let bin_of: Vec<u32> = x
+            .iter()
+            .map(|&p| {
+                let (cx, cy) = bin_cell(p, min, reach, nb);
+                (cx + cy * nb[0]) as u32
+            })
+            .collect();
+        for &b in &bin_of {
+            bin_start[b as usize + 1] += 1;
+        }
+        for b in 0..nb[0] * nb[1] {
+            bin_start[b + 1] += bin_start[b];
+        }
+        let mut order = vec![0u32; n];
+        let mut cursor = bin_start.clone();
+        for (p, &b) in bin_of.iter().enumerate() {
+            order[cursor[b as usize] as usize] = p as u32;
+            cursor[b as usize] += 1;
+        }
+        let grid = BinGrid {
+            x,
+            key,
+            order: &order,
+            bin_start: &bin_start,
+            nb,
+            min,
+            reach,
+        };
+        let counts: Vec<u32> = (0..n)
+            .into_par_iter()
+            .map(|p| {
+                let mut k = 0u32;
+                grid.visit(p, |_| k += 1);
+                k
+            })
+            .collect();
+        self.start.clear();
+        self.start.reserve(n + 1);
+        let mut total = 0u32;
+        self.start.push(0);
+        for &k in &counts {
+            total += k;
+            self.start.push(total);
+        }
+        self.list.resize(total as usize, 0);
+        let list = SyncPtr::new(&mut self.list);
+        let start = &self.start;
+        (0..n).into_par_iter().for_each(|p| {
+            let mut at = start[p] as usize;
+            grid.visit(p, |q| {
+                // SAFETY: p writes only its own range start[p]..start[p+1].
+                unsafe { *list.at(at) = q };
+                at += 1;
+            });
+        });
+        self.x_built.clear();
+        self.x_built.extend_from_slice(x);
+        self.builds += 1;
+    }
+
+    /// Whether some particle moved more than `limit` since the last build.
+    pub fn stale(&self, x: &[[f64; 2]], limit: f64) -> bool {
+        if self.x_built.len() != x.len() {
+            return true;
+        }
+        let l2 = limit * limit;
+        x.par_iter().zip(&self.x_built).any(|(a, b)| {
+            let d = [a[0] - b[0], a[1] - b[1]];
+            d[0] * d[0] + d[1] * d[1] > l2
+        })
+    }
+}
+
+/// The bin of a point (clamped into the bin grid).
+#[inline(always)]
+fn bin_cell(p: [f64; 2], min: [f64; 2], reach: f64, nb: [usize; 2]) -> (usize, usize) {
+    let cx = (((p[0] - min[0]) / reach).max(0.0) as usize).min(nb[0] - 1);
+    let cy = (((p[1] - min[1]) / reach).max(0.0) as usize).min(nb[1] - 1);
+    (cx, cy)
+}
+
+/// Particles sorted into square bins of the search reach.
+struct BinGrid<'a> {
+    x: &'a [[f64; 2]],
+    key: &'a [u16],
+    order: &'a [u32],
+    bin_start: &'a [u32],
+    nb: [usize; 2],
+    min: [f64; 2],
+    reach: f64,
+}
+
+impl BinGrid<'_> {
+    /// Calls `f(q)` for every q closer than the reach to p with p's key, in
+    /// bin order.
+    #[inline(always)]
+    fn visit(&self, p: usize, mut f: impl FnMut(u32)) {
+        let (x, r2) = (self.x, self.reach * self.reach);
+        let (cx, cy) = bin_cell(x[p], self.min, self.reach, self.nb);
+        for by in cy.saturating_sub(1)..(cy + 2).min(self.nb[1]) {
+            for bx in cx.saturating_sub(1)..(cx + 2).min(self.nb[0]) {
+                let b = bx + by * self.nb[0];
+                for &q in &self.order[self.bin_start[b] as usize..self.bin_start[b + 1] as usize] {
+                    let d = [x[q as usize][0] - x[p][0], x[q as usize][1] - x[p][1]];
+                    if self.key[q as usize] == self.key[p] && d[0] * d[0] + d[1] * d[1] < r2 {
+                        f(q);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Settings of the partitioning, in SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DfgParams {
+    /// Kernel radius r, m.
+    pub radius: f64,
+    /// Rebuild fraction f of the radius.
+    pub rebuild_fraction: f64,
+    /// D_min of the separability condition.
+    pub separability: f64,
+}
+
+/// Per-node sums of the separability test, for sides 0 and 1:
+/// Σ N m, Σ N m d, max d.
+#[derive(Debug, Clone, Copy, Default)]
+struct SideSums {
+    w: [f64; 2],
+    wd: [f64; 2],
+    dmax: [f64; 2],
+}
+
+/// What the partitioning did this run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct DfgStats {
+    /// Neighbour-list builds.
+    pub neighbour_builds: u64,
+    /// Nodes where the two sides of a group were separate fields in the
+    /// last step.
+    pub separated_nodes: u64,
+    /// Surface particles flagged for self-contact.
+    pub surface_particles: u64,
+}
+
+/// The partitioning state: neighbour lists, surface flags, the field
+/// gradients of the current step.
+#[derive(Debug, Clone)]
+pub struct Dfg {
+    params: DfgParams,
+    neighbours: Neighbours,
+    /// Self-contact surface flags s_p (empty without self-contact).
+    surface: Vec<f64>,
+    /// d_p = max(s_p, D_p) of this step.
+    d: Vec<f64>,
+    /// ∇D̄ at the particles (zero away from damage).
+    pub grad: Vec<[f64; 2]>,
+    /// Algorithm 1's nodal gradient.
+    pub node_grad: Vec<[f64; 2]>,
+    sums: Vec<SideSums>,
+    /// Node ranges written in the last step (zeroed before the next).
+    written: Vec<Range<usize>>,
+    /// Tiles with damage nearby (their particles get a gradient).
+    hot: Vec<bool>,
+    separated: u64,
+    surface_count: u64,
+}
+
+impl Dfg {
+    /// Sets up the partitioning; with `self_contact`, flags as surface
+    /// particles those whose kernel sum over their own body is below
+    /// `threshold` times the body's largest (section 2.4).
+    pub fn new(
+        params: DfgParams,
+        geom: &GridGeom,
+        parts: &Particles,
+        self_contact: Option<f64>,
+    ) -> Dfg {
+        let n = parts.len();
+        let mut surface = Vec::new();
+        let mut surface_count = 0;
+        if let Some(threshold) = self_contact {
+            let mut nb = Neighbours::default();
+            nb.build(
+                &parts.x,
+                &parts.body,
+                params.radius,
+                geom.domain_min,
+                geom.domain_max,
+            );
+            let sum: Vec<f64> = (0..n)
+                .into_par_iter()
+                .map(|p| {
+                    nb.of(p)
+                        .iter()
+                        .map(|&q| {
+                            let d = [
+                                parts.x[q as usize][0] - parts.x[p][0],
+                                parts.x[q as usize][1] - parts.x[p][1],
+                            ];
+                            let rbar = (d[0] * d[0] + d[1] * d[1]).sqrt() / params.radius;
+                            if rbar < 1.0 {
+                                kernel(rbar, params.radius).0
+                            } else {
+                                0.0
+                            }
+                        })
+                        .sum()
+                })
+                .collect();
+            let bodies = parts
+                .body
+                .iter()
+                .map(|&b| b as usize + 1)
+                .max()
+                .unwrap_or(0);
+            let mut smax = vec![0.0f64; bodies];
+            for (&b, &sp) in parts.body.iter().zip(&sum) {
+                smax[b as usize] = smax[b as usize].max(sp);
+            }
+            surface = (0..n)
+                .map(|p| {
+                    if sum[p] < threshold * smax[parts.body[p] as usize] {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            surface_count = surface.iter().filter(|&&s| s > 0.0).count() as u64;
+        }
+        Dfg {
+            params,
+            neighbours: Neighbours::default(),
+            surface,
+            d: vec![0.0; n],
+            grad: vec![[0.0; 2]; n],
+            node_grad: vec![[0.0; 2]; geom.node_count()],
+            sums: vec![SideSums::default(); geom.node_count()],
+            written: Vec::new(),
+            hot: Vec::new(),
+            separated: 0,
+            surface_count,
+        }
+    }
+
+    pub fn stats(&self) -> DfgStats {
+        DfgStats {
+            neighbour_builds: self.neighbours.builds,
+            separated_nodes: self.separated,
+            surface_particles: self.surface_count,
+        }
+    }
+
+    /// The surface flags (empty without self-contact).
+    pub fn surface(&self) -> &[f64] {
+        &self.surface
+    }
+
+    /// The `damage_field` stage: d_p, the particle gradients ∇D̄ (eqs.
+    /// 17–19) near damage, and the nodal gradients of Algorithm 1.
+    pub fn field<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles, bins: &Bins) {
+        let n = parts.len();
+        let damage = &parts.damage;
+        let surface = &self.surface;
+        self.d.par_iter_mut().enumerate().for_each(|(p, d)| {
+            let a = damage.get(p).copied().unwrap_or(0.0);
+            let s = surface.get(p).copied().unwrap_or(0.0);
+            *d = a.max(s);
+        });
+        let r = self.params.radius;
+        let skin = self.params.rebuild_fraction * r;
+        if self.neighbours.stale(&parts.x, skin) {
+            let groups: Vec<u16> = parts.group.iter().map(|&g| g as u16).collect();
+            self.neighbours.build(
+                &parts.x,
+                &groups,
+                r + 2.0 * skin,
+                geom.domain_min,
+                geom.domain_max,
+            );
+        }
+        // Tiles with damage in them or next to them (r < one tile).
+        let ntiles = geom.tiles[0] * geom.tiles[1];
+        let mut any = vec![false; ntiles];
+        for (t, a) in any.iter_mut().enumerate() {
+            *a = bins
+                .particles_of(t as u32)
+                .iter()
+                .any(|&p| self.d[p as usize] > 0.0);
+        }
+        self.hot.clear();
+        self.hot.resize(ntiles, false);
+        let [ntx, nty] = geom.tiles;
+        for (t, _) in any.iter().enumerate().filter(|a| *a.1) {
+            {
+                let (tx, ty) = (t % ntx, t / ntx);
+                for y in ty.saturating_sub(1)..(ty + 2).min(nty) {
+                    for x in tx.saturating_sub(1)..(tx + 2).min(ntx) {
+                        self.hot[x + y * ntx] = true;
+                    }
+                }
+            }
+        }
+        debug_assert!(r < TILE as f64 * geom.h);
+        let (x, d, nb, hot, tile_of) = (
+            &parts.x,
+            &self.d,
+            &self.neighbours,
+            &self.hot,
+            &bins.tile_of,
+        );
+        self.grad[..n]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(p, g)| {
+                *g = [0.0; 2];
+                if !hot[tile_of[p] as usize] {
+                    return;
+                }
+                let (mut s, mut ds, mut gs, mut gds) = (0.0, 0.0, [0.0; 2], [0.0; 2]);
+                for &q in nb.of(p) {
+                    let q = q as usize;
+                    let dx = [x[p][0] - x[q][0], x[p][1] - x[q][1]];
+                    let rbar = (dx[0] * dx[0] + dx[1] * dx[1]).sqrt() / r;
+                    if rbar >= 1.0 {
+                        continue;
+                    }
+                    let (w, f) = kernel(rbar, r);
+                    s += w;
+                    ds += d[q] * w;
+                    gs[0] += f * dx[0];
+                    gs[1] += f * dx[1];
+                    gds[0] += d[q] * f * dx[0];
+                    gds[1] += d[q] * f * dx[1];
+                }
+                if s > 0.0 {
+                    let dbar = ds / s;
+                    *g = [(gds[0] - dbar * gs[0]) / s, (gds[1] - dbar * gs[1]) / s];
+                }
+            });
+        // Algorithm 1, coloured like P2G (deterministic: within a colour the
+        // tiles' node sets are disjoint; ties keep the first particle).
+        for r in &self.written {
+            self.node_grad[r.clone()].fill([0.0; 2]);
+            self.sums[r.clone()].fill(SideSums::default());
+        }
+        self.written.clone_from(&bins.active);
+        let ng = SyncPtr::new(&mut self.node_grad);
+        let (grad, hot) = (&self.grad, &self.hot);
+        for colour in &bins.colours {
+            colour
+                .par_iter()
+                .filter(|&&t| hot[t as usize])
+                .for_each(|&tile| {
+                    for &p in bins.particles_of(tile) {
+                        let p = p as usize;
+                        let g = grad[p];
+                        let m = g[0] * g[0] + g[1] * g[1];
+                        if m == 0.0 {
+                            continue;
+                        }
+                        let (_, wx, wy) = weights::<K>(geom, parts, p);
+                        for j in 0..K::N {
+                            for i in 0..K::N {
+                                let node = (wx.base + i as isize) as usize
+                                    + (wy.base + j as isize) as usize * geom.nodes[0];
+                                // SAFETY: coloured scatter (see `scatter_coloured`).
+                                let gi = unsafe { ng.at(node) };
+                                if m > gi[0] * gi[0] + gi[1] * gi[1] {
+                                    *gi = g;
+                                }
+                            }
+                        }
+                    }
+                });
+        }
+    }
+
+    /// The `field_partition` stage with DFG: marks the fields (two sides
+    /// per contact group, Algorithm 2) present at each node, merges the two
+    /// sides where the node is not separable (section 2.3), and lays out
+    /// the slots. Returns the number of slots.
+    pub fn partition<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        parts: &Particles,
+        bins: &Bins,
+        multi: &mut MultiField,
+    ) -> usize {
+        let nodes = geom.node_count();
+        multi.mask.clear();
+        multi.mask.resize(nodes, 0);
+        // (`field` zeroed the sums the last step wrote)
+        let mask = SyncPtr::new(&mut multi.mask);
+        let sums = SyncPtr::new(&mut self.sums);
+        let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
+        scatter_coloured::<K>(geom, parts, bins, |p, _, wx, wy| {
+            let gp = grad[p];
+            let base = 2 * parts.group[p] as u32;
+            let m = parts.mass[p];
+            for j in 0..K::N {
+                for i in 0..K::N {
+                    let node = (wx.base + i as isize) as usize
+                        + (wy.base + j as isize) as usize * geom.nodes[0];
+                    let gi = ngrad[node];
+                    let side = usize::from(gp[0] * gi[0] + gp[1] * gi[1] < 0.0);
+                    // SAFETY: coloured scatter; every write is to `node`.
+                    unsafe {
+                        *mask.at(node) |= 1 << (base + side as u32);
+                        if gi != [0.0; 2] {
+                            let s = sums.at(node);
+                            let w = wx.w[i] * wy.w[j] * m;
+                            s.w[side] += w;
+                            s.wd[side] += w * d[p];
+                            s.dmax[side] = s.dmax[side].max(d[p]);
+                        }
+                    }
+                }
+            }
+        });
+        // Section 2.3: merge the sides of a group where not separable.
+        let dmin = self.params.separability;
+        let mut separated = 0u64;
+        for (m, s) in multi.mask.iter_mut().zip(&self.sums) {
+            let mut pairs = *m & (*m >> 1) & 0x5555_5555;
+            while pairs != 0 {
+                let bit = pairs.trailing_zeros();
+                pairs &= pairs - 1;
+                let mean = |k: usize| if s.w[k] > 0.0 { s.wd[k] / s.w[k] } else { 0.0 };
+                let separable = s.dmax[0].max(s.dmax[1]) >= FAILED && mean(0).min(mean(1)) > dmin;
+                if separable {
+                    separated += 1;
+                } else {
+                    *m &= !(1 << (bit + 1));
+                }
+            }
+        }
+        self.separated = separated;
+        multi.layout()
+    }
+}
+
+/// Slots of a DFG step: the field of a (node, particle) pair is its
+/// contact group's side by the sign of ∇D̄_p·∇D̄_i, or the other side where
+/// the two were merged.
+pub struct DfgFields<'a> {
+    pub nodes: usize,
+    pub multi: &'a MultiField,
+    pub group: &'a [u8],
+    pub grad: &'a [[f64; 2]],
+    pub node_grad: &'a [[f64; 2]],
+}
+
+impl FieldSlots for DfgFields<'_> {
+    #[inline(always)]
+    fn slot(&self, node: usize, particle: usize) -> usize {
+        let (gp, gi) = (self.grad[particle], self.node_grad[node]);
+        let side = u32::from(gp[0] * gi[0] + gp[1] * gi[1] < 0.0);
+        let mut field = 2 * self.group[particle] as u32 + side;
+        if self.multi.mask[node] & (1 << field) == 0 {
+            field ^= 1;
+        }
+        self.multi.slot_of(self.nodes, node, field)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kernel_matches_eq_18_and_its_derivative() {
+        let r = 2.0;
+        for rbar in [0.0, 0.25, 0.5, 0.9] {
+            let (w, f) = kernel(rbar, r);
+            assert!((w - (1.0 - 3.0 * rbar * rbar + 2.0 * rbar.powi(3))).abs() < 1e-15);
+            // d/dx of ω(|x|/r) at x = rbar·r along x: f · x
+            let hstep = 1e-6;
+            let (wp, _) = kernel(rbar + hstep / r, r);
+            let (wm, _) = kernel((rbar - hstep / r).abs(), r);
+            let fd = (wp - wm) / (2.0 * hstep);
+            assert!(
+                (fd - f * rbar * r).abs() < 1e-6,
+                "{rbar}: {fd} vs {}",
+                f * rbar * r
+            );
+        }
+        assert_eq!(kernel(1.0, r).0, 0.0);
+    }
+
+    #[test]
+    fn neighbour_lists_hold_every_close_pair_of_the_same_key() {
+        let mut x = Vec::new();
+        let mut key = Vec::new();
+        for i in 0..30 {
+            for j in 0..20 {
+                x.push([0.013 * i as f64 + 0.001 * (j % 3) as f64, 0.011 * j as f64]);
+                key.push(u16::from(i >= 15));
+            }
+        }
+        let mut nb = Neighbours::default();
+        let reach = 0.03;
+        nb.build(&x, &key, reach, [0.0, 0.0], [0.4, 0.25]);
+        for p in 0..x.len() {
+            let mut want: Vec<u32> = (0..x.len() as u32)
+                .filter(|&q| {
+                    let d = [x[q as usize][0] - x[p][0], x[q as usize][1] - x[p][1]];
+                    key[q as usize] == key[p] && d[0] * d[0] + d[1] * d[1] < reach * reach
+                })
+                .collect();
+            let mut got = nb.of(p).to_vec();
+            got.sort();
+            want.sort();
+            assert_eq!(got, want, "particle {p}");
+        }
+        assert!(!nb.stale(&x, 0.001));
+        let mut y = x.clone();
+        y[7][0] += 0.002;
+        assert!(nb.stale(&y, 0.001));
+    }
+}
