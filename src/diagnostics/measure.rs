@@ -133,6 +133,7 @@ pub fn snapshot(
         .into_iter()
         .chain((!parts.phase.is_empty()).then(|| f64_field("phase_field", 1, parts.phase.clone())))
         .chain((!parts.history.is_empty()).then(|| f64_field("history", 1, parts.history.clone())))
+        .chain((!parts.damage.is_empty()).then(|| f64_field("damage", 1, parts.damage.clone())))
         .collect(),
         grid,
     }

@@ -43,7 +43,9 @@ impl DamageState {
     /// Marks the initial cracks as fully damaged particles (those within
     /// 0.55 particle spacings of a body's crack polylines) and starts the
     /// crack-tip trackers of bodies with a crack origin (default: the first
-    /// crack point). Call with the particles in their final order.
+    /// crack point). The tip is the particle with D > 0.9 farthest from the
+    /// origin among those not on an initial crack. Call with the particles
+    /// in their final order.
     pub(super) fn place_cracks(&mut self, scene: &Scene, parts: &mut Particles) {
         for (b, spec) in scene.file.bodies.iter().enumerate() {
             if scene

@@ -125,12 +125,8 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             rebuild_fraction: spec.rebuild_fraction,
             separability: spec.separability,
         };
-        crate::fracture::dfg::Dfg::new(
-            params,
-            &geom,
-            &parts,
-            spec.self_contact.then_some(spec.surface_threshold),
-        )
+        let damaged: Vec<bool> = scene.materials.iter().map(|m| m.damage.is_some()).collect();
+        crate::fracture::dfg::Dfg::new(params, &geom, &parts, spec.self_contact.then_some(spec.surface_threshold), &damaged)
     });
     let phase = super::phase::PhaseFields::new(scene, &mut parts);
     let tractions = Tractions::new(scene, &parts);

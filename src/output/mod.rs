@@ -126,10 +126,12 @@ impl Observer for OutputWriter {
     }
 
     fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
-        // an image of the phase field of every snapshot that has one
-        let image = self.dir.join(format!("phase_field_{:04}.png", snap.index));
-        if plot_particle_field(&image, snap, "phase_field", 0.0, 1.0).map_err(|e| e.to_string())? {
-            self.snapshots.push(image);
+        // an image of the phase field or damage of every snapshot that has one
+        for field in ["phase_field", "damage"] {
+            let image = self.dir.join(format!("{field}_{:04}.png", snap.index));
+            if plot_particle_field(&image, snap, field, 0.0, 1.0).map_err(|e| e.to_string())? {
+                self.snapshots.push(image);
+            }
         }
         let name = format!("particles_{:04}.vtp", snap.index);
         let path = self.dir.join(&name);

@@ -68,11 +68,15 @@ pub struct Neighbours {
 }
 
 impl Neighbours {
+    /// The key of particles that take no part.
+    pub const NONE: u16 = u16::MAX;
+
     pub fn of(&self, p: usize) -> &[u32] {
         &self.list[self.start[p] as usize..self.start[p + 1] as usize]
     }
 
     /// Builds the lists: pairs closer than `reach` with the same `key`.
+    /// Particles keyed [`Neighbours::NONE`] get no list and are in none.
     pub fn build(&mut self, x: &[[f64; 2]], key: &[u16], reach: f64, min: [f64; 2], max: [f64; 2]) {
         let n = x.len();
         let nb = [
@@ -141,15 +145,16 @@ impl Neighbours {
         self.builds += 1;
     }
 
-    /// Whether some particle moved more than `limit` since the last build.
+    /// Whether some particle with a list moved more than `limit` since
+    /// the last build.
     pub fn stale(&self, x: &[[f64; 2]], limit: f64) -> bool {
         if self.x_built.len() != x.len() {
             return true;
         }
         let l2 = limit * limit;
-        x.par_iter().zip(&self.x_built).any(|(a, b)| {
+        x.par_iter().zip(&self.x_built).enumerate().any(|(p, (a, b))| {
             let d = [a[0] - b[0], a[1] - b[1]];
-            d[0] * d[0] + d[1] * d[1] > l2
+            self.start[p + 1] > self.start[p] && d[0] * d[0] + d[1] * d[1] > l2
         })
     }
 }
@@ -178,6 +183,9 @@ impl BinGrid<'_> {
     /// bin order.
     #[inline(always)]
     fn visit(&self, p: usize, mut f: impl FnMut(u32)) {
+        if self.key[p] == Neighbours::NONE {
+            return;
+        }
         let (x, r2) = (self.x, self.reach * self.reach);
         let (cx, cy) = bin_cell(x[p], self.min, self.reach, self.nb);
         for by in cy.saturating_sub(1)..(cy + 2).min(self.nb[1]) {
@@ -236,6 +244,10 @@ pub struct Dfg {
     surface: Vec<f64>,
     /// d_p = max(s_p, D_p) of this step.
     d: Vec<f64>,
+    /// Neighbour-list key: the contact group of particles that can carry
+    /// damage or a surface flag, [`Neighbours::NONE`] for the rest (an
+    /// elastic striker needs no damage field).
+    key: Vec<u16>,
     /// ∇D̄ at the particles (zero away from damage).
     pub grad: Vec<[f64; 2]>,
     /// Algorithm 1's nodal gradient.
@@ -253,13 +265,13 @@ impl Dfg {
     /// Sets up the partitioning; with `self_contact`, flags as surface
     /// particles those whose kernel sum over their own body is below
     /// `threshold` times the body's largest (section 2.4).
-    pub fn new(
-        params: DfgParams,
-        geom: &GridGeom,
-        parts: &Particles,
-        self_contact: Option<f64>,
-    ) -> Dfg {
+    /// `takes_part[m]` says whether particles of material m can be damaged
+    /// (all particles take part with self-contact).
+    pub fn new(params: DfgParams, geom: &GridGeom, parts: &Particles, self_contact: Option<f64>, takes_part: &[bool]) -> Dfg {
         let n = parts.len();
+        let key = (0..n)
+            .map(|p| if self_contact.is_some() || takes_part[parts.material[p] as usize] { parts.group[p] as u16 } else { Neighbours::NONE })
+            .collect();
         let mut surface = Vec::new();
         let mut surface_count = 0;
         if let Some(threshold) = self_contact {
@@ -315,6 +327,7 @@ impl Dfg {
         Dfg {
             params,
             neighbours: Neighbours::default(),
+            key,
             surface,
             d: vec![0.0; n],
             grad: vec![[0.0; 2]; n],
@@ -386,19 +399,13 @@ impl Dfg {
             }
         }
         debug_assert!(r < TILE as f64 * geom.h);
-        let (x, d, nb, hot, tile_of) = (
-            &parts.x,
-            &self.d,
-            &self.neighbours,
-            &self.hot,
-            &bins.tile_of,
-        );
+        let (x, d, nb, hot, tile_of, key) = (&parts.x, &self.d, &self.neighbours, &self.hot, &bins.tile_of, &self.key);
         self.grad[..n]
             .par_iter_mut()
             .enumerate()
             .for_each(|(p, g)| {
                 *g = [0.0; 2];
-                if !hot[tile_of[p] as usize] {
+                if !hot[tile_of[p] as usize] || key[p] == Neighbours::NONE {
                     return;
                 }
                 let (mut s, mut ds, mut gs, mut gds) = (0.0, 0.0, [0.0; 2], [0.0; 2]);
