@@ -170,7 +170,7 @@ pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min:
         .sum()
 }
 
-fn unit(a: [f64; 2]) -> Option<[f64; 2]> {
+pub(crate) fn unit(a: [f64; 2]) -> Option<[f64; 2]> {
     let n = (a[0] * a[0] + a[1] * a[1]).sqrt();
     if n > 0.0 && n.is_finite() {
         Some([a[0] / n, a[1] / n])

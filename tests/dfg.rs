@@ -244,3 +244,54 @@ fn bad_damage_input_names_the_field() {
         "{err}"
     );
 }
+
+/// Mass-weighted mean x of body `b`'s particles.
+fn mean_x(sim: &Simulation, b: u16) -> f64 {
+    let p = sim.particles();
+    let (mut m, mut x) = (0.0, 0.0);
+    for k in (0..p.len()).filter(|&k| p.body[k] == b) {
+        m += p.mass[k];
+        x += p.mass[k] * p.x[k][0];
+    }
+    x / m
+}
+
+/// Section 2.4: a block pressed on a plane by tilted gravity and sliding
+/// with μ = 0.3 (scenes/sliding_block.toml, 0.12 s). Two contact groups
+/// meet in the core's two-field frictional contact; the self-contact run
+/// puts both in one contact group, so only the surface flags and the
+/// damage-field gradient tell block from plane. The block must slide as
+/// far (within 5 %), i.e. be neither welded nor frictionless.
+#[test]
+fn self_contact_slides_like_two_fields_with_friction() {
+    let base = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/sliding_block.toml"
+    ))
+    .expect("scenes/sliding_block.toml");
+    let slide = |text: &str| {
+        let scene = parse(text);
+        let mut sim = Simulation::new(&scene);
+        let x0 = mean_x(&sim, 1);
+        sim.run(&mut Recorder::default()).unwrap_or_else(|e| panic!("{e}"));
+        mean_x(&sim, 1) - x0
+    };
+    let two = slide(&base);
+    let one_group = base
+        .replace("contact_group = 1", "contact_group = 0")
+        .replace("[contact]\nfriction = 0.3", "");
+    assert_ne!(one_group, base, "the scene's keys changed");
+    let one = slide(&format!(
+        "{one_group}\n[dfg]\nself_contact = true\nfriction = 0.3\nsurface_threshold = 0.99\n"
+    ));
+    // g (sin θ − μ cos θ) t² / 2 with θ = 30°, μ = 0.3, t = 0.12 s
+    let analytic = 0.5 * 9.81 * (0.5 - 0.3 * 0.75f64.sqrt()) * 0.12 * 0.12;
+    println!(
+        "sliding block: two fields {:.3} mm, self-contact {:.3} mm, analytic {:.3} mm",
+        two * 1e3,
+        one * 1e3,
+        analytic * 1e3
+    );
+    assert!((two / analytic - 1.0).abs() < 0.05, "two fields {two} m vs {analytic} m");
+    assert!((one / two - 1.0).abs() < 0.05, "self-contact {one} m vs two fields {two} m");
+}

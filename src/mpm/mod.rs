@@ -380,6 +380,9 @@ impl Simulation {
             let r = match &dfg {
                 Some(d) => {
                     let slots = DfgFields {
+                        x: &d.x_partition,
+                        cut: &d.cut,
+                        normal: &d.normal,
                         nodes,
                         multi: &multi,
                         group: &group,

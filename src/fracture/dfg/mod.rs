@@ -14,9 +14,12 @@
 //!    diagonals (the paper: one);
 //! 2. the approximate nonlocal node gradient of Algorithm 1: each node takes
 //!    the particle gradient of largest magnitude among the particles that
-//!    map to it;
+//!    map to it; then, where the node sees opposing surfaces, the direction
+//!    along which they oppose ([`Dfg::balance`]; our change, see below);
 //! 3. Algorithm 2: at each node a particle maps to side 0 of its contact
-//!    group if ∇D̄_p·∇D̄_i ≥ 0, else side 1;
+//!    group if ∇D̄_p·∇D̄_i ≥ 0, else side 1 — where the two are not
+//!    (nearly) perpendicular; otherwise by its own surface normal or its
+//!    position ([`side`]);
 //! 4. the separability condition of section 2.3: the two sides of a group
 //!    stay separate fields at a node only if a particle mapping there is
 //!    fully damaged and both sides' mass-weighted mean damage (eq. 21)
@@ -31,10 +34,24 @@
 //! f·r since the last build (section 2.5; f = `dfg.rebuild_fraction`), so
 //! every pair closer than r is always in the list.
 //!
+//! Departures from the paper, both for self-contact (section 2.4), where
+//! d = max(s, D) is 1 in the surface bands of two faces that touch, D̄ is
+//! flat between them and their particles have no gradient: Algorithm 1's
+//! largest gradient follows a body's own free face where it meets another
+//! surface, and the sign test of Algorithm 2 is a tie for particles whose
+//! gradient is perpendicular to the node's or zero. Taken literally, a block
+//! standing on a plane in one contact group shares a field with the plane
+//! at its corner nodes, and is welded there (it slid 0.01 mm where two
+//! contact groups slide 17.1 mm; with the changes the two agree to 0.01 %,
+//! `tests/dfg.rs`). At a straight crack the direction is still its normal;
+//! the band's own particles (no gradient) now split at the band's centre
+//! instead of all going to side 0.
+//!
 //! Approximation: the side statistics of the separability test are summed
 //! per node over all contact groups; they differ from the paper's per-field
 //! sums only at nodes where two groups and damage meet.
 
+use crate::contact::unit;
 use crate::fracture::damage::FAILED;
 use crate::grid::shape::Kernel;
 use crate::grid::{
@@ -43,6 +60,51 @@ use crate::grid::{
 use crate::particles::Particles;
 use rayon::prelude::*;
 use std::ops::Range;
+
+/// Below this |cos| between a particle's damage gradient and the node's
+/// direction the gradient does not tell the side (Algorithm 2's sign test
+/// is a tie or nearly one) and [`side`] falls back on the particle's
+/// surface normal, then its position.
+const SIDE_COS: f64 = 0.5;
+
+/// Algorithm 2's side (0 or 1) of a particle with damage gradient `gp`,
+/// outward surface normal `op` (zero unless a self-contact surface
+/// particle) and position `xp` at a node with unit direction `ni` and
+/// surface position `cut` (along `ni`): side 1 where ∇D̄_p·n_i < 0. Where
+/// the two are (nearly) perpendicular — the side faces of a block standing
+/// on a plane, the flanks of a crack tip, particles inside a damaged or
+/// surface band where D̄ is flat and has no gradient — the sign test is
+/// arbitrary: the paper's rule puts them on side 0 with everything that
+/// points along n_i, so a block's corner shares a field with the plane it
+/// stands on and is welded to it. There the particle's own outward normal
+/// decides if it has one (it points the way ∇D̄ would), and otherwise its
+/// position: ∇D̄ points towards the surface, so side 0 lies behind it
+/// (n_i·x_p < cut) and side 1 in front.
+#[inline(always)]
+fn side(gp: [f64; 2], op: [f64; 2], ni: [f64; 2], xp: [f64; 2], cut: f64) -> u32 {
+    let clear = |g: [f64; 2]| {
+        let dot = g[0] * ni[0] + g[1] * ni[1];
+        (dot * dot > SIDE_COS * SIDE_COS * (g[0] * g[0] + g[1] * g[1])).then_some(dot < 0.0)
+    };
+    let behind = clear(gp)
+        .or_else(|| clear(op))
+        .unwrap_or_else(|| ni[0] * xp[0] + ni[1] * xp[1] > cut);
+    u32::from(behind)
+}
+
+/// Candidate directions of the balanced nodal direction
+/// ([`Dfg::balance`]), spaced 180°/NDIR.
+const NDIR: usize = 16;
+
+/// A particle counts for a side of candidate n_k in [`Dfg::balance`] only
+/// if its direction lies within this cosine (26°) of ±n_k: two faces
+/// meeting at a body's corner are perpendicular, not opposing.
+const CONE_COS: f64 = 0.9;
+
+/// A node's balanced direction is used only where its weaker side holds at
+/// least this fraction of the node's Σ N_ip m_p over the particles with a
+/// direction.
+const BALANCE_MIN: f64 = 0.01;
 
 /// The kernel of eq. 18 and its derivative factor: ω(r̄) and
 /// (dω/dr̄)/(r̄ R²), so that ∇_x ω = factor · (x − x_q).
@@ -242,6 +304,13 @@ pub struct Dfg {
     neighbours: Neighbours,
     /// Self-contact surface flags s_p (empty without self-contact).
     surface: Vec<f64>,
+    /// Outward unit normals of the surface particles in the reference
+    /// configuration, from the gradient of their body's kernel sum (zero
+    /// inside; empty without self-contact).
+    normal0: Vec<[f64; 2]>,
+    /// The normals at this step's partition (rotated by cof F where the
+    /// material tracks F); what [`side`] falls back on.
+    pub normal: Vec<[f64; 2]>,
     /// d_p = max(s_p, D_p) of this step.
     d: Vec<f64>,
     /// Neighbour-list key: the contact group of particles that can carry
@@ -250,8 +319,19 @@ pub struct Dfg {
     key: Vec<u16>,
     /// ∇D̄ at the particles (zero away from damage).
     pub grad: Vec<[f64; 2]>,
-    /// Algorithm 1's nodal gradient.
+    /// The nodal direction: Algorithm 1's, turned towards opposing
+    /// surfaces where there are some ([`Dfg::balance`]).
     pub node_grad: Vec<[f64; 2]>,
+    /// Per node: for each candidate direction n_k the two sides' sums of
+    /// [`Dfg::balance`], then Σ N_ip m_p; reused by its second pass.
+    dirs: Vec<[f64; 2 * NDIR + 1]>,
+    /// Where the surface lies at each node, along its unit direction
+    /// (n_i·x, m; see [`Dfg::balance`]).
+    pub cut: Vec<f64>,
+    /// Particle positions at this step's partition: the side rule
+    /// ([`side`]) must give the same field in P2G and G2P, and G2P moves
+    /// the particles.
+    pub x_partition: Vec<[f64; 2]>,
     sums: Vec<SideSums>,
     /// Node ranges written in the last step (zeroed before the next).
     written: Vec<Range<usize>>,
@@ -273,6 +353,7 @@ impl Dfg {
             .map(|p| if self_contact.is_some() || takes_part[parts.material[p] as usize] { parts.group[p] as u16 } else { Neighbours::NONE })
             .collect();
         let mut surface = Vec::new();
+        let mut normal0 = Vec::new();
         let mut surface_count = 0;
         if let Some(threshold) = self_contact {
             let mut nb = Neighbours::default();
@@ -283,26 +364,26 @@ impl Dfg {
                 geom.domain_min,
                 geom.domain_max,
             );
-            let sum: Vec<f64> = (0..n)
+            // kernel sum and its gradient (which points into the body)
+            let (sum, sgrad): (Vec<f64>, Vec<[f64; 2]>) = (0..n)
                 .into_par_iter()
                 .map(|p| {
-                    nb.of(p)
-                        .iter()
-                        .map(|&q| {
-                            let d = [
-                                parts.x[q as usize][0] - parts.x[p][0],
-                                parts.x[q as usize][1] - parts.x[p][1],
-                            ];
-                            let rbar = (d[0] * d[0] + d[1] * d[1]).sqrt() / params.radius;
-                            if rbar < 1.0 {
-                                kernel(rbar, params.radius).0
-                            } else {
-                                0.0
-                            }
-                        })
-                        .sum()
+                    let (mut s, mut g) = (0.0, [0.0; 2]);
+                    for &q in nb.of(p) {
+                        let d = [
+                            parts.x[p][0] - parts.x[q as usize][0],
+                            parts.x[p][1] - parts.x[q as usize][1],
+                        ];
+                        let rbar = (d[0] * d[0] + d[1] * d[1]).sqrt() / params.radius;
+                        if rbar < 1.0 {
+                            let (w, f) = kernel(rbar, params.radius);
+                            s += w;
+                            g = [g[0] + f * d[0], g[1] + f * d[1]];
+                        }
+                    }
+                    (s, g)
                 })
-                .collect();
+                .unzip();
             let bodies = parts
                 .body
                 .iter()
@@ -323,15 +404,26 @@ impl Dfg {
                 })
                 .collect();
             surface_count = surface.iter().filter(|&&s| s > 0.0).count() as u64;
+            normal0 = (0..n)
+                .map(|p| match unit(sgrad[p]) {
+                    Some(u) if surface[p] > 0.0 => [-u[0], -u[1]],
+                    _ => [0.0; 2],
+                })
+                .collect();
         }
         Dfg {
             params,
             neighbours: Neighbours::default(),
             key,
             surface,
+            normal: Vec::with_capacity(normal0.len()),
+            normal0,
             d: vec![0.0; n],
             grad: vec![[0.0; 2]; n],
             node_grad: vec![[0.0; 2]; geom.node_count()],
+            dirs: vec![[0.0; 2 * NDIR + 1]; geom.node_count()],
+            cut: vec![0.0; geom.node_count()],
+            x_partition: Vec::with_capacity(n),
             sums: vec![SideSums::default(); geom.node_count()],
             written: Vec::new(),
             hot: Vec::new(),
@@ -433,6 +525,7 @@ impl Dfg {
         // tiles' node sets are disjoint; ties keep the first particle).
         for r in &self.written {
             self.node_grad[r.clone()].fill([0.0; 2]);
+            self.cut[r.clone()].fill(0.0);
             self.sums[r.clone()].fill(SideSums::default());
         }
         self.written.clone_from(&bins.active);
@@ -465,6 +558,156 @@ impl Dfg {
                     }
                 });
         }
+        if !self.normal0.is_empty() {
+            self.normal.clone_from(&self.normal0);
+            if !parts.def_grad.is_empty() {
+                // n ∝ F⁻ᵀ N = cof(F) N / det F
+                for (n, f) in self.normal.iter_mut().zip(&parts.def_grad) {
+                    *n = [f[3] * n[0] - f[2] * n[1], -f[1] * n[0] + f[0] * n[1]];
+                }
+            }
+        }
+        self.balance::<K>(geom, parts, bins);
+    }
+
+    /// Turns the nodal direction towards opposing surfaces and finds where
+    /// the surface lies. Algorithm 1 takes the largest particle gradient,
+    /// and eq. 20's formal direction (maximize Σ_p N_ip m_p |n·∇D̄_p|) the
+    /// dominant one; both follow a body's own free face where it meets
+    /// another surface — at the corner of a block standing on a plane the
+    /// block's side face wins, the plane and the block land on one side and
+    /// are welded there. Contact needs the direction along which particles
+    /// face each other, so each particle contributes its unit direction u_p
+    /// (∇D̄_p, or its outward normal where D̄ is flat), and among NDIR
+    /// candidates n_k we take the one that maximizes the weaker side,
+    /// min(Σ N m (n_k·u_p)² over u_p within [`CONE_COS`] of +n_k, the same
+    /// for −n_k). At a straight crack that is the crack normal (as with
+    /// Algorithm 1); at a lone free face no direction has an opposing side
+    /// and Algorithm 1's gradient stays. The candidates are 11.25° apart,
+    /// well inside the [`side`] test's tolerance; the contact normals come
+    /// from the mass gradients, not from this direction. A second pass puts
+    /// the surface (`cut`, along n_i) at the centroid of d_p = max(s_p,
+    /// D_p) — the damaged band, or the surface bands of two faces in
+    /// contact, whose inner particles have no gradient and are placed by
+    /// it; elsewhere it is the node. Leaves `node_grad` unit or zero.
+    fn balance<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles, bins: &Bins) {
+        let cand: [[f64; 2]; NDIR] = std::array::from_fn(|k| {
+            let a = std::f64::consts::PI * k as f64 / NDIR as f64;
+            [a.cos(), a.sin()]
+        });
+        let dirs = SyncPtr::new(&mut self.dirs);
+        let normal = &self.normal;
+        self.each_hot_pair::<K>(geom, parts, bins, |p, node, w| {
+            let Some(g) = unit(self.grad[p]).or_else(|| normal.get(p).copied().and_then(unit))
+            else {
+                return;
+            };
+            // SAFETY: coloured scatter (see `scatter_coloured`).
+            let a = unsafe { dirs.at(node) };
+            for (k, n) in cand.iter().enumerate() {
+                let c = n[0] * g[0] + n[1] * g[1];
+                if c.abs() > CONE_COS {
+                    a[2 * k + usize::from(c < 0.0)] += w * c * c;
+                }
+            }
+            a[2 * NDIR] += w;
+        });
+        let h = geom.h;
+        for r in &self.written {
+            for n in r.clone() {
+                let a = &mut self.dirs[n];
+                let (mut best, mut best_k) = (BALANCE_MIN * a[2 * NDIR], NDIR);
+                for k in 0..NDIR {
+                    let weaker = a[2 * k].min(a[2 * k + 1]);
+                    if weaker > best {
+                        (best, best_k) = (weaker, k);
+                    }
+                }
+                *a = [0.0; 2 * NDIR + 1];
+                let g = &mut self.node_grad[n];
+                if best_k < NDIR {
+                    *g = cand[best_k];
+                    a[2 * NDIR] = 1.0; // balanced: the second pass finds the cut
+                } else if let Some(u) = unit(*g) {
+                    *g = u;
+                }
+                let (i, j) = (n % geom.nodes[0], n / geom.nodes[0]);
+                let x = [geom.origin[0] + i as f64 * h, geom.origin[1] + j as f64 * h];
+                self.cut[n] = g[0] * x[0] + g[1] * x[1];
+            }
+        }
+        let dirs = SyncPtr::new(&mut self.dirs);
+        let (ng, d, hot) = (&self.node_grad, &self.d, &self.hot);
+        for colour in &bins.colours {
+            colour
+                .par_iter()
+                .filter(|&&t| hot[t as usize])
+                .for_each(|&tile| {
+                    for &p in bins.particles_of(tile) {
+                        let p = p as usize;
+                        if d[p] == 0.0 {
+                            continue;
+                        }
+                        let (_, wx, wy) = weights::<K>(geom, parts, p);
+                        for j in 0..K::N {
+                            for i in 0..K::N {
+                                let node = (wx.base + i as isize) as usize
+                                    + (wy.base + j as isize) as usize * geom.nodes[0];
+                                // SAFETY: coloured scatter (see `scatter_coloured`).
+                                let a = unsafe { dirs.at(node) };
+                                if a[2 * NDIR] != 0.0 {
+                                    let (n, x) = (ng[node], parts.x[p]);
+                                    let w = wx.w[i] * wy.w[j] * parts.mass[p] * d[p];
+                                    a[0] += w;
+                                    a[1] += w * (n[0] * x[0] + n[1] * x[1]);
+                                }
+                            }
+                        }
+                    }
+                });
+        }
+        for r in &self.written {
+            for n in r.clone() {
+                let a = &mut self.dirs[n];
+                if a[2 * NDIR] != 0.0 && a[0] > 0.0 {
+                    self.cut[n] = a[1] / a[0];
+                }
+                *a = [0.0; 2 * NDIR + 1];
+            }
+        }
+    }
+
+    /// Runs `f(p, node, N_ip m_p)` for the (particle, node) pairs of the
+    /// particles with a damage gradient or a surface normal in hot tiles,
+    /// coloured like P2G.
+    fn each_hot_pair<K: Kernel>(
+        &self,
+        geom: &GridGeom,
+        parts: &Particles,
+        bins: &Bins,
+        f: impl Fn(usize, usize, f64) + Sync,
+    ) {
+        for colour in &bins.colours {
+            colour
+                .par_iter()
+                .filter(|&&t| self.hot[t as usize])
+                .for_each(|&tile| {
+                    for &p in bins.particles_of(tile) {
+                        let p = p as usize;
+                        if self.grad[p] == [0.0; 2] && self.normal.get(p).map_or(true, |n| *n == [0.0; 2]) {
+                            continue;
+                        }
+                        let (_, wx, wy) = weights::<K>(geom, parts, p);
+                        for j in 0..K::N {
+                            for i in 0..K::N {
+                                let node = (wx.base + i as isize) as usize
+                                    + (wy.base + j as isize) as usize * geom.nodes[0];
+                                f(p, node, wx.w[i] * wy.w[j] * parts.mass[p]);
+                            }
+                        }
+                    }
+                });
+        }
     }
 
     /// The `field_partition` stage with DFG: marks the fields (two sides
@@ -481,12 +724,15 @@ impl Dfg {
         let nodes = geom.node_count();
         multi.mask.clear();
         multi.mask.resize(nodes, 0);
+        self.x_partition.clone_from(&parts.x);
         // (`field` zeroed the sums the last step wrote)
         let mask = SyncPtr::new(&mut multi.mask);
         let sums = SyncPtr::new(&mut self.sums);
         let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
+        let (cut, normal) = (&self.cut, &self.normal);
         scatter_coloured::<K>(geom, parts, bins, |p, _, wx, wy| {
-            let gp = grad[p];
+            let (gp, xp) = (grad[p], parts.x[p]);
+            let op = normal.get(p).copied().unwrap_or([0.0; 2]);
             let base = 2 * parts.group[p] as u32;
             let m = parts.mass[p];
             for j in 0..K::N {
@@ -494,7 +740,7 @@ impl Dfg {
                     let node = (wx.base + i as isize) as usize
                         + (wy.base + j as isize) as usize * geom.nodes[0];
                     let gi = ngrad[node];
-                    let side = usize::from(gp[0] * gi[0] + gp[1] * gi[1] < 0.0);
+                    let side = side(gp, op, gi, xp, cut[node]) as usize;
                     // SAFETY: coloured scatter; every write is to `node`.
                     unsafe {
                         *mask.at(node) |= 1 << (base + side as u32);
@@ -535,6 +781,12 @@ impl Dfg {
 /// contact group's side by the sign of ∇D̄_p·∇D̄_i, or the other side where
 /// the two were merged.
 pub struct DfgFields<'a> {
+    /// Particle positions at the partition ([`Dfg::x_partition`]).
+    pub x: &'a [[f64; 2]],
+    pub cut: &'a [f64],
+    /// Surface normals at the partition ([`Dfg::normal`]; empty without
+    /// self-contact).
+    pub normal: &'a [[f64; 2]],
     pub nodes: usize,
     pub multi: &'a MultiField,
     pub group: &'a [u8],
@@ -546,7 +798,8 @@ impl FieldSlots for DfgFields<'_> {
     #[inline(always)]
     fn slot(&self, node: usize, particle: usize) -> usize {
         let (gp, gi) = (self.grad[particle], self.node_grad[node]);
-        let side = u32::from(gp[0] * gi[0] + gp[1] * gi[1] < 0.0);
+        let op = self.normal.get(particle).copied().unwrap_or([0.0; 2]);
+        let side = side(gp, op, gi, self.x[particle], self.cut[node]);
         let mut field = 2 * self.group[particle] as u32 + side;
         if self.multi.mask[node] & (1 << field) == 0 {
             field ^= 1;
