@@ -382,7 +382,7 @@ impl Simulation {
                     let slots = DfgFields {
                         x: &d.x_partition,
                         cut: &d.cut,
-                        normal: &d.normal,
+                        normal: d.normals(),
                         nodes,
                         multi: &multi,
                         group: &group,

@@ -106,6 +106,37 @@ const CONE_COS: f64 = 0.9;
 /// direction.
 const BALANCE_MIN: f64 = 0.01;
 
+/// Runs `f(p, node, N_ip m_p)` for every (particle, node) pair of the
+/// particles in `hot` tiles for which `take(p)`, coloured like P2G (see
+/// [`scatter_coloured`]: `f` may add into `node` through a [`SyncPtr`]).
+fn scatter_hot<K: Kernel>(
+    geom: &GridGeom,
+    parts: &Particles,
+    bins: &Bins,
+    hot: &[bool],
+    take: impl Fn(usize) -> bool + Sync,
+    f: impl Fn(usize, usize, f64) + Sync,
+) {
+    for colour in &bins.colours {
+        colour.par_iter().filter(|&&t| hot[t as usize]).for_each(|&tile| {
+            for &p in bins.particles_of(tile) {
+                let p = p as usize;
+                if !take(p) {
+                    continue;
+                }
+                let (_, wx, wy) = weights::<K>(geom, parts, p);
+                for j in 0..K::N {
+                    for i in 0..K::N {
+                        let node = (wx.base + i as isize) as usize
+                            + (wy.base + j as isize) as usize * geom.nodes[0];
+                        f(p, node, wx.w[i] * wy.w[j] * parts.mass[p]);
+                    }
+                }
+            }
+        });
+    }
+}
+
 /// The kernel of eq. 18 and its derivative factor: ω(r̄) and
 /// (dω/dr̄)/(r̄ R²), so that ∇_x ω = factor · (x − x_q).
 #[inline(always)]
@@ -308,9 +339,9 @@ pub struct Dfg {
     /// configuration, from the gradient of their body's kernel sum (zero
     /// inside; empty without self-contact).
     normal0: Vec<[f64; 2]>,
-    /// The normals at this step's partition (rotated by cof F where the
-    /// material tracks F); what [`side`] falls back on.
-    pub normal: Vec<[f64; 2]>,
+    /// `normal0` rotated by cof F at this step's partition, where the
+    /// material tracks F (empty otherwise; see [`Dfg::normals`]).
+    normal: Vec<[f64; 2]>,
     /// d_p = max(s_p, D_p) of this step.
     d: Vec<f64>,
     /// Neighbour-list key: the contact group of particles that can carry
@@ -416,7 +447,7 @@ impl Dfg {
             neighbours: Neighbours::default(),
             key,
             surface,
-            normal: Vec::with_capacity(normal0.len()),
+            normal: Vec::new(),
             normal0,
             d: vec![0.0; n],
             grad: vec![[0.0; 2]; n],
@@ -530,42 +561,21 @@ impl Dfg {
         }
         self.written.clone_from(&bins.active);
         let ng = SyncPtr::new(&mut self.node_grad);
-        let (grad, hot) = (&self.grad, &self.hot);
-        for colour in &bins.colours {
-            colour
-                .par_iter()
-                .filter(|&&t| hot[t as usize])
-                .for_each(|&tile| {
-                    for &p in bins.particles_of(tile) {
-                        let p = p as usize;
-                        let g = grad[p];
-                        let m = g[0] * g[0] + g[1] * g[1];
-                        if m == 0.0 {
-                            continue;
-                        }
-                        let (_, wx, wy) = weights::<K>(geom, parts, p);
-                        for j in 0..K::N {
-                            for i in 0..K::N {
-                                let node = (wx.base + i as isize) as usize
-                                    + (wy.base + j as isize) as usize * geom.nodes[0];
-                                // SAFETY: coloured scatter (see `scatter_coloured`).
-                                let gi = unsafe { ng.at(node) };
-                                if m > gi[0] * gi[0] + gi[1] * gi[1] {
-                                    *gi = g;
-                                }
-                            }
-                        }
-                    }
-                });
-        }
-        if !self.normal0.is_empty() {
-            self.normal.clone_from(&self.normal0);
-            if !parts.def_grad.is_empty() {
-                // n ∝ F⁻ᵀ N = cof(F) N / det F
-                for (n, f) in self.normal.iter_mut().zip(&parts.def_grad) {
-                    *n = [f[3] * n[0] - f[2] * n[1], -f[1] * n[0] + f[0] * n[1]];
-                }
+        let grad = &self.grad;
+        scatter_hot::<K>(geom, parts, bins, &self.hot, |p| grad[p] != [0.0; 2], |p, node, _| {
+            let g = grad[p];
+            // SAFETY: coloured scatter (see `scatter_coloured`).
+            let gi = unsafe { ng.at(node) };
+            if g[0] * g[0] + g[1] * g[1] > gi[0] * gi[0] + gi[1] * gi[1] {
+                *gi = g;
             }
+        });
+        if !self.normal0.is_empty() && !parts.def_grad.is_empty() {
+            // n ∝ F⁻ᵀ N = cof(F) N / det F
+            self.normal.clear();
+            self.normal.extend(self.normal0.iter().zip(&parts.def_grad).map(|(n, f)| {
+                [f[3] * n[0] - f[2] * n[1], -f[1] * n[0] + f[0] * n[1]]
+            }));
         }
         self.balance::<K>(geom, parts, bins);
     }
@@ -596,10 +606,12 @@ impl Dfg {
             [a.cos(), a.sin()]
         });
         let dirs = SyncPtr::new(&mut self.dirs);
-        let normal = &self.normal;
-        self.each_hot_pair::<K>(geom, parts, bins, |p, node, w| {
-            let Some(g) = unit(self.grad[p]).or_else(|| normal.get(p).copied().and_then(unit))
-            else {
+        let (grad, normal) = (&self.grad, self.normals());
+        let has_direction = |p: usize| {
+            grad[p] != [0.0; 2] || normal.get(p).is_some_and(|n| *n != [0.0; 2])
+        };
+        scatter_hot::<K>(geom, parts, bins, &self.hot, has_direction, |p, node, w| {
+            let Some(g) = unit(grad[p]).or_else(|| normal.get(p).copied().and_then(unit)) else {
                 return;
             };
             // SAFETY: coloured scatter (see `scatter_coloured`).
@@ -612,7 +624,6 @@ impl Dfg {
             }
             a[2 * NDIR] += w;
         });
-        let h = geom.h;
         for r in &self.written {
             for n in r.clone() {
                 let a = &mut self.dirs[n];
@@ -631,41 +642,22 @@ impl Dfg {
                 } else if let Some(u) = unit(*g) {
                     *g = u;
                 }
-                let (i, j) = (n % geom.nodes[0], n / geom.nodes[0]);
-                let x = [geom.origin[0] + i as f64 * h, geom.origin[1] + j as f64 * h];
+                let x = geom.node_position(n);
                 self.cut[n] = g[0] * x[0] + g[1] * x[1];
             }
         }
         let dirs = SyncPtr::new(&mut self.dirs);
-        let (ng, d, hot) = (&self.node_grad, &self.d, &self.hot);
-        for colour in &bins.colours {
-            colour
-                .par_iter()
-                .filter(|&&t| hot[t as usize])
-                .for_each(|&tile| {
-                    for &p in bins.particles_of(tile) {
-                        let p = p as usize;
-                        if d[p] == 0.0 {
-                            continue;
-                        }
-                        let (_, wx, wy) = weights::<K>(geom, parts, p);
-                        for j in 0..K::N {
-                            for i in 0..K::N {
-                                let node = (wx.base + i as isize) as usize
-                                    + (wy.base + j as isize) as usize * geom.nodes[0];
-                                // SAFETY: coloured scatter (see `scatter_coloured`).
-                                let a = unsafe { dirs.at(node) };
-                                if a[2 * NDIR] != 0.0 {
-                                    let (n, x) = (ng[node], parts.x[p]);
-                                    let w = wx.w[i] * wy.w[j] * parts.mass[p] * d[p];
-                                    a[0] += w;
-                                    a[1] += w * (n[0] * x[0] + n[1] * x[1]);
-                                }
-                            }
-                        }
-                    }
-                });
-        }
+        let (ng, d) = (&self.node_grad, &self.d);
+        scatter_hot::<K>(geom, parts, bins, &self.hot, |p| d[p] != 0.0, |p, node, w| {
+            // SAFETY: coloured scatter (see `scatter_coloured`).
+            let a = unsafe { dirs.at(node) };
+            if a[2 * NDIR] != 0.0 {
+                let (n, x) = (ng[node], parts.x[p]);
+                let w = w * d[p];
+                a[0] += w;
+                a[1] += w * (n[0] * x[0] + n[1] * x[1]);
+            }
+        });
         for r in &self.written {
             for n in r.clone() {
                 let a = &mut self.dirs[n];
@@ -677,36 +669,14 @@ impl Dfg {
         }
     }
 
-    /// Runs `f(p, node, N_ip m_p)` for the (particle, node) pairs of the
-    /// particles with a damage gradient or a surface normal in hot tiles,
-    /// coloured like P2G.
-    fn each_hot_pair<K: Kernel>(
-        &self,
-        geom: &GridGeom,
-        parts: &Particles,
-        bins: &Bins,
-        f: impl Fn(usize, usize, f64) + Sync,
-    ) {
-        for colour in &bins.colours {
-            colour
-                .par_iter()
-                .filter(|&&t| self.hot[t as usize])
-                .for_each(|&tile| {
-                    for &p in bins.particles_of(tile) {
-                        let p = p as usize;
-                        if self.grad[p] == [0.0; 2] && self.normal.get(p).map_or(true, |n| *n == [0.0; 2]) {
-                            continue;
-                        }
-                        let (_, wx, wy) = weights::<K>(geom, parts, p);
-                        for j in 0..K::N {
-                            for i in 0..K::N {
-                                let node = (wx.base + i as isize) as usize
-                                    + (wy.base + j as isize) as usize * geom.nodes[0];
-                                f(p, node, wx.w[i] * wy.w[j] * parts.mass[p]);
-                            }
-                        }
-                    }
-                });
+    /// The surface normals of this step's partition, what [`side`] falls
+    /// back on: the reference ones, or rotated by cof F (empty without
+    /// self-contact).
+    pub fn normals(&self) -> &[[f64; 2]] {
+        if self.normal.is_empty() {
+            &self.normal0
+        } else {
+            &self.normal
         }
     }
 
@@ -729,7 +699,7 @@ impl Dfg {
         let mask = SyncPtr::new(&mut multi.mask);
         let sums = SyncPtr::new(&mut self.sums);
         let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
-        let (cut, normal) = (&self.cut, &self.normal);
+        let (cut, normal) = (&self.cut, self.normals());
         scatter_coloured::<K>(geom, parts, bins, |p, _, wx, wy| {
             let (gp, xp) = (grad[p], parts.x[p]);
             let op = normal.get(p).copied().unwrap_or([0.0; 2]);
@@ -784,8 +754,7 @@ pub struct DfgFields<'a> {
     /// Particle positions at the partition ([`Dfg::x_partition`]).
     pub x: &'a [[f64; 2]],
     pub cut: &'a [f64],
-    /// Surface normals at the partition ([`Dfg::normal`]; empty without
-    /// self-contact).
+    /// Surface normals at the partition ([`Dfg::normals`]).
     pub normal: &'a [[f64; 2]],
     pub nodes: usize,
     pub multi: &'a MultiField,
