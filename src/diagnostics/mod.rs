@@ -249,4 +249,5 @@ impl Observer for Recorder {
 }
 
 pub mod crack;
+pub mod fragments;
 pub mod measure;

@@ -3,6 +3,7 @@
 //! released, and the crack tips of the bodies that track one.
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
+use crate::diagnostics::fragments::{FragmentFinder, Fragments};
 use crate::fracture::damage::{DamageLaw, DamageStep};
 use crate::particles::Particles;
 use crate::scene::Scene;
@@ -16,6 +17,11 @@ pub(super) struct DamageState {
     pub dissipated: f64,
     /// Bodies with a crack origin: (body, its particles, tracker).
     tips: Vec<(usize, Vec<u32>, TipTracker)>,
+    /// Damage below which a particle counts as intact for fragments.
+    fragment_damage: f64,
+    /// Initial particle spacing per body, m.
+    spacing: Vec<f64>,
+    finder: FragmentFinder,
 }
 
 impl DamageState {
@@ -37,6 +43,9 @@ impl DamageState {
             law,
             dissipated: 0.0,
             tips: Vec::new(),
+            fragment_damage: scene.file.output.fragment_damage,
+            spacing: (0..scene.file.bodies.len()).map(|b| h / scene.lattice(b).per_dir as f64).collect(),
+            finder: FragmentFinder::default(),
         })
     }
 
@@ -82,6 +91,28 @@ impl DamageState {
     /// Bodies with a crack tip.
     pub(super) fn tracked(&self) -> Vec<usize> {
         self.tips.iter().map(|t| t.0).collect()
+    }
+
+    /// The fragments of undamaged material of the damage-model materials
+    /// ([`crate::diagnostics::fragments`]).
+    pub(super) fn fragments(&mut self, parts: &Particles) -> Fragments {
+        let (models, limit) = (&self.law.models, self.fragment_damage);
+        self.finder.find(&parts.x, &parts.v, &parts.mass, &parts.vol, &self.spacing, &parts.body, |p| {
+            models[parts.material[p] as usize].is_some() && parts.damage[p] < limit
+        })
+    }
+
+    /// Mass-weighted mean speed of the particles of damage-model materials
+    /// (the paper's "average material velocity magnitude", Fig. 18), m/s.
+    pub(super) fn mean_speed(&self, parts: &Particles) -> f64 {
+        let (mut m, mut mv) = (0.0, 0.0);
+        for p in 0..parts.len() {
+            if self.law.models[parts.material[p] as usize].is_some() {
+                m += parts.mass[p];
+                mv += parts.mass[p] * (parts.v[p][0] * parts.v[p][0] + parts.v[p][1] * parts.v[p][1]).sqrt();
+            }
+        }
+        if m > 0.0 { mv / m } else { 0.0 }
     }
 
     pub(super) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {

@@ -192,7 +192,9 @@ impl Simulation {
     /// With `[dfg]` (seed 000): the separated nodes of the last step and
     /// the neighbour-list builds so far. With damage: `energy_balance`
     /// (kinetic + strain + dissipated − initial − external work),
-    /// `failed_particles`, and the crack tips of bodies with a crack origin.
+    /// `failed_particles`, `fragments` (connected components of intact
+    /// material), `mean_speed` (mass-weighted mean |v| of the damage-model
+    /// materials), and the crack tips of bodies with a crack origin.
     pub fn series_columns(&self) -> Vec<String> {
         let mut c: Vec<String> = SeriesRow::COLUMNS.iter().map(|s| s.to_string()).collect();
         if let Some(pf) = &self.phase {
@@ -210,7 +212,7 @@ impl Simulation {
             c.extend(["dfg_separated_nodes", "dfg_neighbour_builds"].map(String::from));
         }
         if let Some(d) = &self.damage {
-            c.extend(["energy_balance", "failed_particles"].map(String::from));
+            c.extend(["energy_balance", "failed_particles", "fragments", "mean_speed"].map(String::from));
             let tracked = d.tracked();
             for b in &tracked {
                 let suffix = if tracked.len() > 1 {
@@ -654,7 +656,13 @@ impl Simulation {
                 .par_iter()
                 .filter(|&&x| x >= crate::fracture::damage::FAILED)
                 .count();
-            extra.extend([if self.step == 0 { 0.0 } else { balance }, failed as f64]);
+            let fragments = d.fragments(&self.parts).list.len();
+            extra.extend([
+                if self.step == 0 { 0.0 } else { balance },
+                failed as f64,
+                fragments as f64,
+                d.mean_speed(&self.parts),
+            ]);
             for tip in d.crack_tips(&self.parts, self.time) {
                 extra.extend([tip.x[0], tip.x[1], tip.length, tip.speed]);
             }
@@ -695,7 +703,7 @@ impl Simulation {
         } else {
             None
         };
-        let snap = measure::snapshot(
+        let mut snap = measure::snapshot(
             self.snapshot_index,
             self.step,
             self.time,
@@ -703,6 +711,13 @@ impl Simulation {
             &self.mats,
             grid,
         );
+        if let Some(d) = self.damage.as_mut() {
+            snap.fields.push(crate::diagnostics::Field {
+                name: "fragment".into(),
+                components: 1,
+                data: crate::diagnostics::FieldData::U32(d.fragments(&self.parts).label),
+            });
+        }
         self.snapshot_index += 1;
         self.times.diagnostics += t0.elapsed().as_secs_f64();
         obs.snapshot(&snap).map_err(SimError::Observer)

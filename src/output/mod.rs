@@ -1,6 +1,7 @@
 //! Results on disk: `series.csv`, VTK snapshots (`.vtp` particles, `.vti`
-//! grid, `.pvd` collections that ParaView opens as a time series) and a PNG
-//! plot of the energies.
+//! grid, `.pvd` collections that ParaView opens as a time series), with
+//! damage a `fragments_NNNN.csv` per snapshot, and a PNG plot of the
+//! energies.
 //!
 //! Entry point: [`OutputWriter`], an [`Observer`] for
 //! [`Simulation::run`](crate::mpm::Simulation::run). Every file is written
@@ -10,7 +11,7 @@
 mod plot;
 mod vtk;
 
-pub use plot::{plot_crack, plot_energies, plot_particle_field, plot_polar};
+pub use plot::{plot_crack, plot_energies, plot_log_x, plot_particle_field, plot_polar};
 pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
 
 use crate::diagnostics::{Observer, SeriesRow, Snapshot};
@@ -133,6 +134,11 @@ impl Observer for OutputWriter {
                 self.snapshots.push(image);
             }
         }
+        if let Some(list) = crate::diagnostics::fragments::from_snapshot(snap) {
+            let path = self.dir.join(format!("fragments_{:04}.csv", snap.index));
+            write_fragments_csv(&path, &list).map_err(|e| e.to_string())?;
+            self.snapshots.push(path);
+        }
         let name = format!("particles_{:04}.vtp", snap.index);
         let path = self.dir.join(&name);
         write_particles_vtp(&path, snap).map_err(|e| e.to_string())?;
@@ -147,6 +153,22 @@ impl Observer for OutputWriter {
         }
         Ok(())
     }
+}
+
+/// The fragments of one snapshot, largest first: one row per fragment
+/// (its number is the `fragment` label of its particles in the snapshot).
+pub fn write_fragments_csv(path: &Path, list: &[crate::diagnostics::fragments::Fragment]) -> Result<(), OutputError> {
+    write_atomic(path, |w| {
+        writeln!(w, "fragment,particles,mass,volume,speed,centroid_x,centroid_y")?;
+        for (k, f) in list.iter().enumerate() {
+            writeln!(
+                w,
+                "{k},{},{:?},{:?},{:?},{:?},{:?}",
+                f.particles, f.mass, f.volume, f.speed, f.centroid[0], f.centroid[1]
+            )?;
+        }
+        Ok(())
+    })
 }
 
 /// One CSV line: the step as an integer, floats in shortest round-trip form.

@@ -74,6 +74,64 @@ fn draw(path: &Path, charts: &[(&str, &str, Vec<Line>)]) -> Result<(), OutputErr
     std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
 }
 
+/// Side-by-side panels of lines against a logarithmic x axis with a
+/// shared y range (e.g. cumulative fragment-size distributions): each
+/// panel is (title, lines as (name, points)); `x_desc`, `y_desc` label the
+/// axes. Points with x <= 0 or non-finite values are skipped.
+pub fn plot_log_x(path: &Path, x_desc: &str, y_desc: &str, panels: &[(String, Vec<(String, Vec<(f64, f64)>)>)]) -> Result<(), OutputError> {
+    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
+    let ok = |p: &&(f64, f64)| p.0 > 0.0 && p.0.is_finite() && p.1.is_finite();
+    let all = || panels.iter().flat_map(|p| p.1.iter()).flat_map(|l| l.1.iter()).filter(ok);
+    let (mut x0, mut x1) = all().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    if !(x0 < x1) {
+        (x0, x1) = (1.0, 10.0);
+    }
+    let (y0, mut y1) = all().fold((0.0f64, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+    if y1 <= y0 {
+        y1 = y0 + 1.0;
+    }
+    let colours = [BLUE_, ORANGE, GREEN_, PURPLE, GREY];
+    let tmp = path.with_extension("png.tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, (620 * panels.len().max(1) as u32, 520)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        for (area, (title, lines)) in root.split_evenly((1, panels.len().max(1))).iter().zip(panels) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(title, ("sans-serif", 22))
+                .margin(12)
+                .x_label_area_size(45)
+                .y_label_area_size(70)
+                .build_cartesian_2d((0.8 * x0..1.25 * x1).log_scale(), y0..1.05 * y1)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .x_label_formatter(&|x| format!("{x:.2}"))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            for (k, (name, points)) in lines.iter().enumerate() {
+                let colour = colours[k % colours.len()];
+                let p: Vec<(f64, f64)> = points.iter().filter(ok).copied().collect();
+                chart
+                    .draw_series(LineSeries::new(p, colour.stroke_width(2)))
+                    .map_err(|e| err(e.to_string()))?
+                    .label(name.as_str())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .position(SeriesLabelPosition::UpperLeft)
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+        }
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
+}
+
 /// Draws `energies.png`: kinetic, strain, their sum, the external work and
 /// (when there is one) the fracture energy. Returns Ok(false) and writes
 /// nothing when there is nothing to plot (fewer than two rows).

@@ -675,12 +675,25 @@ pub struct OutputSpec {
     /// Write grid fields with each snapshot.
     #[serde(default = "yes")]
     pub grid_fields: bool,
+    /// With damage: particles with damage below this are intact material
+    /// for the fragment count (connected components, seed 000 section 3.4).
+    #[serde(default = "default_fragment_damage")]
+    pub fragment_damage: f64,
 }
 
 impl Default for OutputSpec {
     fn default() -> Self {
-        OutputSpec { series_rows: default_rows(), snapshots: default_snapshots(), grid_fields: true }
+        OutputSpec {
+            series_rows: default_rows(),
+            snapshots: default_snapshots(),
+            grid_fields: true,
+            fragment_damage: default_fragment_damage(),
+        }
     }
+}
+
+fn default_fragment_damage() -> f64 {
+    0.5
 }
 
 fn default_rows() -> u32 {

@@ -448,6 +448,10 @@ fn check_output_and_guards(c: &mut Checker, file: &SceneFile) {
     if file.output.series_rows < 2 || file.output.series_rows > 10_000_000 {
         c.err("output.series_rows", format!("must be in [2, 10000000], got {}", file.output.series_rows));
     }
+    let fd = file.output.fragment_damage;
+    if !(fd > 0.0 && fd <= 1.0) {
+        c.err("output.fragment_damage", format!("must be in (0, 1], got {fd}"));
+    }
     if file.output.snapshots > 100_000 {
         c.err("output.snapshots", format!("must be <= 100000, got {}", file.output.snapshots));
     }
