@@ -353,6 +353,13 @@ impl Simulation {
 
     /// One explicit step of size `dt`.
     pub fn advance(&mut self, dt: f64) -> Result<(), SimError> {
+        // Called from outside the thread pool, the whole step moves onto a
+        // worker: one hand-off per step instead of one (and a sleep and
+        // wake-up of this thread) per parallel loop, which with the DFG's
+        // many short loops on a small scene cost more than the loops.
+        if rayon::current_thread_index().is_none() {
+            return rayon::scope(|_| self.advance(dt));
+        }
         match self.scene.file.grid.shape_function {
             ShapeFunctionKind::Linear => self.advance_k::<Linear>(dt),
             ShapeFunctionKind::Gimp => self.advance_k::<Gimp>(dt),
@@ -365,11 +372,12 @@ impl Simulation {
         if let Some(mut multi) = self.multi.take() {
             let group = std::mem::take(&mut self.group_of);
             let mut dfg = self.dfg.take();
-            let t0 = Instant::now();
+            let mut t0 = Instant::now();
             let slots_n = match dfg.as_mut() {
                 Some(d) => {
                     d.field::<K>(&self.geom, &self.parts, &self.bins);
                     self.times.damage_field += t0.elapsed().as_secs_f64();
+                    t0 = Instant::now();
                     d.partition::<K>(&self.geom, &self.parts, &self.bins, &mut multi)
                 }
                 None => p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi),

@@ -106,6 +106,11 @@ const CONE_COS: f64 = 0.9;
 /// direction.
 const BALANCE_MIN: f64 = 0.01;
 
+/// Candidates within [`CONE_COS`] of a direction: at most five.
+const CONE_K: usize = 5;
+/// An empty entry of a particle's balance shares.
+const NONE_SLOT: u8 = u8::MAX;
+
 /// Runs `f(p, node, N_ip m_p)` for every (particle, node) pair of the
 /// particles in `hot` tiles for which `take(p)`, coloured like P2G (see
 /// [`scatter_coloured`]: `f` may add into `node` through a [`SyncPtr`]).
@@ -356,6 +361,8 @@ pub struct Dfg {
     /// Per node: for each candidate direction n_k the two sides' sums of
     /// [`Dfg::balance`], then Σ N_ip m_p; reused by its second pass.
     dirs: Vec<[f64; 2 * NDIR + 1]>,
+    /// Per particle, its (slot, weight) entries of `dirs` (the balance).
+    shares: Vec<[(u8, f64); CONE_K]>,
     /// Where the surface lies at each node, along its unit direction
     /// (n_i·x, m; see [`Dfg::balance`]).
     pub cut: Vec<f64>,
@@ -453,6 +460,7 @@ impl Dfg {
             grad: vec![[0.0; 2]; n],
             node_grad: vec![[0.0; 2]; geom.node_count()],
             dirs: vec![[0.0; 2 * NDIR + 1]; geom.node_count()],
+            shares: Vec::new(),
             cut: vec![0.0; geom.node_count()],
             x_partition: Vec::with_capacity(n),
             sums: vec![SideSums::default(); geom.node_count()],
@@ -499,14 +507,19 @@ impl Dfg {
                 geom.domain_max,
             );
         }
-        // Tiles with damage in them or next to them (r < one tile).
+        // Tiles with a failed particle (d = 1) in them or next to them. Only
+        // a node that a failed particle maps to can separate (section 2.3);
+        // the particles that share such a node are within 3 cells of it,
+        // the kernel reaches r < 2 cells further, both inside the next tile
+        // (8 cells). Elsewhere the sides merge whatever the gradients say,
+        // so they are left zero.
         let ntiles = geom.tiles[0] * geom.tiles[1];
         let mut any = vec![false; ntiles];
         for (t, a) in any.iter_mut().enumerate() {
             *a = bins
                 .particles_of(t as u32)
                 .iter()
-                .any(|&p| self.d[p as usize] > 0.0);
+                .any(|&p| self.d[p as usize] >= FAILED);
         }
         self.hot.clear();
         self.hot.resize(ntiles, false);
@@ -531,15 +544,21 @@ impl Dfg {
                 if !hot[tile_of[p] as usize] || key[p] == Neighbours::NONE {
                     return;
                 }
+                let list = nb.of(p);
+                // A flat field has no gradient (the sums below give exactly
+                // zero): most particles of a hot tile stop here.
+                if list.iter().all(|&q| d[q as usize] == d[p]) {
+                    return;
+                }
                 let (mut s, mut ds, mut gs, mut gds) = (0.0, 0.0, [0.0; 2], [0.0; 2]);
-                for &q in nb.of(p) {
+                for &q in list {
                     let q = q as usize;
                     let dx = [x[p][0] - x[q][0], x[p][1] - x[q][1]];
-                    let rbar = (dx[0] * dx[0] + dx[1] * dx[1]).sqrt() / r;
-                    if rbar >= 1.0 {
+                    let r2 = dx[0] * dx[0] + dx[1] * dx[1];
+                    if r2 >= r * r {
                         continue;
                     }
-                    let (w, f) = kernel(rbar, r);
+                    let (w, f) = kernel(r2.sqrt() / r, r);
                     s += w;
                     ds += d[q] * w;
                     gs[0] += f * dx[0];
@@ -605,21 +624,46 @@ impl Dfg {
             let a = std::f64::consts::PI * k as f64 / NDIR as f64;
             [a.cos(), a.sin()]
         });
+        // Each particle's share, (slot, (n_k·u_p)²) for the candidates
+        // within the cone of ±u_p: those within two of the nearest one
+        // (2 · 11.25° < acos 0.9 = 25.8° < 3 · 11.25°), the same for the
+        // particle's nine nodes.
+        let normal: &[[f64; 2]] = if self.normal.is_empty() { &self.normal0 } else { &self.normal };
+        let (grad, hot, tile_of) = (&self.grad, &self.hot, &bins.tile_of);
+        self.shares.resize(parts.len(), [(0, 0.0); CONE_K]);
+        self.shares.par_iter_mut().enumerate().for_each(|(p, share)| {
+            *share = [(NONE_SLOT, 0.0); CONE_K];
+            if !hot[tile_of[p] as usize] {
+                return;
+            }
+            let Some(g) = unit(grad[p]).or_else(|| normal.get(p).copied().and_then(unit)) else {
+                return;
+            };
+            let theta = g[1].atan2(g[0]).rem_euclid(std::f64::consts::PI);
+            let k0 = (theta * NDIR as f64 / std::f64::consts::PI).round() as usize;
+            for (e, dk) in share.iter_mut().zip(0..CONE_K) {
+                let k = (k0 + NDIR + dk - CONE_K / 2) % NDIR;
+                let n = cand[k];
+                let c = n[0] * g[0] + n[1] * g[1];
+                if c.abs() > CONE_COS {
+                    *e = ((2 * k + usize::from(c < 0.0)) as u8, c * c);
+                }
+            }
+        });
         let dirs = SyncPtr::new(&mut self.dirs);
-        let (grad, normal) = (&self.grad, self.normals());
+        let shares = &self.shares;
         let has_direction = |p: usize| {
             grad[p] != [0.0; 2] || normal.get(p).is_some_and(|n| *n != [0.0; 2])
         };
         scatter_hot::<K>(geom, parts, bins, &self.hot, has_direction, |p, node, w| {
-            let Some(g) = unit(grad[p]).or_else(|| normal.get(p).copied().and_then(unit)) else {
+            if shares[p][CONE_K / 2].0 == NONE_SLOT && shares[p].iter().all(|e| e.0 == NONE_SLOT) {
                 return;
-            };
+            }
             // SAFETY: coloured scatter (see `scatter_coloured`).
             let a = unsafe { dirs.at(node) };
-            for (k, n) in cand.iter().enumerate() {
-                let c = n[0] * g[0] + n[1] * g[1];
-                if c.abs() > CONE_COS {
-                    a[2 * k + usize::from(c < 0.0)] += w * c * c;
+            for &(slot, c2) in &shares[p] {
+                if slot != NONE_SLOT {
+                    a[slot as usize] += w * c2;
                 }
             }
             a[2 * NDIR] += w;
@@ -710,7 +754,8 @@ impl Dfg {
                     let node = (wx.base + i as isize) as usize
                         + (wy.base + j as isize) as usize * geom.nodes[0];
                     let gi = ngrad[node];
-                    let side = side(gp, op, gi, xp, cut[node]) as usize;
+                    // (a node without a direction has everything on side 0)
+                    let side = if gi == [0.0; 2] { 0 } else { side(gp, op, gi, xp, cut[node]) as usize };
                     // SAFETY: coloured scatter; every write is to `node`.
                     unsafe {
                         *mask.at(node) |= 1 << (base + side as u32);
@@ -766,13 +811,22 @@ pub struct DfgFields<'a> {
 impl FieldSlots for DfgFields<'_> {
     #[inline(always)]
     fn slot(&self, node: usize, particle: usize) -> usize {
-        let (gp, gi) = (self.grad[particle], self.node_grad[node]);
-        let op = self.normal.get(particle).copied().unwrap_or([0.0; 2]);
-        let side = side(gp, op, gi, self.x[particle], self.cut[node]);
-        let mut field = 2 * self.group[particle] as u32 + side;
-        if self.multi.mask[node] & (1 << field) == 0 {
-            field ^= 1;
-        }
+        let base = 2 * self.group[particle] as u32;
+        // Where the group has one side at this node (all but the separated
+        // nodes), that is the particle's field whatever its side.
+        let field = match (self.multi.mask[node] >> base) & 3 {
+            1 => base,
+            2 => base + 1,
+            _ => {
+                let (gp, gi) = (self.grad[particle], self.node_grad[node]);
+                let op = self.normal.get(particle).copied().unwrap_or([0.0; 2]);
+                let mut field = base + side(gp, op, gi, self.x[particle], self.cut[node]);
+                if self.multi.mask[node] & (1 << field) == 0 {
+                    field ^= 1;
+                }
+                field
+            }
+        };
         self.multi.slot_of(self.nodes, node, field)
     }
 }
