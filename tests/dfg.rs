@@ -381,3 +381,66 @@ fn the_same_seed_gives_byte_identical_fragments() {
     let (_c, fc) = fragment_files(&parse(&MINI_BRAZILIAN.replace("seed = 1", "seed = 2")));
     assert_ne!(fa[3], fc[3]);
 }
+
+/// The billet's lateral expansion at its top (under the platen) and its
+/// bottom (the symmetry plane): mean x-displacement of the particles of its
+/// right-hand column in the top and bottom cell rows, and every billet
+/// particle's horizontal velocity (by particle id).
+fn billet_run(text: &str) -> (f64, f64, Vec<f64>) {
+    let scene = parse(text);
+    let mut sim = Simulation::new(&scene);
+    let x0: std::collections::BTreeMap<u32, [f64; 2]> = {
+        let p = sim.particles();
+        (0..p.len()).filter(|&k| p.body[k] == 0).map(|k| (p.id[k], p.x[k])).collect()
+    };
+    sim.run(&mut Recorder::default()).unwrap_or_else(|e| panic!("{e}"));
+    let p = sim.particles();
+    let (mut top, mut bottom) = ((0.0, 0), (0.0, 0));
+    let mut vx = vec![0.0; x0.len()];
+    for k in (0..p.len()).filter(|&k| p.body[k] == 0) {
+        let start = x0[&p.id[k]];
+        // ids are the seeding order: the billet's come first
+        vx[p.id[k] as usize] = p.v[k][0];
+        if start[0] > 0.001 - 2.5e-5 {
+            if start[1] > 0.0006 - 2.5e-5 {
+                top = (top.0 + p.x[k][0] - start[0], top.1 + 1);
+            } else if start[1] < 2.5e-5 {
+                bottom = (bottom.0 + p.x[k][0] - start[0], bottom.1 + 1);
+            }
+        }
+    }
+    (top.0 / top.1 as f64, bottom.0 / bottom.1 as f64, vx)
+}
+
+/// D1 (Table I, Fig. 8): the billet compacted by a platen. Single field
+/// welds billet to platen (no slip); two fields with μ = 0.04 let them
+/// slide; one field with surface detection and DFG (self-contact) must
+/// give the two-field answer: its lateral expansion at the top and bottom
+/// within 10 % and its horizontal velocity field within 10 % (RMS) of the
+/// two-field one, where the single field is far from it.
+#[test]
+fn billet_self_contact_expands_like_two_fields() {
+    let two = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/d1_billet.toml"))
+        .expect("scenes/d1_billet.toml");
+    let one_group = two.replace("contact_group = 1", "contact_group = 0").replace("[contact]\nfriction = 0.04\n", "");
+    assert_ne!(one_group, two, "the scene's keys changed");
+    let self_contact = format!("{one_group}\n[dfg]\nself_contact = true\nfriction = 0.04\n");
+    let (t2, b2, v2) = billet_run(&two);
+    let (t1, b1, v1) = billet_run(&one_group);
+    let (ts, bs, vs) = billet_run(&self_contact);
+    let rms = |a: &[f64], b: &[f64]| (a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / a.len() as f64).sqrt();
+    let norm = rms(&v2, &vec![0.0; v2.len()]);
+    let (e1, es) = (rms(&v1, &v2) / norm, rms(&vs, &v2) / norm);
+    println!(
+        "billet lateral expansion top / bottom (um): two fields {:.3} / {:.3}, single field {:.3} / {:.3}, self-contact {:.3} / {:.3}; \
+         v_x RMS difference from two fields: single field {:.3}, self-contact {:.3}",
+        t2 * 1e6, b2 * 1e6, t1 * 1e6, b1 * 1e6, ts * 1e6, bs * 1e6, e1, es
+    );
+    // No slip changes the flow (the platen, softer and with the larger
+    // Poisson's ratio, drags the billet's top outward with it and the
+    // billet's bottom expands more), friction lets them slide.
+    assert!(e1 > 0.3 && (b1 / b2 - 1.0).abs() > 0.15, "single field is too close to two fields to tell them apart");
+    assert!((ts / t2 - 1.0).abs() < 0.1, "self-contact top {ts} m vs two fields {t2} m");
+    assert!((bs / b2 - 1.0).abs() < 0.1, "self-contact bottom {bs} m vs two fields {b2} m");
+    assert!(es < 0.1, "self-contact v_x differs by {es} of the two-field RMS");
+}
