@@ -17,6 +17,7 @@ pub mod output;
 pub mod particles;
 pub mod scene;
 pub mod service;
+pub mod study;
 
 /// The crate version, as reported by the binaries.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

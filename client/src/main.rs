@@ -8,6 +8,7 @@ mod bench_dfg;
 mod bench_pf;
 mod gc_polar;
 mod remote;
+mod study;
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -109,6 +110,35 @@ enum Command {
         out: PathBuf,
         #[arg(long, default_value = "docs/figures/d4_fragments.png")]
         figure: PathBuf,
+    },
+    /// Accuracy against cost: run a scene at every combination of the
+    /// given settings and write each run's wall time, metric and error
+    /// (DIR/study.csv) and the error against wall time with the Pareto
+    /// front (DIR/study.png). With --server the runs are jobs on the server.
+    Study {
+        /// Scene file (TOML or JSON).
+        scene: PathBuf,
+        /// A setting and its values: a dotted key into the scene and
+        /// comma-separated values, e.g. grid.cell_size=1e-3,5e-4 or
+        /// bodies[0].particles_per_cell=4,9 or dfg=on,off (a table on/off).
+        /// Repeat for more settings: every combination runs.
+        #[arg(long, required = true)]
+        vary: Vec<String>,
+        /// What to measure from each run's series: COLUMN (its last
+        /// value), final:COLUMN, max:COLUMN, min:COLUMN, or
+        /// arrival:COLUMN=VALUE (the time it first reaches VALUE).
+        #[arg(long, default_value = "fracture_energy")]
+        metric: String,
+        /// The value the error is taken against: `finest` (the run with the
+        /// most particles × steps) or analytic:VALUE.
+        #[arg(long, default_value = "finest")]
+        reference: String,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Print the table as one JSON object.
+        #[arg(long)]
+        json: bool,
     },
     /// The effective surface energy Gc(θ) of the anisotropic phase field
     /// (eq. 8 of Kakouris & Triantafyllou) as a table and a polar plot.
@@ -222,6 +252,9 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INVALID)
         }
         Command::GcPolar { gamma, gc_bar, angle_step, json, out } => gc_polar::run(&gamma, gc_bar, angle_step, json, &out),
+        Command::Study { scene, vary, metric, reference, out, json } => {
+            study::main_local(study::Options { scene, vary, metric, reference, out, json })
+        }
         Command::Plot { series, out } => match plot(&series, out.as_deref()) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -459,7 +492,8 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
         | Command::Fetch { json, .. }
         | Command::List { json, .. }
         | Command::Get { json, .. }
-        | Command::Cancel { json, .. } => *json,
+        | Command::Cancel { json, .. }
+        | Command::Study { json, .. } => *json,
         Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } => false,
     };
     let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
@@ -477,6 +511,9 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
         let result: Result<ExitCode, remote::RemoteError> = async {
             match command {
                 Command::Validate { scene, json } => remote::validate(&mut client, &scene, json).await,
+                Command::Study { scene, vary, metric, reference, out, json } => {
+                    study::main_remote(&mut client, study::Options { scene, vary, metric, reference, out, json }).await
+                }
                 Command::Run { scene, out, json, quiet } => {
                     let job = remote::submit(&mut client, &scene, "").await?;
                     if !json {

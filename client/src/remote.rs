@@ -301,12 +301,9 @@ async fn fetch_location(
     Ok((info, fields))
 }
 
-/// Fetches a job's series and snapshots and writes them like `cleave run`.
-pub async fn fetch(client: &mut Client, id: &str, out: &Path) -> Result<OutputPaths, RemoteError> {
+/// A job's series: its column names and rows.
+pub async fn fetch_series(client: &mut Client, id: &str) -> Result<(Vec<String>, Vec<SeriesRow>), RemoteError> {
     let series = client.fetch_series(proto::FetchSeriesRequest { job_id: id.to_string() }).await?.into_inner();
-    let snaps = client.list_snapshots(proto::ListSnapshotsRequest { job_id: id.to_string() }).await?.into_inner();
-    let write_err = |e: String| RemoteError::new(EXIT_FAILED, format!("writing results to {}: {e}", out.display()));
-    let mut writer = OutputWriter::create(out).map_err(|e| write_err(e.to_string()))?;
     let cols = series.columns.len();
     if cols < SeriesRow::COLUMNS.len() || series.columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS {
         return Err(RemoteError::new(
@@ -314,10 +311,23 @@ pub async fn fetch(client: &mut Client, id: &str, out: &Path) -> Result<OutputPa
             format!("the server's series starts with columns {:?}, this client expects {:?}", series.columns, SeriesRow::COLUMNS),
         ));
     }
-    writer.series_columns(&series.columns).map_err(write_err)?;
-    for v in series.values.chunks_exact(cols) {
-        let row = SeriesRow::from_values(v).ok_or_else(|| RemoteError::new(EXIT_FAILED, "malformed series row"))?;
-        writer.series_row(&row).map_err(write_err)?;
+    let rows = series
+        .values
+        .chunks_exact(cols)
+        .map(|v| SeriesRow::from_values(v).ok_or_else(|| RemoteError::new(EXIT_FAILED, "malformed series row")))
+        .collect::<Result<_, _>>()?;
+    Ok((series.columns, rows))
+}
+
+/// Fetches a job's series and snapshots and writes them like `cleave run`.
+pub async fn fetch(client: &mut Client, id: &str, out: &Path) -> Result<OutputPaths, RemoteError> {
+    let (columns, rows) = fetch_series(client, id).await?;
+    let snaps = client.list_snapshots(proto::ListSnapshotsRequest { job_id: id.to_string() }).await?.into_inner();
+    let write_err = |e: String| RemoteError::new(EXIT_FAILED, format!("writing results to {}: {e}", out.display()));
+    let mut writer = OutputWriter::create(out).map_err(|e| write_err(e.to_string()))?;
+    writer.series_columns(&columns).map_err(write_err)?;
+    for row in &rows {
+        writer.series_row(row).map_err(write_err)?;
     }
     for s in &snaps.snapshots {
         let snap = fetch_snapshot(client, id, s.index, s.grid.is_some()).await?;

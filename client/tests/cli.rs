@@ -252,3 +252,84 @@ fn gc_polar_reproduces_the_published_extremes() {
     let o = cleave().args(["gc-polar", "--gamma", "1,1,0,2", "--gc-bar", "-1"]).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// `cleave study`: every combination runs, study.csv has a row per run
+/// with the settings, wall time, metric and error against the analytic
+/// value, the Pareto front is marked, the plot is written, and each
+/// variant's scene is kept to rerun alone.
+#[test]
+fn study_runs_every_combination_and_marks_the_front() {
+    let dir = tempfile::tempdir().unwrap();
+    // the wave bar, short and coarse: the momentum the pushed end has put
+    // in at 50 us is rho A c v t = 8000 · 1e-4 · 5000 · 1 · 5e-5 = 0.2
+    let scene = std::fs::read_to_string(scenes().join("wave_bar.toml"))
+        .unwrap()
+        .replace("cell_size = 0.005", "cell_size = 0.01")
+        .replace("end = 2.5e-4", "end = 5.0e-5");
+    let path = write(dir.path(), "bar.toml", scene.as_bytes());
+    let out = dir.path().join("study");
+    let o = cleave()
+        .args(["study", path.to_str().unwrap(), "--vary", "time.cfl=0.2,0.5", "--vary", "transfer.scheme=pic,flip"])
+        .args(["--metric", "final:momentum_x", "--reference", "analytic:0.2", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], "run,time.cfl,transfer.scheme,status,wall_seconds,steps,particles,metric,error,reference,pareto");
+    assert_eq!(lines.len(), 5, "{csv}");
+    let mut front = 0;
+    for (k, line) in lines[1..].iter().enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[0], k.to_string());
+        assert_eq!(f[3], "ok", "{line}");
+        let (wall, steps, metric, error): (f64, u64, f64, f64) =
+            (f[4].parse().unwrap(), f[5].parse().unwrap(), f[7].parse().unwrap(), f[8].parse().unwrap());
+        assert!(wall > 0.0 && steps > 0);
+        // the wave carries the momentum the analytic value says, within 10 %
+        assert!((metric / 0.2 - 1.0).abs() < 0.1, "{line}");
+        assert!((error - (metric / 0.2 - 1.0).abs()).abs() < 1e-12, "{line}");
+        front += usize::from(f[10] == "true");
+    }
+    assert!(front >= 1, "{csv}");
+    // the smaller CFL factor takes more steps
+    let steps = |k: usize| lines[1 + k].split(',').nth(5).unwrap().parse::<u64>().unwrap();
+    assert!(steps(0) > steps(2), "{csv}");
+    assert!(out.join("study.png").exists());
+    let variant = out.join("runs").join("003").join("scene.json");
+    let text = std::fs::read_to_string(&variant).unwrap();
+    assert!(text.contains("\"cfl\": 0.5") && text.contains("\"scheme\": \"flip\""), "{text}");
+    assert!(out.join("runs").join("003").join("series.csv").exists());
+    let o = cleave().args(["validate", variant.to_str().unwrap()]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A study with a bad setting stops before running anything, names the
+/// field and the setting, and exits 2; so does a metric the series lacks.
+#[test]
+fn study_rejects_bad_settings_before_running() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "good.toml", GOOD.as_bytes());
+    let out = dir.path().join("study");
+    let o = cleave()
+        .args(["study", path.to_str().unwrap(), "--vary", "grid.cell_size=0.1,-0.2", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains("grid.cell_size: must be > 0") && e.contains("with grid.cell_size=-0.2"), "{e}");
+    assert!(!out.join("study.csv").exists());
+    let o = cleave()
+        .args(["study", path.to_str().unwrap(), "--vary", "time.cfl=0.2", "--metric", "max:crack_speed"])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("no column \"crack_speed\""), "{}", stderr(&o));
+    let o = cleave()
+        .args(["study", path.to_str().unwrap(), "--vary", "bodies[2].particles_per_cell=4", "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("bodies[2].particles_per_cell: index 2 out of range"), "{}", stderr(&o));
+}

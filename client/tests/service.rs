@@ -385,3 +385,46 @@ fn tls_with_a_self_signed_certificate() {
     let o = run(&[]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
 }
+
+/// `cleave study --server`: the variants run as jobs on the server and the
+/// study's metrics are the ones of the same study in this process (the
+/// wall times differ: the server's jobs share its cores).
+#[test]
+fn a_study_against_a_server_measures_what_an_embedded_one_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &["--max-concurrent-jobs", "2"]);
+    let scene = std::fs::read_to_string(scenes().join("wave_bar.toml"))
+        .unwrap()
+        .replace("cell_size = 0.005", "cell_size = 0.01")
+        .replace("end = 2.5e-4", "end = 5.0e-5");
+    let path = dir.path().join("bar.toml");
+    std::fs::write(&path, scene).unwrap();
+    let args = |out: &Path| {
+        vec![
+            "study".to_string(),
+            path.to_str().unwrap().to_string(),
+            "--vary".into(),
+            "time.cfl=0.2,0.5".into(),
+            "--metric".into(),
+            "final:momentum_x".into(),
+            "--json".into(),
+            "--out".into(),
+            out.to_str().unwrap().to_string(),
+        ]
+    };
+    let metrics = |o: &Output| -> Vec<(serde_json::Value, serde_json::Value)> {
+        assert!(o.status.success(), "{}", stderr(o));
+        let v: serde_json::Value = serde_json::from_str(stdout(o).trim()).unwrap();
+        v["runs"].as_array().unwrap().iter().map(|r| (r["metric"].clone(), r["steps"].clone())).collect()
+    };
+    let local = Command::new(cleave_bin()).args(args(&dir.path().join("local"))).output().unwrap();
+    let remote_args = args(&dir.path().join("remote"));
+    let remote = server.cli(&remote_args.iter().map(String::as_str).collect::<Vec<_>>());
+    let (a, b) = (metrics(&local), metrics(&remote));
+    assert_eq!(a.len(), 2);
+    assert!(a.iter().all(|m| m.0.is_f64()), "{a:?}");
+    assert_eq!(a, b);
+    let o = server.cli(&["list", "--json"]);
+    let list: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(list.as_array().unwrap().len(), 2);
+}

@@ -132,6 +132,79 @@ pub fn plot_log_x(path: &Path, x_desc: &str, y_desc: &str, panels: &[(String, Ve
     std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
 }
 
+/// Error against cost on log–log axes (a study's accuracy against wall
+/// time): every point as a circle with its label, the points of the
+/// Pareto front filled and joined. Points that are not positive and
+/// finite on both axes are left out; Ok(false) when none is left.
+pub fn plot_pareto(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[(f64, f64, String)], front: &[bool]) -> Result<bool, OutputError> {
+    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
+    let ok = |p: &(f64, f64)| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite();
+    let shown: Vec<(f64, f64, &str, bool)> = points
+        .iter()
+        .zip(front.iter().chain(std::iter::repeat(&false)))
+        .filter(|(p, _)| ok(&(p.0, p.1)))
+        .map(|(p, f)| (p.0, p.1, p.2.as_str(), *f))
+        .collect();
+    if shown.is_empty() {
+        return Ok(false);
+    }
+    let range = |v: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
+        // whole decades, so that the log axes have labelled ticks
+        (0.99 * 10f64.powf((lo / 1.2).log10().floor()), 1.01 * 10f64.powf((hi * 1.2).log10().ceil()))
+    };
+    let tick = |v: &f64| if (1e-3..1e5).contains(v) { format!("{}", (v * 1e3).round() / 1e3) } else { format!("{v:.0e}") };
+    let (x0, x1) = range(&mut shown.iter().map(|p| p.0));
+    let (y0, y1) = range(&mut shown.iter().map(|p| p.1));
+    let tmp = path.with_extension("png.tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, (900, 640)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(16)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .x_labels(6)
+            .y_labels(6)
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        let mut line: Vec<(f64, f64)> = shown.iter().filter(|p| p.3).map(|p| (p.0, p.1)).collect();
+        line.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart
+            .draw_series(LineSeries::new(line, ORANGE.stroke_width(2)))
+            .map_err(|e| err(e.to_string()))?
+            .label("Pareto front")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], ORANGE.stroke_width(2)));
+        chart
+            .draw_series(shown.iter().map(|p| {
+                let style = if p.3 { ORANGE.filled() } else { BLUE_.stroke_width(2) };
+                EmptyElement::at((p.0, p.1))
+                    + Circle::new((0, 0), 5, style)
+                    + Text::new(p.2.to_string(), (8, -6), ("sans-serif", 13).into_font())
+            }))
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))?;
+    Ok(true)
+}
+
 /// Draws `energies.png`: kinetic, strain, their sum, the external work and
 /// (when there is one) the fracture energy. Returns Ok(false) and writes
 /// nothing when there is nothing to plot (fewer than two rows).

@@ -1,0 +1,357 @@
+//! `cleave study`: one scene at every combination of a few settings, each
+//! run's metric against a reference, and the error against wall time
+//! (issue 6). The runs happen in this process, one after the other (each
+//! with every thread, so that the wall times compare), or on a server,
+//! which runs them in parallel up to its own limit.
+//!
+//! Writes `DIR/study.csv` (a row per run), `DIR/study.png` (error against
+//! wall time, log–log, the Pareto front marked) and, per run,
+//! `DIR/runs/NNN/scene.json` (the variant, to rerun alone) and
+//! `DIR/runs/NNN/series.csv`.
+
+use crate::remote::{self, Client};
+use crate::{report_invalid, EXIT_FAILED, EXIT_INVALID};
+use anyhow::Context;
+use cleave::diagnostics::{Observer, SeriesRow, Snapshot};
+use cleave::mpm::Simulation;
+use cleave::scene::{Format, SceneError};
+use cleave::study::{self, Axis, Metric, Reference, Variant};
+use serde_json::json;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// What the command line asks for.
+pub struct Options {
+    pub scene: PathBuf,
+    pub vary: Vec<String>,
+    pub metric: String,
+    pub reference: String,
+    pub out: PathBuf,
+    pub json: bool,
+}
+
+/// The variants, validated and written to `DIR/runs`, with the metric and
+/// the reference.
+pub struct Prepared {
+    opts: Options,
+    axes: Vec<Axis>,
+    metric: Metric,
+    reference: Reference,
+    variants: Vec<Variant>,
+}
+
+/// How one run ended.
+pub struct Outcome {
+    /// None: finished; Some(reason): failed (the simulation's diagnosis).
+    pub failure: Option<String>,
+    pub wall_seconds: f64,
+    pub steps: u64,
+    pub particles: u64,
+    pub columns: Vec<String>,
+    pub rows: Vec<SeriesRow>,
+}
+
+fn run_dir(out: &Path, k: usize) -> PathBuf {
+    out.join("runs").join(format!("{k:03}"))
+}
+
+/// Parses the options, builds and validates every variant (all problems
+/// at once, before anything runs) and writes their scenes.
+pub fn prepare(opts: Options) -> Result<Prepared, ExitCode> {
+    let usage = |msg: String| {
+        eprintln!("error: {msg}");
+        ExitCode::from(EXIT_INVALID)
+    };
+    if opts.vary.is_empty() {
+        return Err(usage("give at least one --vary KEY=V1,V2,…".into()));
+    }
+    let axes = opts.vary.iter().map(|s| Axis::parse(s)).collect::<Result<Vec<_>, _>>().map_err(usage)?;
+    let metric = Metric::parse(&opts.metric).map_err(usage)?;
+    let reference = Reference::parse(&opts.reference).map_err(usage)?;
+    let text = match std::fs::read_to_string(&opts.scene) {
+        Ok(t) => t,
+        Err(e) => return Err(report_invalid(&opts.scene, &SceneError::single("", format!("cannot read the scene: {e}")), opts.json)),
+    };
+    let format = match opts.scene.extension().and_then(|e| e.to_str()) {
+        Some("json") => Format::Json,
+        Some("toml") => Format::Toml,
+        _ => Format::sniff(&text),
+    };
+    let variants = study::scene_document(&text, format)
+        .and_then(|doc| study::variants(&doc, &axes))
+        .map_err(|e| report_invalid(&opts.scene, &e, opts.json))?;
+    // the metric's column must exist (the first variant's columns; a
+    // setting such as dfg=off can still drop it for others: their rows say so)
+    let columns = Simulation::new(&variants[0].scene).series_columns();
+    if !columns.iter().any(|c| c == metric.column()) {
+        return Err(usage(format!(
+            "--metric {}: the scene's series has no column {:?} (it has: {})",
+            opts.metric,
+            metric.column(),
+            columns.join(", ")
+        )));
+    }
+    for (k, v) in variants.iter().enumerate() {
+        let dir = run_dir(&opts.out, k);
+        if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("scene.json"), &v.text)) {
+            eprintln!("error: cannot write {}: {e}", dir.display());
+            return Err(ExitCode::from(EXIT_FAILED));
+        }
+    }
+    Ok(Prepared { opts, axes, metric, reference, variants })
+}
+
+fn label(v: &Variant) -> String {
+    v.settings.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")
+}
+
+/// Keeps the series, ignores snapshots.
+#[derive(Default)]
+struct SeriesOnly {
+    columns: Vec<String>,
+    rows: Vec<SeriesRow>,
+}
+
+impl Observer for SeriesOnly {
+    fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
+        self.columns = columns.to_vec();
+        Ok(())
+    }
+    fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
+        self.rows.push(row.clone());
+        Ok(())
+    }
+    fn snapshot(&mut self, _: &Snapshot) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+/// Runs the variants one after the other in this process.
+pub fn run_local(p: &Prepared) -> Vec<Outcome> {
+    let n = p.variants.len();
+    p.variants
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            eprintln!("[{}/{n}] {} ({} particles)", k + 1, label(v), v.scene.total_particles());
+            let mut sim = Simulation::new(&v.scene);
+            let mut obs = SeriesOnly::default();
+            let t0 = std::time::Instant::now();
+            let result = sim.run(&mut obs);
+            let wall = t0.elapsed().as_secs_f64();
+            let (failure, steps) = match result {
+                Ok(s) => (None, s.steps),
+                Err(e) => (Some(e.to_string()), obs.rows.last().map_or(0, |r| r.step)),
+            };
+            Outcome { failure, wall_seconds: wall, steps, particles: v.scene.total_particles() as u64, columns: obs.columns, rows: obs.rows }
+        })
+        .collect()
+}
+
+/// Submits every variant to the server at once (it runs them up to its
+/// limit in parallel), then follows each to its end and fetches its series.
+pub async fn run_remote(client: &mut Client, p: &Prepared) -> Result<Vec<Outcome>, remote::RemoteError> {
+    let n = p.variants.len();
+    let mut jobs = Vec::with_capacity(n);
+    for k in 0..n {
+        let path = run_dir(&p.opts.out, k).join("scene.json");
+        let job = remote::submit(client, &path, &format!("study {k:03}: {}", label(&p.variants[k]))).await?;
+        jobs.push(job.id);
+    }
+    let mut out = Vec::with_capacity(n);
+    for (k, id) in jobs.iter().enumerate() {
+        let job = remote::watch(client, id, false, false).await?;
+        let s = job.summary.clone().unwrap_or_default();
+        let succeeded = job.state == cleave::service::proto::JobState::Succeeded as i32;
+        let (columns, rows) = remote::fetch_series(client, id).await?;
+        eprintln!("[{}/{n}] {} job {id}: {}", k + 1, label(&p.variants[k]), if succeeded { "done" } else { "ended" });
+        out.push(Outcome {
+            failure: (!succeeded).then(|| if job.error.is_empty() { "cancelled".to_string() } else { job.error.clone() }),
+            wall_seconds: s.wall_seconds,
+            steps: s.steps,
+            particles: job.particles,
+            columns,
+            rows,
+        });
+    }
+    Ok(out)
+}
+
+/// One row of `study.csv`.
+struct Row {
+    status: String,
+    metric: f64,
+    error: f64,
+    reference: bool,
+    pareto: bool,
+}
+
+/// Writes the series of every run, `study.csv` and `study.png`, and
+/// prints the table (or JSON).
+pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
+    let metrics: Vec<Result<f64, String>> = outcomes
+        .iter()
+        .map(|o| match &o.failure {
+            Some(f) => Err(format!("failed: {f}")),
+            None => p.metric.eval(&o.columns, &o.rows),
+        })
+        .collect();
+    for (k, o) in outcomes.iter().enumerate() {
+        if !o.columns.is_empty() {
+            cleave::output::write_series_csv(&run_dir(&p.opts.out, k).join("series.csv"), &o.columns, &o.rows)?;
+        }
+    }
+    // the reference value and which run it is
+    let (reference, ref_run) = match p.reference {
+        Reference::Analytic(v) => (Some(v), None),
+        Reference::Finest => {
+            let best = outcomes
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| metrics[*k].is_ok())
+                .max_by(|(_, a), (_, b)| {
+                    (a.particles as f64 * a.steps as f64)
+                        .total_cmp(&(b.particles as f64 * b.steps as f64))
+                        .then(a.wall_seconds.total_cmp(&b.wall_seconds))
+                })
+                .map(|(k, _)| k);
+            (best.and_then(|k| metrics[k].clone().ok()), best)
+        }
+    };
+    let errors: Vec<f64> = metrics
+        .iter()
+        .enumerate()
+        .map(|(k, m)| match (m, reference) {
+            (Ok(m), Some(r)) if Some(k) != ref_run => study::error(*m, r),
+            _ => f64::NAN,
+        })
+        .collect();
+    let points: Vec<(f64, f64)> = outcomes.iter().zip(&errors).map(|(o, e)| (o.wall_seconds, *e)).collect();
+    let front = study::pareto(&points);
+    let rows: Vec<Row> = (0..outcomes.len())
+        .map(|k| Row {
+            status: match &metrics[k] {
+                Ok(_) => "ok".into(),
+                Err(e) => e.clone(),
+            },
+            metric: metrics[k].clone().unwrap_or(f64::NAN),
+            error: errors[k],
+            reference: Some(k) == ref_run,
+            pareto: front[k],
+        })
+        .collect();
+    write_csv(p, outcomes, &rows)?;
+    let plot_path = p.opts.out.join("study.png");
+    let labels: Vec<(f64, f64, String)> =
+        points.iter().enumerate().map(|(k, q)| (q.0, q.1, format!("{k:03} {}", p.variants[k].settings.iter().map(|s| s.1.as_str()).collect::<Vec<_>>().join(" ")))).collect();
+    let reference_text = match (p.reference, ref_run) {
+        (Reference::Analytic(v), _) => format!("{v:e}"),
+        (Reference::Finest, Some(k)) => format!("run {k:03}"),
+        (Reference::Finest, None) => "none".into(),
+    };
+    let title = format!("{} against {reference_text}", p.opts.metric);
+    let plotted = cleave::output::plot_pareto(&plot_path, &title, "wall time (s)", "relative error", &labels, &front)?;
+    if p.opts.json {
+        let runs: Vec<_> = (0..outcomes.len())
+            .map(|k| {
+                let settings: serde_json::Map<String, serde_json::Value> =
+                    p.variants[k].settings.iter().map(|(a, b)| (a.clone(), json!(b))).collect();
+                json!({
+                    "run": k, "settings": settings, "status": rows[k].status,
+                    "wall_seconds": outcomes[k].wall_seconds, "steps": outcomes[k].steps,
+                    "particles": outcomes[k].particles,
+                    "metric": finite(rows[k].metric), "error": finite(rows[k].error),
+                    "reference": rows[k].reference, "pareto": rows[k].pareto,
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            json!({"metric": p.opts.metric, "reference": reference_text, "runs": runs,
+                   "csv": p.opts.out.join("study.csv"), "plot": plotted.then(|| plot_path.clone())})
+        );
+    } else {
+        println!("{:>3}  {:<40} {:>10} {:>8} {:>10} {:>14} {:>10}", "run", "settings", "wall (s)", "steps", "particles", "metric", "error");
+        for (k, (o, r)) in outcomes.iter().zip(&rows).enumerate() {
+            let err = if r.reference {
+                "reference".to_string()
+            } else if r.error.is_finite() {
+                format!("{:.3e}", r.error)
+            } else {
+                "-".into()
+            };
+            let status = if r.status == "ok" { String::new() } else { format!("  {}", r.status) };
+            println!(
+                "{k:>3}  {:<40} {:>10.3} {:>8} {:>10} {:>14.6e} {:>10}{}{status}",
+                label(&p.variants[k]),
+                o.wall_seconds,
+                o.steps,
+                o.particles,
+                r.metric,
+                err,
+                if r.pareto { "  *" } else { "" }
+            );
+        }
+        eprintln!("(* on the Pareto front) wrote {} and {}", p.opts.out.join("study.csv").display(), plot_path.display());
+    }
+    Ok(if metrics.iter().any(|m| m.is_ok()) { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILED) })
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+fn write_csv(p: &Prepared, outcomes: &[Outcome], rows: &[Row]) -> anyhow::Result<()> {
+    let path = p.opts.out.join("study.csv");
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&path).with_context(|| format!("cannot write {}", path.display()))?);
+    let keys: Vec<&str> = p.axes.iter().map(|a| a.key.as_str()).collect();
+    writeln!(w, "run,{},status,wall_seconds,steps,particles,metric,error,reference,pareto", keys.join(","))?;
+    let csv = |s: &str| if s.contains([',', '"', '\n']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() };
+    let num = |v: f64| if v.is_finite() { format!("{v:?}") } else { String::new() };
+    for (k, (o, r)) in outcomes.iter().zip(rows).enumerate() {
+        let settings: Vec<String> = p.variants[k].settings.iter().map(|s| csv(&s.1)).collect();
+        writeln!(
+            w,
+            "{k},{},{},{:?},{},{},{},{},{},{}",
+            settings.join(","),
+            csv(&r.status),
+            o.wall_seconds,
+            o.steps,
+            o.particles,
+            num(r.metric),
+            num(r.error),
+            r.reference,
+            r.pareto
+        )?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// `cleave study` in this process.
+pub fn main_local(opts: Options) -> ExitCode {
+    let p = match prepare(opts) {
+        Ok(p) => p,
+        Err(code) => return code,
+    };
+    let outcomes = run_local(&p);
+    report(finish(&p, &outcomes))
+}
+
+/// `cleave study --server URL`.
+pub async fn main_remote(client: &mut Client, opts: Options) -> Result<ExitCode, remote::RemoteError> {
+    let p = match prepare(opts) {
+        Ok(p) => p,
+        Err(code) => return Ok(code),
+    };
+    let outcomes = run_remote(client, &p).await?;
+    Ok(report(finish(&p, &outcomes)))
+}
+
+fn report(r: anyhow::Result<ExitCode>) -> ExitCode {
+    r.unwrap_or_else(|e| {
+        eprintln!("error: {e:#}");
+        ExitCode::from(EXIT_FAILED)
+    })
+}
