@@ -24,14 +24,28 @@ pub struct Axis {
 impl Axis {
     /// Parses `KEY=V1,V2,…`.
     pub fn parse(spec: &str) -> Result<Axis, String> {
-        let (key, values) = spec
+        let (key, text) = spec
             .split_once('=')
             .ok_or_else(|| format!("--vary {spec:?}: expected KEY=V1,V2,… (e.g. grid.cell_size=1e-3,5e-4)"))?;
         let key = key.trim();
         if key.is_empty() {
             return Err(format!("--vary {spec:?}: the key is empty"));
         }
-        let values: Vec<String> = values.split(',').map(|v| v.trim().to_string()).collect();
+        // split on the commas outside brackets: `gamma=[1,1,0,2],[1,1,0,74]`
+        let (mut values, mut depth, mut cur) = (Vec::new(), 0i32, String::new());
+        for ch in text.chars() {
+            match ch {
+                '[' | '{' => depth += 1,
+                ']' | '}' => depth -= 1,
+                ',' if depth == 0 => {
+                    values.push(std::mem::take(&mut cur).trim().to_string());
+                    continue;
+                }
+                _ => {}
+            }
+            cur.push(ch);
+        }
+        values.push(cur.trim().to_string());
         if values.iter().any(String::is_empty) {
             return Err(format!("--vary {spec:?}: an empty value"));
         }
@@ -74,11 +88,11 @@ fn segments(key: &str) -> Result<Vec<(String, Vec<usize>)>, String> {
 }
 
 /// A value as written on the command line: a JSON literal (number, `true`,
-/// `false`, a quoted string) or else a bare string (an enumerated setting
+/// `false`, a quoted string, an array such as `[1,1,0,2]`) or else a bare string (an enumerated setting
 /// such as `quadratic_bspline`).
 fn literal(raw: &str) -> Value {
     match serde_json::from_str::<Value>(raw) {
-        Ok(v @ (Value::Number(_) | Value::Bool(_) | Value::String(_))) => v,
+        Ok(v @ (Value::Number(_) | Value::Bool(_) | Value::String(_) | Value::Array(_))) => v,
         _ => Value::String(raw.to_string()),
     }
 }
@@ -191,10 +205,18 @@ pub enum Metric {
     /// (from below or above, whichever way it starts), interpolated
     /// linearly between rows, s. E.g. a crack tip's arrival at x.
     Arrival(String, f64),
+    /// `energy_loss`: the energy the system lost, kinetic + strain at the
+    /// first row plus the external work done since, minus kinetic + strain
+    /// at the last row, J: what Homel & Herbold measure as dissipation
+    /// (it includes the scheme's numerical loss).
+    EnergyLoss,
 }
 
 impl Metric {
     pub fn parse(spec: &str) -> Result<Metric, String> {
+        if spec == "energy_loss" {
+            return Ok(Metric::EnergyLoss);
+        }
         let (kind, rest) = spec.split_once(':').unwrap_or(("final", spec));
         let col = |c: &str| {
             if c.trim().is_empty() {
@@ -214,7 +236,7 @@ impl Metric {
                 let v: f64 = v.trim().parse().map_err(|_| format!("--metric {spec:?}: {v:?} is not a number"))?;
                 Ok(Metric::Arrival(col(c)?, v))
             }
-            _ => Err(format!("--metric {spec:?}: unknown kind {kind:?} (final, max, min, arrival)")),
+            _ => Err(format!("--metric {spec:?}: unknown kind {kind:?} (final, max, min, arrival, or energy_loss)")),
         }
     }
 
@@ -222,26 +244,43 @@ impl Metric {
     pub fn column(&self) -> &str {
         match self {
             Metric::Final(c) | Metric::Max(c) | Metric::Min(c) | Metric::Arrival(c, _) => c,
+            Metric::EnergyLoss => "kinetic_energy",
         }
     }
 
     /// Its value for a run's series; an error says why there is none (no
     /// such column, no rows, never arrived).
     pub fn eval(&self, columns: &[String], rows: &[SeriesRow]) -> Result<f64, String> {
-        let name = self.column();
-        if !columns.iter().any(|c| c == name) {
-            return Err(format!("the series has no column {name:?} (it has: {})", columns.join(", ")));
-        }
-        let vals: Vec<(f64, f64)> =
-            rows.iter().filter_map(|r| Some((r.time, r.get(columns, name)?))).filter(|v| v.1.is_finite()).collect();
-        let Some(&(_, last)) = vals.last() else {
-            return Err(format!("no finite values of {name:?}"));
+        // (time, value) of the column's finite values
+        let series = |name: &str| -> Result<Vec<(f64, f64)>, String> {
+            if !columns.iter().any(|c| c == name) {
+                return Err(format!("the series has no column {name:?} (it has: {})", columns.join(", ")));
+            }
+            let v: Vec<(f64, f64)> =
+                rows.iter().filter_map(|r| Some((r.time, r.get(columns, name)?))).filter(|v| v.1.is_finite()).collect();
+            if v.is_empty() {
+                return Err(format!("no finite values of {name:?}"));
+            }
+            Ok(v)
         };
         match self {
-            Metric::Final(_) => Ok(last),
-            Metric::Max(_) => Ok(vals.iter().map(|v| v.1).fold(f64::NEG_INFINITY, f64::max)),
-            Metric::Min(_) => Ok(vals.iter().map(|v| v.1).fold(f64::INFINITY, f64::min)),
-            Metric::Arrival(_, target) => {
+            Metric::Final(c) => Ok(series(c)?.last().map_or(f64::NAN, |v| v.1)),
+            Metric::Max(c) => Ok(series(c)?.iter().map(|v| v.1).fold(f64::NEG_INFINITY, f64::max)),
+            Metric::Min(c) => Ok(series(c)?.iter().map(|v| v.1).fold(f64::INFINITY, f64::min)),
+            Metric::EnergyLoss => {
+                let (Some(a), Some(b)) = (rows.first(), rows.last()) else {
+                    return Err("no rows".into());
+                };
+                let e = |r: &SeriesRow| r.kinetic_energy + r.strain_energy - r.external_work;
+                let loss = e(a) - e(b);
+                if loss.is_finite() {
+                    Ok(loss)
+                } else {
+                    Err("the energies are not finite".into())
+                }
+            }
+            Metric::Arrival(c, target) => {
+                let vals = series(c)?;
                 let above = vals[0].1 >= *target;
                 if vals[0].1 == *target {
                     return Ok(vals[0].0);
@@ -253,7 +292,7 @@ impl Metric {
                         return Ok(t0 + s.clamp(0.0, 1.0) * (t1 - t0));
                     }
                 }
-                Err(format!("{name} never reached {target}"))
+                Err(format!("{c} never reached {target}"))
             }
         }
     }
@@ -362,6 +401,11 @@ material = "m"
         let e = variants(&d, &bad).unwrap_err();
         assert_eq!(e.errors[0].path, "grid.cell_size");
         assert!(e.errors[0].reason.contains("grid.cell_size=-1"), "{e}");
+        let g = Axis::parse("materials.m.phase_field.gamma=[1,1,0,2], [1,1,0,74]").unwrap();
+        assert_eq!(g.values, vec!["[1,1,0,2]", "[1,1,0,74]"]);
+        let mut d2 = d.clone();
+        set_key(&mut d2, &g.key, &g.values[1]).unwrap();
+        assert_eq!(d2["materials"]["m"]["phase_field"]["gamma"], serde_json::json!([1, 1, 0, 74]));
         assert!(Axis::parse("grid.cell_size").is_err());
         assert!(Axis::parse("a=1,,2").is_err());
     }
@@ -387,6 +431,8 @@ material = "m"
         assert!(Metric::parse(&format!("arrival:{c}=9")).unwrap().eval(&cols, &rows).is_err());
         assert!(Metric::parse("final:nope").unwrap().eval(&cols, &rows).unwrap_err().contains("no column"));
         assert!(Metric::parse("median:x").is_err());
+        // kinetic 0 → 1 (rows 0 and 4 have kinetic 0 and 1), no strain, no work
+        assert_eq!(Metric::parse("energy_loss").unwrap().eval(&cols, &rows).unwrap(), -1.0);
         assert_eq!(Reference::parse("analytic:2.5").unwrap(), Reference::Analytic(2.5));
         assert!(Reference::parse("analytic:x").is_err());
         assert!(Reference::parse("coarsest").is_err());

@@ -272,7 +272,8 @@ pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
                    "csv": p.opts.out.join("study.csv"), "plot": plotted.then(|| plot_path.clone())})
         );
     } else {
-        println!("{:>3}  {:<40} {:>10} {:>8} {:>10} {:>14} {:>10}", "run", "settings", "wall (s)", "steps", "particles", "metric", "error");
+        let w = p.variants.iter().map(|v| label(v).len()).max().unwrap_or(8).max(8);
+        println!("{:>3}  {:<w$} {:>10} {:>8} {:>10} {:>14} {:>10}", "run", "settings", "wall (s)", "steps", "particles", "metric", "error");
         for (k, (o, r)) in outcomes.iter().zip(&rows).enumerate() {
             let err = if r.reference {
                 "reference".to_string()
@@ -283,7 +284,7 @@ pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
             };
             let status = if r.status == "ok" { String::new() } else { format!("  {}", r.status) };
             println!(
-                "{k:>3}  {:<40} {:>10.3} {:>8} {:>10} {:>14.6e} {:>10}{}{status}",
+                "{k:>3}  {:<w$} {:>10.3} {:>8} {:>10} {:>14.6e} {:>10}{}{status}",
                 label(&p.variants[k]),
                 o.wall_seconds,
                 o.steps,

@@ -148,14 +148,15 @@ pub fn plot_pareto(path: &Path, title: &str, x_desc: &str, y_desc: &str, points:
     if shown.is_empty() {
         return Ok(false);
     }
-    let range = |v: &mut dyn Iterator<Item = f64>| {
+    let range = |v: &mut dyn Iterator<Item = f64>, right: f64| {
         let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
         // whole decades, so that the log axes have labelled ticks
-        (0.99 * 10f64.powf((lo / 1.2).log10().floor()), 1.01 * 10f64.powf((hi * 1.2).log10().ceil()))
+        (0.99 * 10f64.powf((lo / 1.2).log10().floor()), 1.01 * 10f64.powf((hi * right).log10().ceil()))
     };
     let tick = |v: &f64| if (1e-3..1e5).contains(v) { format!("{}", (v * 1e3).round() / 1e3) } else { format!("{v:.0e}") };
-    let (x0, x1) = range(&mut shown.iter().map(|p| p.0));
-    let (y0, y1) = range(&mut shown.iter().map(|p| p.1));
+    // room on the right for the labels
+    let (x0, x1) = range(&mut shown.iter().map(|p| p.0), 5.0);
+    let (y0, y1) = range(&mut shown.iter().map(|p| p.1), 1.2);
     let tmp = path.with_extension("png.tmp.png");
     {
         let root = BitMapBackend::new(&tmp, (900, 640)).into_drawing_area();
