@@ -42,6 +42,10 @@ pub struct GridGeom {
     pub domain_max: [f64; 2],
     /// Tiles along x and y.
     pub tiles: [usize; 2],
+    /// Sides (left, right, bottom, top) that are walls (fixed or roller):
+    /// particles are kept on the domain's side of them
+    /// ([`GridGeom::keep_inside`]).
+    pub walls: [bool; 4],
 }
 
 impl GridGeom {
@@ -56,6 +60,28 @@ impl GridGeom {
             domain_min: min,
             domain_max: [min[0] + cells[0] as f64 * h, min[1] + cells[1] as f64 * h],
             tiles: [nodes[0].div_ceil(TILE), nodes[1].div_ceil(TILE)],
+            walls: [false; 4],
+        }
+    }
+
+    /// A particle that crossed a wall in its move is put back on it, and
+    /// its velocity's component out through the wall is dropped. The wall
+    /// nodes hold zero normal velocity, but a particle within a cell of
+    /// them interpolates some of its inner neighbours' velocity and, under
+    /// sustained pressure (a block squeezed on a roller floor), creeps
+    /// through. Free and traction sides are left alone: there leaving the
+    /// grid is a job failure.
+    #[inline(always)]
+    pub fn keep_inside(&self, x: &mut [f64; 2], v: &mut [f64; 2]) {
+        for a in 0..2 {
+            if self.walls[2 * a] && x[a] < self.domain_min[a] {
+                x[a] = self.domain_min[a];
+                v[a] = v[a].max(0.0);
+            }
+            if self.walls[2 * a + 1] && x[a] > self.domain_max[a] {
+                x[a] = self.domain_max[a];
+                v[a] = v[a].min(0.0);
+            }
         }
     }
 

@@ -246,13 +246,14 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
                     ]
                 };
                 *vp = vnew;
+                let mut moved = [xp[0] + dt * vpic[0], xp[1] + dt * vpic[1]];
+                geom.keep_inside(&mut moved, vp);
                 if VELOCITY_ONLY {
                     // SAFETY: as above.
-                    unsafe { *x_next.at(p) = [xp[0] + dt * vpic[0], xp[1] + dt * vpic[1]] };
+                    unsafe { *x_next.at(p) = moved };
                     continue;
                 }
-                xp[0] += dt * vpic[0];
-                xp[1] += dt * vpic[1];
+                *xp = moved;
                 // constitutive update and guards
                 let mat = &mats[material[p] as usize];
                 // SAFETY: as above.

@@ -13,7 +13,9 @@ use crate::scene::{MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage
 
 pub(super) fn build(scene: &Scene) -> Simulation {
     let file = &scene.file;
-    let geom = GridGeom::new(file.grid.min, file.grid.cell_size, scene.cells);
+    let mut geom = GridGeom::new(file.grid.min, file.grid.cell_size, scene.cells);
+    let b = &file.grid.boundary;
+    geom.walls = [&b.left, &b.right, &b.bottom, &b.top].map(|s| matches!(s, SideCondition::Fixed | SideCondition::Roller));
     let mats: Vec<Elastic> = scene.materials.iter().map(|m| Elastic::new(m, file.analysis.plane)).collect();
     let apic = file.transfer.scheme == TransferKind::Apic;
     let gimp = file.grid.shape_function == ShapeFunctionKind::Gimp;
