@@ -444,3 +444,29 @@ fn billet_self_contact_expands_like_two_fields() {
     assert!((bs / b2 - 1.0).abs() < 0.1, "self-contact bottom {bs} m vs two fields {b2} m");
     assert!(es < 0.1, "self-contact v_x differs by {es} of the two-field RMS");
 }
+
+/// The crack tip of a damage body is the end of the crack that grows from
+/// its origin (the notch tip of the Kalthoff–Winkler plate, D2): not a
+/// particle of the initial notch, nor the damage at the impact face or the
+/// far edge.
+#[test]
+fn the_crack_tip_follows_the_crack_from_its_origin() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/d2_kalthoff.toml"))
+        .expect("scenes/d2_kalthoff.toml")
+        .replace("end = 9.0e-5", "end = 3.5e-5");
+    let scene = parse(&text);
+    let (sim, rec) = run(&scene);
+    let cols = sim.series_columns();
+    let col = |name: &str| rec.rows.iter().map(|r| r.get(&cols, name).unwrap()).collect::<Vec<f64>>();
+    let (x, y, len) = (col("crack_tip_x"), col("crack_tip_y"), col("crack_length"));
+    // no crack at first: the notch itself is not one
+    assert_eq!(len[0], 0.0);
+    assert!(x[0].is_nan());
+    let k = rec.rows.len() - 1;
+    let angle = (y[k] - 0.025).atan2(x[k] - 0.05).to_degrees();
+    println!("D2 at 35 us: tip ({:.1}, {:.1}) mm, length {:.1} mm, angle {angle:.1}", x[k] * 1e3, y[k] * 1e3, len[k] * 1e3);
+    assert!(len[k] > 0.01, "the crack is {} m long", len[k]);
+    assert!((30.0..60.0).contains(&angle), "the tip is at {angle}° from the notch");
+    // the tip moves away from the origin monotonically (within a particle)
+    assert!(len.windows(2).all(|w| w[1] >= w[0] - 0.5e-3), "{len:?}");
+}

@@ -3,7 +3,7 @@
 //! released, and the crack tips of the bodies that track one.
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
-use crate::diagnostics::fragments::{FragmentFinder, Fragments};
+use crate::diagnostics::fragments::{FragmentFinder, Fragments, NONE};
 use crate::fracture::damage::{DamageLaw, DamageStep};
 use crate::particles::Particles;
 use crate::scene::Scene;
@@ -15,8 +15,11 @@ pub(super) struct DamageState {
     law: DamageLaw,
     /// Energy released by damage since t = 0, J.
     pub dissipated: f64,
-    /// Bodies with a crack origin: (body, its particles, tracker).
-    tips: Vec<(usize, Vec<u32>, TipTracker)>,
+    /// Bodies with a crack origin: (body, its particles not on an initial
+    /// crack, the same as a mask over all particles, tracker).
+    tips: Vec<(usize, Vec<u32>, Vec<bool>, TipTracker)>,
+    /// Broken particles this close to a crack origin start its crack, m.
+    seed_radius: f64,
     /// Damage below which a particle counts as intact for fragments.
     fragment_damage: f64,
     /// Initial particle spacing per body, m.
@@ -43,6 +46,7 @@ impl DamageState {
             law,
             dissipated: 0.0,
             tips: Vec::new(),
+            seed_radius: 2.0 * h,
             fragment_damage: scene.file.output.fragment_damage,
             spacing: (0..scene.file.bodies.len()).map(|b| h / scene.lattice(b).per_dir as f64).collect(),
             finder: FragmentFinder::default(),
@@ -52,9 +56,8 @@ impl DamageState {
     /// Marks the initial cracks as fully damaged particles (those within
     /// 0.55 particle spacings of a body's crack polylines) and starts the
     /// crack-tip trackers of bodies with a crack origin (default: the first
-    /// crack point). The tip is the particle with D > 0.9 farthest from the
-    /// origin among those not on an initial crack. Call with the particles
-    /// in their final order.
+    /// crack point; see [`DamageState::crack_tips`]). Call with the
+    /// particles in their final order.
     pub(super) fn place_cracks(&mut self, scene: &Scene, parts: &mut Particles) {
         for (b, spec) in scene.file.bodies.iter().enumerate() {
             if scene
@@ -64,20 +67,22 @@ impl DamageState {
             {
                 continue;
             }
-            let particles: Vec<u32> = (0..parts.len() as u32)
-                .filter(|&p| parts.body[p as usize] as usize == b)
-                .collect();
             let spacing = scene.file.grid.cell_size / scene.lattice(b).per_dir as f64;
-            for &p in &particles {
-                if crate::geometry::on_cracks(parts.x[p as usize], &spec.cracks, spacing) {
-                    parts.damage[p as usize] = 1.0;
+            let mut particles = Vec::new();
+            for p in (0..parts.len()).filter(|&p| parts.body[p] as usize == b) {
+                if crate::geometry::on_cracks(parts.x[p], &spec.cracks, spacing) {
+                    parts.damage[p] = 1.0;
+                } else {
+                    particles.push(p as u32);
                 }
             }
             if let Some(o) = spec
                 .crack_origin
                 .or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()))
             {
-                self.tips.push((b, particles, TipTracker::new(o)));
+                let mut member = vec![false; parts.len()];
+                particles.iter().for_each(|&p| member[p as usize] = true);
+                self.tips.push((b, particles, member, TipTracker::new(o)));
             }
         }
     }
@@ -115,10 +120,31 @@ impl DamageState {
         if m > 0.0 { mv / m } else { 0.0 }
     }
 
+    /// The crack tips at `time`. A body's crack is the set of broken
+    /// particles (D > 0.9, not on an initial crack) connected, through
+    /// broken particles at most 1.5 spacings apart, to one within two cells
+    /// of the crack origin: the crack that grows from the origin, not
+    /// damage elsewhere (at an impact face, say). Its tip is its particle
+    /// farthest from the origin.
     pub(super) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
+        let (finder, spacing, r2) = (&mut self.finder, &self.spacing, self.seed_radius * self.seed_radius);
         self.tips
             .iter_mut()
-            .map(|(_, ps, tr)| tr.measure(&parts.x, ps, |p| parts.damage[p] > TIP_D, time))
+            .map(|(_, ps, member, tr)| {
+                let broken = finder.find(&parts.x, &parts.v, &parts.mass, &parts.vol, spacing, &parts.body, |p| {
+                    member[p] && parts.damage[p] > TIP_D
+                });
+                let o = tr.origin;
+                let mut seeds: Vec<u32> = ps
+                    .iter()
+                    .map(|&p| p as usize)
+                    .filter(|&p| broken.label[p] != NONE && (parts.x[p][0] - o[0]).powi(2) + (parts.x[p][1] - o[1]).powi(2) < r2)
+                    .map(|p| broken.label[p])
+                    .collect();
+                seeds.sort_unstable();
+                seeds.dedup();
+                tr.measure(&parts.x, ps, |p| seeds.binary_search(&broken.label[p]).is_ok(), time)
+            })
             .collect()
     }
 }

@@ -625,8 +625,10 @@ pub struct BodySpec {
     #[serde(default)]
     pub cracks: Vec<CrackSpec>,
     /// Where the crack-tip diagnostic measures from (phase-field or damage
-    /// bodies): the tip is the particle with c < 0.1 (D > 0.9) farthest
-    /// from this point.
+    /// bodies): the tip is the particle with c < 0.1 farthest from this
+    /// point; for damage, the particle with D > 0.9 farthest from it among
+    /// those connected to it through such particles (initial cracks
+    /// excluded).
     /// Default: the first point of the first initial crack; without either,
     /// the body's tip is not tracked.
     #[serde(default)]
