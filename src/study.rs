@@ -210,12 +210,23 @@ pub enum Metric {
     /// at the last row, J: what Homel & Herbold measure as dissipation
     /// (it includes the scheme's numerical loss).
     EnergyLoss,
+    /// `crack_angle:X0,Y0`: the angle of the crack tip (the `crack_tip_x`,
+    /// `crack_tip_y` columns) seen from (X0, Y0), degrees from +x, at the
+    /// last row with a tip.
+    CrackAngle([f64; 2]),
 }
 
 impl Metric {
     pub fn parse(spec: &str) -> Result<Metric, String> {
         if spec == "energy_loss" {
             return Ok(Metric::EnergyLoss);
+        }
+        if let Some(at) = spec.strip_prefix("crack_angle:") {
+            let v: Vec<f64> = at.split(',').filter_map(|v| v.trim().parse().ok()).collect();
+            return match v[..] {
+                [x, y] if x.is_finite() && y.is_finite() => Ok(Metric::CrackAngle([x, y])),
+                _ => Err(format!("--metric {spec:?}: write crack_angle:X0,Y0 (the point the angle is seen from, m)")),
+            };
         }
         let (kind, rest) = spec.split_once(':').unwrap_or(("final", spec));
         let col = |c: &str| {
@@ -236,7 +247,7 @@ impl Metric {
                 let v: f64 = v.trim().parse().map_err(|_| format!("--metric {spec:?}: {v:?} is not a number"))?;
                 Ok(Metric::Arrival(col(c)?, v))
             }
-            _ => Err(format!("--metric {spec:?}: unknown kind {kind:?} (final, max, min, arrival, or energy_loss)")),
+            _ => Err(format!("--metric {spec:?}: unknown kind {kind:?} (final, max, min, arrival, crack_angle, or energy_loss)")),
         }
     }
 
@@ -245,6 +256,7 @@ impl Metric {
         match self {
             Metric::Final(c) | Metric::Max(c) | Metric::Min(c) | Metric::Arrival(c, _) => c,
             Metric::EnergyLoss => "kinetic_energy",
+            Metric::CrackAngle(_) => "crack_tip_x",
         }
     }
 
@@ -278,6 +290,13 @@ impl Metric {
                 } else {
                     Err("the energies are not finite".into())
                 }
+            }
+            Metric::CrackAngle(o) => {
+                let (xs, ys) = (series("crack_tip_x")?, series("crack_tip_y")?);
+                let (Some(x), Some(y)) = (xs.last(), ys.last()) else {
+                    return Err("no crack tip".into());
+                };
+                Ok((y.1 - o[1]).atan2(x.1 - o[0]).to_degrees())
             }
             Metric::Arrival(c, target) => {
                 let vals = series(c)?;
@@ -435,6 +454,20 @@ material = "m"
         assert_eq!(Metric::parse("energy_loss").unwrap().eval(&cols, &rows).unwrap(), -1.0);
         assert_eq!(Reference::parse("analytic:2.5").unwrap(), Reference::Analytic(2.5));
         assert!(Reference::parse("analytic:x").is_err());
+        assert_eq!(Metric::parse("crack_angle:0.05,0.025").unwrap(), Metric::CrackAngle([0.05, 0.025]));
+        assert!(Metric::parse("crack_angle:0.05").is_err());
+        let mut tc = cols.clone();
+        tc.extend(["crack_tip_x".to_string(), "crack_tip_y".to_string()]);
+        let tip_rows: Vec<SeriesRow> = rows
+            .iter()
+            .map(|r| {
+                let mut v = r.values();
+                v.extend([1.0, 1.0 + r.time]);
+                SeriesRow::from_values(&v).unwrap()
+            })
+            .collect();
+        let a = Metric::CrackAngle([1.0, 0.0]).eval(&tc, &tip_rows).unwrap();
+        assert!((a - 90.0).abs() < 1e-9, "{a}");
         assert!(Reference::parse("coarsest").is_err());
     }
 

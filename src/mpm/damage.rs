@@ -16,9 +16,10 @@ pub(super) struct DamageState {
     /// Energy released by damage since t = 0, J.
     pub dissipated: f64,
     /// Bodies with a crack origin: (body, its particles not on an initial
-    /// crack, the same as a mask over all particles, tracker).
-    tips: Vec<(usize, Vec<u32>, Vec<bool>, TipTracker)>,
-    /// Broken particles this close to a crack origin start its crack, m.
+    /// crack, the same as a mask over all particles, those of them that
+    /// started within `seed_radius` of the origin, tracker).
+    tips: Vec<(usize, Vec<u32>, Vec<bool>, Vec<u32>, TipTracker)>,
+    /// Particles that start this close to a crack origin root its crack, m.
     seed_radius: f64,
     /// Damage below which a particle counts as intact for fragments.
     fragment_damage: f64,
@@ -82,7 +83,14 @@ impl DamageState {
             {
                 let mut member = vec![false; parts.len()];
                 particles.iter().for_each(|&p| member[p as usize] = true);
-                self.tips.push((b, particles, member, TipTracker::new(o)));
+                let r2 = self.seed_radius * self.seed_radius;
+                let x = &parts.x;
+                let roots: Vec<u32> = particles
+                    .iter()
+                    .copied()
+                    .filter(|&p| (x[p as usize][0] - o[0]).powi(2) + (x[p as usize][1] - o[1]).powi(2) < r2)
+                    .collect();
+                self.tips.push((b, particles, member, roots, TipTracker::new(o)));
             }
         }
     }
@@ -122,24 +130,23 @@ impl DamageState {
 
     /// The crack tips at `time`. A body's crack is the set of broken
     /// particles (D > 0.9, not on an initial crack) connected, through
-    /// broken particles at most 1.5 spacings apart, to one within two cells
-    /// of the crack origin: the crack that grows from the origin, not
-    /// damage elsewhere (at an impact face, say). Its tip is its particle
-    /// farthest from the origin.
+    /// broken particles at most 1.5 spacings apart, to one of the particles
+    /// that started within two cells of the crack origin (material points,
+    /// so the crack's root is found however far the body has moved): the
+    /// crack that grows from the origin, not damage elsewhere (at an impact
+    /// face, say). Its tip is its particle farthest from the origin.
     pub(super) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
-        let (finder, spacing, r2) = (&mut self.finder, &self.spacing, self.seed_radius * self.seed_radius);
+        let (finder, spacing) = (&mut self.finder, &self.spacing);
         self.tips
             .iter_mut()
-            .map(|(_, ps, member, tr)| {
+            .map(|(_, ps, member, roots, tr)| {
                 let broken = finder.find(&parts.x, &parts.v, &parts.mass, &parts.vol, spacing, &parts.body, |p| {
                     member[p] && parts.damage[p] > TIP_D
                 });
-                let o = tr.origin;
-                let mut seeds: Vec<u32> = ps
+                let mut seeds: Vec<u32> = roots
                     .iter()
-                    .map(|&p| p as usize)
-                    .filter(|&p| broken.label[p] != NONE && (parts.x[p][0] - o[0]).powi(2) + (parts.x[p][1] - o[1]).powi(2) < r2)
-                    .map(|p| broken.label[p])
+                    .map(|&p| broken.label[p as usize])
+                    .filter(|&l| l != NONE)
                     .collect();
                 seeds.sort_unstable();
                 seeds.dedup();
