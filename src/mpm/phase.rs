@@ -187,7 +187,7 @@ impl PhaseFields {
             let phase = SyncPtr::new(&mut parts.phase);
             let (c, xs) = (&body.c, &parts.x);
             body.particles.par_iter().for_each(|&p| {
-                let (v, _, _) = system::field_at::<K>(geom, c, xs[p as usize]);
+                let v = system::value_at::<K>(geom, c, xs[p as usize]);
                 // SAFETY: each particle index appears once in the body's list.
                 unsafe { *phase.at(p as usize) = v.clamp(0.0, 1.0) };
             });

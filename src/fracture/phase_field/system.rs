@@ -184,18 +184,26 @@ impl Accumulate<'_> {
         }
         let w = K::N as isize - 1;
         let side = (2 * w + 1) as usize;
+        let mut dof = [u32::MAX; MAX_SUPPORT * MAX_SUPPORT];
+        for (d, &node) in dof.iter_mut().zip(&s.node[..s.n]) {
+            *d = self.dof_of[node];
+        }
         for a in 0..s.n {
-            let da = self.dof_of[s.node[a]];
+            let da = dof[a];
             if da == u32::MAX {
                 continue; // zero weight from every particle: not an unknown
             }
             // SAFETY: the caller's colouring.
             unsafe { *self.rhs.at(da as usize) += v * s.w[a] };
             let (ia, ja) = ((a % K::N) as isize, (a / K::N) as isize);
-            for b in 0..s.n {
-                let db = self.dof_of[s.node[b]];
-                if db == u32::MAX || da < db {
-                    continue; // inactive, or the upper triangle (row < col)
+            // The lower triangle (row ≥ col): dofs are numbered in node
+            // order and a support's local index k = i + j·N runs in node
+            // order too (a row of the support is shorter than a grid row),
+            // so db ≤ da exactly for b ≤ a.
+            for b in 0..=a {
+                let db = dof[b];
+                if db == u32::MAX {
+                    continue;
                 }
                 let (ib, jb) = ((b % K::N) as isize, (b / K::N) as isize);
                 let k = ((ja - jb + w) as usize) * side + (ia - ib + w) as usize;
@@ -312,9 +320,18 @@ impl PhaseFieldSystem {
                 let mut changed = false;
                 for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
                     let key = if parts.member(p) {
-                        let s = support::<K>(geom, parts.x[p]);
-                        let mask = (0..s.n).filter(|&k| s.w[k] > 0.0).fold(0u64, |m, k| m | (1 << k));
-                        ((s.node[0] as u64) << 16) | mask
+                        let xi = geom.xi(parts.x[p]);
+                        let (wx, wy) = (K::eval(xi[0], 0.0), K::eval(xi[1], 0.0));
+                        let mut mask = 0u64;
+                        for j in 0..K::N {
+                            for i in 0..K::N {
+                                if wx.w[i] * wy.w[j] > 0.0 {
+                                    mask |= 1 << (i + j * K::N);
+                                }
+                            }
+                        }
+                        let node0 = wx.base as usize + wy.base as usize * geom.nodes[0];
+                        ((node0 as u64) << 16) | mask
                     } else {
                         u64::MAX
                     };
@@ -686,6 +703,22 @@ impl PhaseFieldSystem {
         }
         (None, max_iterations)
     }
+}
+
+/// c at a point from nodal values (what the particles take after a solve;
+/// the same value as [`field_at`]'s, without the derivatives).
+#[inline]
+pub fn value_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> f64 {
+    let xi = geom.xi(x);
+    let (wx, wy) = (K::eval(xi[0], 0.0), K::eval(xi[1], 0.0));
+    let mut v = 0.0;
+    for j in 0..K::N {
+        for i in 0..K::N {
+            let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+            v += wx.w[i] * wy.w[j] * c[node];
+        }
+    }
+    v
 }
 
 /// c, ∇c and ∇²c = [c,11, c,22, c,12] at a point from nodal values.
