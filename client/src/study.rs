@@ -57,8 +57,12 @@ fn run_dir(out: &Path, k: usize) -> PathBuf {
 }
 
 /// Parses the options, builds and validates every variant (all problems
-/// at once, before anything runs) and writes their scenes.
-pub fn prepare(opts: Options) -> Result<Prepared, ExitCode> {
+/// at once, before anything runs) and writes their scenes. `local`: the
+/// runs happen here, so the metric's column is checked on the first
+/// variant's simulation (against a server that would mean seeding the
+/// scene in the client only to ask; there a missing column shows in the
+/// rows).
+pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
     let usage = |msg: String| {
         eprintln!("error: {msg}");
         ExitCode::from(EXIT_INVALID)
@@ -83,7 +87,7 @@ pub fn prepare(opts: Options) -> Result<Prepared, ExitCode> {
         .map_err(|e| report_invalid(&opts.scene, &e, opts.json))?;
     // the metric's column must exist (the first variant's columns; a
     // setting such as dfg=off can still drop it for others: their rows say so)
-    let columns = Simulation::new(&variants[0].scene).series_columns();
+    let columns = if local { Simulation::new(&variants[0].scene).series_columns() } else { vec![metric.column().to_string()] };
     if !columns.iter().any(|c| c == metric.column()) {
         return Err(usage(format!(
             "--metric {}: the scene's series has no column {:?} (it has: {})",
@@ -332,7 +336,7 @@ fn write_csv(p: &Prepared, outcomes: &[Outcome], rows: &[Row]) -> anyhow::Result
 
 /// `cleave study` in this process.
 pub fn main_local(opts: Options) -> ExitCode {
-    let p = match prepare(opts) {
+    let p = match prepare(opts, true) {
         Ok(p) => p,
         Err(code) => return code,
     };
@@ -342,7 +346,7 @@ pub fn main_local(opts: Options) -> ExitCode {
 
 /// `cleave study --server URL`.
 pub async fn main_remote(client: &mut Client, opts: Options) -> Result<ExitCode, remote::RemoteError> {
-    let p = match prepare(opts) {
+    let p = match prepare(opts, false) {
         Ok(p) => p,
         Err(code) => return Ok(code),
     };
