@@ -10,28 +10,25 @@
 
 use anyhow::Context;
 use cleave::diagnostics::fragments::{from_snapshot, Fragment};
-use cleave::diagnostics::{Observer, SeriesRow, Snapshot};
+use cleave::diagnostics::{Observer, Recorder, SeriesRow, Snapshot};
 use cleave::mpm::Simulation;
 use cleave::scene::Scene;
 use std::fmt::Write as _;
 use std::path::Path;
 
 /// Keeps the series and the fragment tables of the snapshots.
-#[derive(Default)]
+/// The series, and the fragment tables of the snapshots.
 struct Keep {
-    columns: Vec<String>,
-    rows: Vec<SeriesRow>,
+    series: Recorder,
     fragments: Vec<(f64, Vec<Fragment>)>,
 }
 
 impl Observer for Keep {
     fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
-        self.columns = columns.to_vec();
-        Ok(())
+        self.series.series_columns(columns)
     }
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
-        self.rows.push(row.clone());
-        Ok(())
+        self.series.series_row(row)
     }
     fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
         if let Some(list) = from_snapshot(snap) {
@@ -58,11 +55,11 @@ struct Case {
 fn run_case(file: &cleave::scene::SceneFile, instants: &[f64]) -> anyhow::Result<Case> {
     let scene = Scene::validate(file.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut sim = Simulation::new(&scene);
-    let mut keep = Keep::default();
+    let mut keep = Keep { series: Recorder::series_only(), fragments: Vec::new() };
     let s = sim.run(&mut keep)?;
     let t = &s.stage_seconds;
     let steps = s.steps.max(1);
-    let speed_col = keep.columns.iter().position(|c| c == "mean_speed");
+    let speed_col = keep.series.columns.iter().position(|c| c == "mean_speed");
     let mut at = Vec::new();
     for &ti in instants {
         let near = |t: f64| (t - ti).abs();
@@ -71,7 +68,7 @@ fn run_case(file: &cleave::scene::SceneFile, instants: &[f64]) -> anyhow::Result
             .iter()
             .min_by(|a, b| near(a.0).total_cmp(&near(b.0)))
             .context("the run wrote no fragments (does a material have damage?)")?;
-        let row = keep.rows.iter().min_by(|a, b| near(a.time).total_cmp(&near(b.time))).context("no series rows")?;
+        let row = keep.series.rows.iter().min_by(|a, b| near(a.time).total_cmp(&near(b.time))).context("no series rows")?;
         let speed = speed_col.and_then(|k| row.values().get(k).copied()).unwrap_or(f64::NAN);
         at.push((frag.0, frag.1.clone(), speed));
     }

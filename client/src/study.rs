@@ -12,7 +12,7 @@
 use crate::remote::{self, Client};
 use crate::{report_invalid, EXIT_FAILED, EXIT_INVALID};
 use anyhow::Context;
-use cleave::diagnostics::{Observer, SeriesRow, Snapshot};
+use cleave::diagnostics::{Recorder, SeriesRow};
 use cleave::mpm::Simulation;
 use cleave::scene::{Format, SceneError};
 use cleave::study::{self, Axis, Metric, Reference, Variant};
@@ -110,27 +110,6 @@ fn label(v: &Variant) -> String {
     v.settings.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")
 }
 
-/// Keeps the series, ignores snapshots.
-#[derive(Default)]
-struct SeriesOnly {
-    columns: Vec<String>,
-    rows: Vec<SeriesRow>,
-}
-
-impl Observer for SeriesOnly {
-    fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
-        self.columns = columns.to_vec();
-        Ok(())
-    }
-    fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
-        self.rows.push(row.clone());
-        Ok(())
-    }
-    fn snapshot(&mut self, _: &Snapshot) -> Result<(), String> {
-        Ok(())
-    }
-}
-
 /// Runs the variants one after the other in this process.
 pub fn run_local(p: &Prepared) -> Vec<Outcome> {
     let n = p.variants.len();
@@ -140,7 +119,7 @@ pub fn run_local(p: &Prepared) -> Vec<Outcome> {
         .map(|(k, v)| {
             eprintln!("[{}/{n}] {} ({} particles)", k + 1, label(v), v.scene.total_particles());
             let mut sim = Simulation::new(&v.scene);
-            let mut obs = SeriesOnly::default();
+            let mut obs = Recorder::series_only();
             let t0 = std::time::Instant::now();
             let result = sim.run(&mut obs);
             let wall = t0.elapsed().as_secs_f64();

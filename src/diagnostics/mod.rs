@@ -223,9 +223,16 @@ pub struct Recorder {
     pub columns: Vec<String>,
     pub rows: Vec<SeriesRow>,
     pub snapshots: Vec<Snapshot>,
+    /// Keep the series only (snapshots are dropped as they come).
+    pub series_only: bool,
 }
 
 impl Recorder {
+    /// A recorder of the series alone.
+    pub fn series_only() -> Recorder {
+        Recorder { series_only: true, ..Default::default() }
+    }
+
     /// The values of a named column, one per row (None if no such column).
     pub fn column(&self, name: &str) -> Option<Vec<f64>> {
         self.columns.iter().position(|c| c == name)?;
@@ -243,7 +250,9 @@ impl Observer for Recorder {
         Ok(())
     }
     fn snapshot(&mut self, snapshot: &Snapshot) -> Result<(), String> {
-        self.snapshots.push(snapshot.clone());
+        if !self.series_only {
+            self.snapshots.push(snapshot.clone());
+        }
         Ok(())
     }
 }
