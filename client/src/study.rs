@@ -39,6 +39,9 @@ pub struct Prepared {
     metric: Metric,
     reference: Reference,
     variants: Vec<Variant>,
+    /// In this process: the first variant's simulation, built to check the
+    /// metric's column and then run (seeded once).
+    first: Option<Simulation>,
 }
 
 /// How one run ended.
@@ -87,7 +90,8 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
         .map_err(|e| report_invalid(&opts.scene, &e, opts.json))?;
     // the metric's column must exist (the first variant's columns; a
     // setting such as dfg=off can still drop it for others: their rows say so)
-    let columns = if local { Simulation::new(&variants[0].scene).series_columns() } else { vec![metric.column().to_string()] };
+    let first = local.then(|| Simulation::new(&variants[0].scene));
+    let columns = first.as_ref().map_or_else(|| vec![metric.column().to_string()], Simulation::series_columns);
     if !columns.iter().any(|c| c == metric.column()) {
         return Err(usage(format!(
             "--metric {}: the scene's series has no column {:?} (it has: {})",
@@ -103,7 +107,7 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
             return Err(ExitCode::from(EXIT_FAILED));
         }
     }
-    Ok(Prepared { opts, axes, metric, reference, variants })
+    Ok(Prepared { opts, axes, metric, reference, variants, first })
 }
 
 fn label(v: &Variant) -> String {
@@ -111,14 +115,15 @@ fn label(v: &Variant) -> String {
 }
 
 /// Runs the variants one after the other in this process.
-pub fn run_local(p: &Prepared) -> Vec<Outcome> {
+pub fn run_local(p: &mut Prepared) -> Vec<Outcome> {
     let n = p.variants.len();
+    let mut first = p.first.take();
     p.variants
         .iter()
         .enumerate()
         .map(|(k, v)| {
             eprintln!("[{}/{n}] {} ({} particles)", k + 1, label(v), v.scene.total_particles());
-            let mut sim = Simulation::new(&v.scene);
+            let mut sim = first.take().unwrap_or_else(|| Simulation::new(&v.scene));
             let mut obs = Recorder::series_only();
             let t0 = std::time::Instant::now();
             let result = sim.run(&mut obs);
@@ -315,11 +320,11 @@ fn write_csv(p: &Prepared, outcomes: &[Outcome], rows: &[Row]) -> anyhow::Result
 
 /// `cleave study` in this process.
 pub fn main_local(opts: Options) -> ExitCode {
-    let p = match prepare(opts, true) {
+    let mut p = match prepare(opts, true) {
         Ok(p) => p,
         Err(code) => return code,
     };
-    let outcomes = run_local(&p);
+    let outcomes = run_local(&mut p);
     report(finish(&p, &outcomes))
 }
 

@@ -15,10 +15,8 @@ pub(super) struct DamageState {
     law: DamageLaw,
     /// Energy released by damage since t = 0, J.
     pub dissipated: f64,
-    /// Bodies with a crack origin: (body, its particles not on an initial
-    /// crack, the same as a mask over all particles, those of them that
-    /// started within `seed_radius` of the origin, tracker).
-    tips: Vec<(usize, Vec<u32>, Vec<bool>, Vec<u32>, TipTracker)>,
+    /// The bodies with a crack origin.
+    tips: Vec<TrackedCrack>,
     /// Particles that start this close to a crack origin root its crack, m.
     seed_radius: f64,
     /// Damage below which a particle counts as intact for fragments.
@@ -26,6 +24,18 @@ pub(super) struct DamageState {
     /// Initial particle spacing per body, m.
     spacing: Vec<f64>,
     finder: FragmentFinder,
+}
+
+/// A body whose crack tip is tracked ([`DamageState::crack_tips`]).
+struct TrackedCrack {
+    body: usize,
+    /// Its particles not on an initial crack.
+    particles: Vec<u32>,
+    /// The same, as a mask over all particles.
+    member: Vec<bool>,
+    /// Those of them that started within `seed_radius` of the origin.
+    roots: Vec<u32>,
+    tracker: TipTracker,
 }
 
 impl DamageState {
@@ -90,7 +100,7 @@ impl DamageState {
                     .copied()
                     .filter(|&p| (x[p as usize][0] - o[0]).powi(2) + (x[p as usize][1] - o[1]).powi(2) < r2)
                     .collect();
-                self.tips.push((b, particles, member, roots, TipTracker::new(o)));
+                self.tips.push(TrackedCrack { body: b, particles, member, roots, tracker: TipTracker::new(o) });
             }
         }
     }
@@ -103,7 +113,7 @@ impl DamageState {
 
     /// Bodies with a crack tip.
     pub(super) fn tracked(&self) -> Vec<usize> {
-        self.tips.iter().map(|t| t.0).collect()
+        self.tips.iter().map(|t| t.body).collect()
     }
 
     /// The fragments of undamaged material of the damage-model materials
@@ -139,18 +149,19 @@ impl DamageState {
         let (finder, spacing) = (&mut self.finder, &self.spacing);
         self.tips
             .iter_mut()
-            .map(|(_, ps, member, roots, tr)| {
+            .map(|t| {
                 let broken = finder.find(&parts.x, &parts.v, &parts.mass, &parts.vol, spacing, &parts.body, |p| {
-                    member[p] && parts.damage[p] > TIP_D
+                    t.member[p] && parts.damage[p] > TIP_D
                 });
-                let mut seeds: Vec<u32> = roots
+                let mut seeds: Vec<u32> = t
+                    .roots
                     .iter()
                     .map(|&p| broken.label[p as usize])
                     .filter(|&l| l != NONE)
                     .collect();
                 seeds.sort_unstable();
                 seeds.dedup();
-                tr.measure(&parts.x, ps, |p| seeds.binary_search(&broken.label[p]).is_ok(), time)
+                t.tracker.measure(&parts.x, &t.particles, |p| seeds.binary_search(&broken.label[p]).is_ok(), time)
             })
             .collect()
     }

@@ -16,6 +16,22 @@ const GREEN_: RGBColor = RGBColor(44, 160, 44);
 const GREY: RGBColor = RGBColor(120, 120, 120);
 const PURPLE: RGBColor = RGBColor(148, 103, 189);
 
+/// Draws `points` as a line of width 2 in `colour` with a legend entry
+/// `name`, on any chart with f64 axes (linear or logarithmic).
+fn draw_line<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType = f64>>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    name: &str,
+    colour: RGBColor,
+    points: Vec<(f64, f64)>,
+) -> Result<(), String> {
+    chart
+        .draw_series(LineSeries::new(points, colour.stroke_width(2)))
+        .map_err(|e| e.to_string())?
+        .label(name)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+    Ok(())
+}
+
 /// Draws one chart of `lines` against time into `area`.
 fn chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str, y_desc: &str, lines: &[Line]) -> Result<(), String> {
     let pts = || lines.iter().flat_map(|l| l.2.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
@@ -42,12 +58,7 @@ fn chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str, y_desc:
         .map_err(|e| e.to_string())?;
     for (name, colour, points) in lines {
         let p: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
-        let colour = *colour;
-        chart
-            .draw_series(LineSeries::new(p, colour.stroke_width(2)))
-            .map_err(|e| e.to_string())?
-            .label(name.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+        draw_line(&mut chart, name, *colour, p)?;
     }
     chart
         .configure_series_labels()
@@ -113,11 +124,7 @@ pub fn plot_log_x(path: &Path, x_desc: &str, y_desc: &str, panels: &[(String, Ve
             for (k, (name, points)) in lines.iter().enumerate() {
                 let colour = colours[k % colours.len()];
                 let p: Vec<(f64, f64)> = points.iter().filter(ok).copied().collect();
-                chart
-                    .draw_series(LineSeries::new(p, colour.stroke_width(2)))
-                    .map_err(|e| err(e.to_string()))?
-                    .label(name.as_str())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+                draw_line(&mut chart, name, colour, p).map_err(err)?;
             }
             chart
                 .configure_series_labels()
@@ -180,11 +187,7 @@ pub fn plot_pareto(path: &Path, title: &str, x_desc: &str, y_desc: &str, points:
             .map_err(|e| err(e.to_string()))?;
         let mut line: Vec<(f64, f64)> = shown.iter().filter(|p| p.3).map(|p| (p.0, p.1)).collect();
         line.sort_by(|a, b| a.0.total_cmp(&b.0));
-        chart
-            .draw_series(LineSeries::new(line, ORANGE.stroke_width(2)))
-            .map_err(|e| err(e.to_string()))?
-            .label("Pareto front")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], ORANGE.stroke_width(2)));
+        draw_line(&mut chart, "Pareto front", ORANGE, line).map_err(err)?;
         chart
             .draw_series(shown.iter().map(|p| {
                 let style = if p.3 { ORANGE.filled() } else { BLUE_.stroke_width(2) };
