@@ -125,8 +125,10 @@ enum Command {
         #[arg(long, required = true)]
         vary: Vec<String>,
         /// What to measure from each run's series: COLUMN (its last
-        /// value), final:COLUMN, max:COLUMN, min:COLUMN, or
-        /// arrival:COLUMN=VALUE (the time it first reaches VALUE).
+        /// value), final:COLUMN, max:COLUMN, min:COLUMN,
+        /// arrival:COLUMN=VALUE (the time it first reaches VALUE),
+        /// crack_angle:X0,Y0, propagation_energy[:ENERGY[,LENGTH]] (the
+        /// energy a crack dissipates while it runs) or energy_loss.
         #[arg(long, default_value = "fracture_energy")]
         metric: String,
         /// The value the error is taken against: `finest` (the run with the

@@ -132,9 +132,30 @@ pub fn run_local(p: &mut Prepared) -> Vec<Outcome> {
                 Ok(s) => (None, s.steps),
                 Err(e) => (Some(e.to_string()), obs.rows.last().map_or(0, |r| r.step)),
             };
-            Outcome { failure, wall_seconds: wall, steps, particles: v.scene.total_particles() as u64, columns: obs.columns, rows: obs.rows }
+            let o = Outcome { failure, wall_seconds: wall, steps, particles: v.scene.total_particles() as u64, columns: obs.columns, rows: obs.rows };
+            keep(p, k, &o);
+            o
         })
         .collect()
+}
+
+/// Writes a finished run's series at once (a study cut short keeps the
+/// runs it finished) and says how it went.
+fn keep(p: &Prepared, k: usize, o: &Outcome) {
+    if !o.columns.is_empty() {
+        let path = run_dir(&p.opts.out, k).join("series.csv");
+        if let Err(e) = cleave::output::write_series_csv(&path, &o.columns, &o.rows) {
+            eprintln!("warning: cannot write {}: {e}", path.display());
+        }
+    }
+    let metric = match &o.failure {
+        Some(f) => format!("failed: {f}"),
+        None => match p.metric.eval(&o.columns, &o.rows) {
+            Ok(v) => format!("metric {v:.6e}"),
+            Err(e) => format!("no metric: {e}"),
+        },
+    };
+    eprintln!("      {} steps in {:.1} s, {metric}", o.steps, o.wall_seconds);
 }
 
 /// Submits every variant to the server at once (it runs them up to its
@@ -162,6 +183,7 @@ pub async fn run_remote(client: &mut Client, p: &Prepared) -> Result<Vec<Outcome
             columns,
             rows,
         });
+        keep(p, k, &out[k]);
     }
     Ok(out)
 }
@@ -175,8 +197,8 @@ struct Row {
     pareto: bool,
 }
 
-/// Writes the series of every run, `study.csv` and `study.png`, and
-/// prints the table (or JSON).
+/// Writes `study.csv` and `study.png` (each run's series is written as it
+/// ends), and prints the table (or JSON).
 pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
     let metrics: Vec<Result<f64, String>> = outcomes
         .iter()
@@ -185,11 +207,6 @@ pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
             None => p.metric.eval(&o.columns, &o.rows),
         })
         .collect();
-    for (k, o) in outcomes.iter().enumerate() {
-        if !o.columns.is_empty() {
-            cleave::output::write_series_csv(&run_dir(&p.opts.out, k).join("series.csv"), &o.columns, &o.rows)?;
-        }
-    }
     // the reference value and which run it is
     let (reference, ref_run) = match p.reference {
         Reference::Analytic(v) => (Some(v), None),

@@ -101,7 +101,8 @@ pub enum PhaseFieldMethod {
     #[default]
     Direct,
     /// Conjugate gradients warm-started from the last solution and
-    /// preconditioned by the last factorization.
+    /// preconditioned by the last factorization, made in f32 (the residual
+    /// is still taken to `tolerance` in f64).
     Pcg,
 }
 
@@ -118,9 +119,9 @@ pub struct PhaseFieldSolverSpec {
     #[serde(default = "default_pcg_max")]
     pub max_iterations: u32,
     /// PCG: what a numeric factorization costs, in PCG iterations. A solve
-    /// that takes more iterations than this is redone directly, and the
-    /// factor is renewed when a solve costs more than the average per solve
-    /// since the last factorization (this cost included).
+    /// that takes more iterations than this is redone with a fresh factor,
+    /// and the factor is renewed when a solve costs more than the average
+    /// per solve since the last factorization (this cost included).
     #[serde(default = "default_pcg_refactor")]
     pub refactor_after: u32,
     /// Staggered iterations per step (seed 001 Algorithm 1): after the

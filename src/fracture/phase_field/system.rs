@@ -240,8 +240,18 @@ pub struct PhaseFieldSystem {
     rhs: Vec<f64>,
     /// The analysis and the node set it was made for.
     symbolic: Option<SymbolicCholesky<usize>>,
+    /// The numeric Cholesky factor: in f64 for the direct method, in f32
+    /// (`single`) when it only preconditions PCG. The triangular solves are
+    /// nearly all of a PCG iteration and stream the whole factor from
+    /// memory; in f32 they stream half, and the f32 factorization is
+    /// cheaper too, while PCG still takes the f64 residual to its tolerance.
     l_values: Vec<f64>,
-    /// `l_values` hold a factorization of a matrix with today's pattern.
+    l_single: Vec<f32>,
+    /// `values` and a right-hand side in f32, for the single factor.
+    values_single: Vec<f32>,
+    x_single: Vec<f32>,
+    single: bool,
+    /// The factor holds a factorization of a matrix with today's pattern.
     factored: bool,
     /// The last solution, per dof (PCG's starting point).
     last: Vec<f64>,
@@ -278,6 +288,10 @@ impl PhaseFieldSystem {
             rhs: Vec::new(),
             symbolic: None,
             l_values: Vec::new(),
+            l_single: Vec::new(),
+            values_single: Vec::new(),
+            x_single: Vec::new(),
+            single: false,
             factored: false,
             last: Vec::new(),
             cycle_cost: 0.0,
@@ -551,11 +565,7 @@ impl PhaseFieldSystem {
         }
         let x = match method {
             SolveMethod::Pcg { tolerance, max_iterations, refactor_after } if self.factored && self.last.len() == n && !self.refactor_next => {
-                let t0 = Instant::now();
-                let (x, iterations) = self.pcg(tolerance, max_iterations);
-                self.stats.solve += t0.elapsed().as_secs_f64();
-                self.stats.pcg_solves += 1;
-                self.stats.pcg_iterations += iterations as u64;
+                let (x, iterations) = self.timed_pcg(tolerance, max_iterations);
                 // The renewal rule: as the history grows the old factor
                 // preconditions worse and the iterations climb. Refactorize
                 // when a solve costs more than the average per solve since
@@ -569,10 +579,10 @@ impl PhaseFieldSystem {
                     Some(x) if iterations <= refactor_after => x,
                     // slow or no convergence: a fresh factor, which also
                     // preconditions the next steps
-                    _ => self.renew(refactor_after)?,
+                    _ => self.renew(tolerance, max_iterations, refactor_after)?,
                 }
             }
-            SolveMethod::Pcg { refactor_after, .. } => self.renew(refactor_after)?,
+            SolveMethod::Pcg { tolerance, max_iterations, refactor_after } => self.renew(tolerance, max_iterations, refactor_after)?,
             SolveMethod::Direct => self.direct()?,
         };
         for (d, &node) in self.dofs.iter().enumerate() {
@@ -582,28 +592,57 @@ impl PhaseFieldSystem {
         Ok(c)
     }
 
-    /// A direct solve that starts a new cycle of PCG's renewal rule: a
-    /// factorization (`refactor_after` iterations) and one pair of
-    /// triangular solves (one iteration).
-    fn renew(&mut self, refactor_after: usize) -> Result<Vec<f64>, PhaseFieldError> {
-        let x = self.direct()?;
-        self.cycle_cost = refactor_after as f64 + 1.0;
+    /// PCG's fresh start, which begins a new cycle of its renewal rule: an
+    /// f32 factorization (counted as `refactor_after` iterations) and PCG
+    /// preconditioned by it, from the last solution. Should the f32
+    /// factorization fail or PCG not converge even so, a direct solve in f64.
+    fn renew(&mut self, tolerance: f64, max_iterations: usize, refactor_after: usize) -> Result<Vec<f64>, PhaseFieldError> {
+        let (x, iterations) = match self.factorize(true) {
+            Ok(()) => self.timed_pcg(tolerance, max_iterations),
+            // f32 may lose definiteness where f64 keeps it
+            Err(_) => (None, 0),
+        };
+        self.cycle_cost = (refactor_after + iterations.max(1)) as f64;
         self.cycle_solves = 1;
+        match x {
+            Some(x) => Ok(x),
+            None => self.direct(),
+        }
+    }
+
+    fn timed_pcg(&mut self, tolerance: f64, max_iterations: usize) -> (Option<Vec<f64>>, usize) {
+        let t0 = Instant::now();
+        let (x, iterations) = self.pcg(tolerance, max_iterations);
+        self.stats.solve += t0.elapsed().as_secs_f64();
+        self.stats.pcg_solves += 1;
+        self.stats.pcg_iterations += iterations as u64;
+        (x, iterations)
+    }
+
+    /// An f64 factorization and the solve with it.
+    fn direct(&mut self) -> Result<Vec<f64>, PhaseFieldError> {
+        self.factorize(false)?;
+        let t0 = Instant::now();
+        let mut x = self.rhs.clone();
+        self.apply_inverse(&mut x);
+        self.stats.solve += t0.elapsed().as_secs_f64();
         Ok(x)
     }
 
-    /// Analysis (if the pattern is new), numeric factorization, solve.
-    fn direct(&mut self) -> Result<Vec<f64>, PhaseFieldError> {
+    /// Analysis (if the pattern is new) and numeric factorization, in f32
+    /// if `single`.
+    fn factorize(&mut self, single: bool) -> Result<(), PhaseFieldError> {
         let n = self.dofs.len();
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let t0 = Instant::now();
         if self.symbolic.as_ref().is_none_or(|s| s.nrows() != n) {
             let sym = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, Default::default())
                 .map_err(|e| PhaseFieldError::Solver(format!("symbolic analysis: {e:?}")))?;
-            self.l_values.resize(sym.len_val(), 0.0);
             let req = sym
                 .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-                .or(sym.solve_in_place_scratch::<f64>(1, Par::Seq));
+                .or(sym.solve_in_place_scratch::<f64>(1, Par::Seq))
+                .or(sym.factorize_numeric_llt_scratch::<f32>(Par::Seq, Default::default()))
+                .or(sym.solve_in_place_scratch::<f32>(1, Par::Seq));
             self.mem = MemBuffer::try_new(req).map_err(|e| PhaseFieldError::Solver(format!("workspace: {e:?}")))?;
             self.symbolic = Some(sym);
             self.stats.analyses += 1;
@@ -612,38 +651,46 @@ impl PhaseFieldSystem {
         self.stats.analysis += (t1 - t0).as_secs_f64();
         let sym = self.symbolic.as_ref().ok_or_else(|| PhaseFieldError::Solver("no analysis".into()))?;
         self.factored = false;
-        let a = SparseColMatRef::new(pattern, &self.values);
-        sym.factorize_numeric_llt::<f64>(
-            &mut self.l_values,
-            a,
-            Side::Lower,
-            LltRegularization::default(),
-            Par::Seq,
-            MemStack::new(&mut self.mem),
-            Default::default(),
-        )
-        .map_err(|e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}")))?;
+        let not_pd = |e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}"));
+        if single {
+            self.values_single.clear();
+            self.values_single.extend(self.values.iter().map(|&v| v as f32));
+            self.l_single.resize(sym.len_val(), 0.0);
+            let a = SparseColMatRef::new(pattern, &self.values_single);
+            let (l, mem) = (&mut self.l_single, MemStack::new(&mut self.mem));
+            sym.factorize_numeric_llt::<f32>(l, a, Side::Lower, LltRegularization::default(), Par::Seq, mem, Default::default())
+                .map_err(not_pd)?;
+        } else {
+            self.l_values.resize(sym.len_val(), 0.0);
+            let a = SparseColMatRef::new(pattern, &self.values);
+            let (l, mem) = (&mut self.l_values, MemStack::new(&mut self.mem));
+            sym.factorize_numeric_llt::<f64>(l, a, Side::Lower, LltRegularization::default(), Par::Seq, mem, Default::default())
+                .map_err(not_pd)?;
+        }
+        self.single = single;
         self.factored = true;
         self.refactor_next = false;
         self.stats.factorizations += 1;
-        let t2 = Instant::now();
-        self.stats.factorization += (t2 - t1).as_secs_f64();
-        let mut x = self.rhs.clone();
-        self.apply_inverse(&mut x);
-        self.stats.solve += t2.elapsed().as_secs_f64();
-        Ok(x)
+        self.stats.factorization += t1.elapsed().as_secs_f64();
+        Ok(())
     }
 
     /// x ← (L Lᵀ)⁻¹ x with the stored factor.
     fn apply_inverse(&mut self, x: &mut [f64]) {
         let n = x.len();
-        if let Some(sym) = self.symbolic.as_ref() {
-            LltRef::new(sym, &self.l_values).solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(x, n, 1),
-                Par::Seq,
-                MemStack::new(&mut self.mem),
-            );
+        let Some(sym) = self.symbolic.as_ref() else { return };
+        let mem = MemStack::new(&mut self.mem);
+        if self.single {
+            self.x_single.clear();
+            self.x_single.extend(x.iter().map(|&v| v as f32));
+            let xs = MatMut::from_column_major_slice_mut(&mut self.x_single, n, 1);
+            LltRef::new(sym, &self.l_single).solve_in_place_with_conj(Conj::No, xs, Par::Seq, mem);
+            for (v, s) in x.iter_mut().zip(&self.x_single) {
+                *v = *s as f64;
+            }
+        } else {
+            let xs = MatMut::from_column_major_slice_mut(x, n, 1);
+            LltRef::new(sym, &self.l_values).solve_in_place_with_conj(Conj::No, xs, Par::Seq, mem);
         }
     }
 
@@ -667,7 +714,7 @@ impl PhaseFieldSystem {
         let n = self.dofs.len();
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).fold(0.0, |s, t| s + t);
         let norm_b = dot(&self.rhs, &self.rhs).sqrt();
-        let mut x = self.last.clone();
+        let mut x = if self.last.len() == n { self.last.clone() } else { vec![0.0; n] };
         let mut ap = vec![0.0; n];
         self.multiply(&x, &mut ap);
         let mut r: Vec<f64> = self.rhs.iter().zip(&ap).map(|(b, y)| b - y).collect();
