@@ -267,3 +267,22 @@ snapshots = 2
     let total: f64 = mass.iter().sum();
     assert!((total - rec.rows[0].total_mass).abs() < 1e-12 * total);
 }
+
+/// Every scene shipped in `scenes/` parses and validates (the README and
+/// the docs run them by name; a setting renamed in the schema must not
+/// leave one behind).
+#[test]
+fn every_shipped_scene_is_valid() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            if let Err(e) = cleave::scene::Scene::from_path(&path) {
+                panic!("{}: {e}", path.display());
+            }
+            n += 1;
+        }
+    }
+    assert!(n >= 17, "only {n} scenes found in {}", dir.display());
+}
