@@ -235,7 +235,7 @@ impl Metric {
             let cols: Vec<&str> = match rest.strip_prefix(':') {
                 Some(r) => r.split(',').map(str::trim).collect(),
                 None if rest.is_empty() => Vec::new(),
-                None => return Err(format!("--metric {spec:?}: write propagation_energy[:ENERGY_COLUMN[,LENGTH_COLUMN]]")),
+                None => vec![""], // "propagation_energyX": rejected below
             };
             if cols.len() > 2 || cols.iter().any(|c| c.is_empty()) {
                 return Err(format!("--metric {spec:?}: write propagation_energy[:ENERGY_COLUMN[,LENGTH_COLUMN]]"));

@@ -17,7 +17,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// Keeps the series and the fragment tables of the snapshots.
-/// The series, and the fragment tables of the snapshots.
 struct Keep {
     series: Recorder,
     fragments: Vec<(f64, Vec<Fragment>)>,

@@ -148,14 +148,20 @@ fn keep(p: &Prepared, k: usize, o: &Outcome) {
             eprintln!("warning: cannot write {}: {e}", path.display());
         }
     }
-    let metric = match &o.failure {
-        Some(f) => format!("failed: {f}"),
-        None => match p.metric.eval(&o.columns, &o.rows) {
-            Ok(v) => format!("metric {v:.6e}"),
-            Err(e) => format!("no metric: {e}"),
-        },
+    let metric = match metric_of(p, o) {
+        Ok(v) => format!("metric {v:.6e}"),
+        Err(e) => format!("no metric: {e}"),
     };
     eprintln!("      {} steps in {:.1} s, {metric}", o.steps, o.wall_seconds);
+}
+
+/// A run's metric, or why it has none (the run failed, or the metric
+/// cannot be taken from its series).
+fn metric_of(p: &Prepared, o: &Outcome) -> Result<f64, String> {
+    match &o.failure {
+        Some(f) => Err(format!("failed: {f}")),
+        None => p.metric.eval(&o.columns, &o.rows),
+    }
 }
 
 /// Submits every variant to the server at once (it runs them up to its
@@ -200,13 +206,7 @@ struct Row {
 /// Writes `study.csv` and `study.png` (each run's series is written as it
 /// ends), and prints the table (or JSON).
 pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
-    let metrics: Vec<Result<f64, String>> = outcomes
-        .iter()
-        .map(|o| match &o.failure {
-            Some(f) => Err(format!("failed: {f}")),
-            None => p.metric.eval(&o.columns, &o.rows),
-        })
-        .collect();
+    let metrics: Vec<Result<f64, String>> = outcomes.iter().map(|o| metric_of(p, o)).collect();
     // the reference value and which run it is
     let (reference, ref_run) = match p.reference {
         Reference::Analytic(v) => (Some(v), None),

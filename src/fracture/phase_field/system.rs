@@ -651,21 +651,12 @@ impl PhaseFieldSystem {
         self.stats.analysis += (t1 - t0).as_secs_f64();
         let sym = self.symbolic.as_ref().ok_or_else(|| PhaseFieldError::Solver("no analysis".into()))?;
         self.factored = false;
-        let not_pd = |e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}"));
         if single {
             self.values_single.clear();
             self.values_single.extend(self.values.iter().map(|&v| v as f32));
-            self.l_single.resize(sym.len_val(), 0.0);
-            let a = SparseColMatRef::new(pattern, &self.values_single);
-            let (l, mem) = (&mut self.l_single, MemStack::new(&mut self.mem));
-            sym.factorize_numeric_llt::<f32>(l, a, Side::Lower, LltRegularization::default(), Par::Seq, mem, Default::default())
-                .map_err(not_pd)?;
+            numeric_llt(sym, pattern, &self.values_single, &mut self.l_single, &mut self.mem)?;
         } else {
-            self.l_values.resize(sym.len_val(), 0.0);
-            let a = SparseColMatRef::new(pattern, &self.values);
-            let (l, mem) = (&mut self.l_values, MemStack::new(&mut self.mem));
-            sym.factorize_numeric_llt::<f64>(l, a, Side::Lower, LltRegularization::default(), Par::Seq, mem, Default::default())
-                .map_err(not_pd)?;
+            numeric_llt(sym, pattern, &self.values, &mut self.l_values, &mut self.mem)?;
         }
         self.single = single;
         self.factored = true;
@@ -677,20 +668,16 @@ impl PhaseFieldSystem {
 
     /// x ← (L Lᵀ)⁻¹ x with the stored factor.
     fn apply_inverse(&mut self, x: &mut [f64]) {
-        let n = x.len();
         let Some(sym) = self.symbolic.as_ref() else { return };
-        let mem = MemStack::new(&mut self.mem);
         if self.single {
             self.x_single.clear();
             self.x_single.extend(x.iter().map(|&v| v as f32));
-            let xs = MatMut::from_column_major_slice_mut(&mut self.x_single, n, 1);
-            LltRef::new(sym, &self.l_single).solve_in_place_with_conj(Conj::No, xs, Par::Seq, mem);
+            llt_solve(sym, &self.l_single, &mut self.x_single, &mut self.mem);
             for (v, s) in x.iter_mut().zip(&self.x_single) {
                 *v = *s as f64;
             }
         } else {
-            let xs = MatMut::from_column_major_slice_mut(x, n, 1);
-            LltRef::new(sym, &self.l_values).solve_in_place_with_conj(Conj::No, xs, Par::Seq, mem);
+            llt_solve(sym, &self.l_values, x, &mut self.mem);
         }
     }
 
@@ -750,6 +737,28 @@ impl PhaseFieldSystem {
         }
         (None, max_iterations)
     }
+}
+
+/// The numeric factorization of `values` (on `pattern`, lower triangle)
+/// into `l`, in f64 or f32.
+fn numeric_llt<T: faer::traits::ComplexField>(
+    sym: &SymbolicCholesky<usize>,
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    values: &[T],
+    l: &mut Vec<T>,
+    mem: &mut MemBuffer,
+) -> Result<(), PhaseFieldError> {
+    l.resize(sym.len_val(), T::zero_impl());
+    let a = SparseColMatRef::new(pattern, values);
+    sym.factorize_numeric_llt::<T>(l, a, Side::Lower, LltRegularization::default(), Par::Seq, MemStack::new(mem), Default::default())
+        .map(|_| ())
+        .map_err(|e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}")))
+}
+
+/// x ← (L Lᵀ)⁻¹ x with the factor `l`, in f64 or f32.
+fn llt_solve<T: faer::traits::ComplexField>(sym: &SymbolicCholesky<usize>, l: &[T], x: &mut [T], mem: &mut MemBuffer) {
+    let n = x.len();
+    LltRef::new(sym, l).solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(x, n, 1), Par::Seq, MemStack::new(mem));
 }
 
 /// c at a point from nodal values (what the particles take after a solve;
