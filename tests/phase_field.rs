@@ -174,6 +174,16 @@ fn phase_field_scenes_are_validated() {
     assert!(e.contains("grid.shape_function") && e.contains("quadratic_bspline or cubic_bspline"), "{e}");
     let e = Scene::from_text(&text.replace("[[0.0, 0.02], [0.05, 0.02]]", "[[0.0, 0.02]]"), None).unwrap_err().to_string();
     assert!(e.contains("bodies[0].cracks[0].points: a crack needs at least 2 points"), "{e}");
+    // Borden's initial-history band is l0 wide: it needs particles closer than l0
+    let borden = "[[0.0, 0.02], [0.05, 0.02]], profile = \"borden\"";
+    assert!(Scene::from_text(&text.replace("[[0.0, 0.02], [0.05, 0.02]]", borden), None).is_ok());
+    let e = Scene::from_text(
+        &text.replace("[[0.0, 0.02], [0.05, 0.02]]", borden).replace("l0 = 5.0e-4", "l0 = 2.0e-4"),
+        None,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("bodies[0].cracks[0].profile: the borden profile"), "{e}");
 }
 
 #[test]

@@ -29,12 +29,38 @@ use crate::grid::shape::Kernel;
 use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, Elastic};
 use crate::particles::Particles;
-use crate::scene::{phase_field_gamma, PhaseFieldMethod, PlaneKind, Scene};
+use crate::scene::{phase_field_gamma, CrackProfile, CrackSpec, PhaseFieldMethod, PlaneKind, Scene};
 use rayon::prelude::*;
 
-/// Borden's B: the history on an initial crack is B·Ḡc/(4l₀), which drives
-/// c to about 1/(1 + B) there.
+/// B of a `line` crack: the history on it is B·Ḡc/(4l₀), which drives c to
+/// about 1/(1 + B) there.
 const CRACK_B: f64 = 1e6;
+
+/// Borden et al.'s B for a `borden` crack profile.
+const BORDEN_B: f64 = 1e3;
+
+/// The initial history of a particle at `x` from a body's initial cracks
+/// (the largest over the cracks; 0 off them), by each crack's profile
+/// ([`CrackProfile`]); `spacing` is the body's particle spacing.
+fn initial_history(x: [f64; 2], cracks: &[CrackSpec], params: &PhaseFieldParams, spacing: f64) -> f64 {
+    let unit = params.gc_bar / (4.0 * params.l0);
+    cracks
+        .iter()
+        .map(|c| match c.profile {
+            CrackProfile::Line => {
+                if crate::geometry::on_cracks(x, std::slice::from_ref(c), spacing) {
+                    CRACK_B * unit
+                } else {
+                    0.0
+                }
+            }
+            CrackProfile::Borden => {
+                let d = crate::geometry::distance_to_polyline(x, &c.points);
+                BORDEN_B * unit * (1.0 - 2.0 * d / params.l0).max(0.0)
+            }
+        })
+        .fold(0.0, f64::max)
+}
 
 /// One body's phase field.
 struct Body {
@@ -129,12 +155,9 @@ impl PhaseFields {
             .into_iter()
             .map(|(b, cracks, params, particles, origin)| {
                 let spacing = scene.file.grid.cell_size / scene.lattice(b).per_dir as f64;
-                let h0 = CRACK_B * params.gc_bar / (4.0 * params.l0);
                 for &p in &particles {
-                    let x = parts.x[p as usize];
-                    if crate::geometry::on_cracks(x, &cracks, spacing) {
-                        parts.history[p as usize] = h0;
-                    }
+                    let p = p as usize;
+                    parts.history[p] = initial_history(parts.x[p], &cracks, &params, spacing);
                 }
                 Body {
                     body: b as u16,
@@ -346,5 +369,32 @@ impl PhaseFields {
             s.pcg_iterations += t.pcg_iterations;
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fracture::phase_field::anisotropy::Gamma;
+
+    #[test]
+    fn the_initial_history_follows_the_crack_profile() {
+        let params = PhaseFieldParams { gc_bar: 3.0, l0: 2.5e-4, k_f: 0.0, gamma: Gamma::default() };
+        let unit = 3.0 / (4.0 * 2.5e-4);
+        let crack = |profile| vec![CrackSpec { points: vec![[0.0, 0.0], [1.0e-3, 0.0]], profile }];
+        let spacing = 1.0e-4;
+        // line: the particles within 0.55 spacings, all at B = 1e6
+        let line = crack(CrackProfile::Line);
+        assert_eq!(initial_history([5e-4, 0.5e-4], &line, &params, spacing), CRACK_B * unit);
+        assert_eq!(initial_history([5e-4, 0.6e-4], &line, &params, spacing), 0.0);
+        // Borden: B = 1e3 on the line, falling linearly to 0 at l0/2
+        let borden = crack(CrackProfile::Borden);
+        let h = |y: f64| initial_history([5e-4, y], &borden, &params, spacing);
+        assert!((h(0.0) - BORDEN_B * unit).abs() < 1e-9 * h(0.0));
+        assert!((h(-0.625e-4) - 0.5 * BORDEN_B * unit).abs() < 1e-9 * h(0.0));
+        assert_eq!(h(1.3e-4), 0.0);
+        // beyond the crack's end the distance is to its end point
+        let past = initial_history([1.0e-3 + 0.625e-4, 0.0], &borden, &params, spacing);
+        assert!((past - 0.5 * BORDEN_B * unit).abs() < 1e-9 * past);
     }
 }

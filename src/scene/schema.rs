@@ -641,6 +641,27 @@ pub struct BodySpec {
 #[serde(deny_unknown_fields)]
 pub struct CrackSpec {
     pub points: Vec<[f64; 2]>,
+    /// How a phase-field body's initial history is laid along the crack.
+    #[serde(default)]
+    pub profile: CrackProfile,
+}
+
+/// The initial history of a phase-field crack (seed 001 §5.1: "an initial
+/// history field at the corresponding material points as in [18]", Borden
+/// et al. 2012).
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum CrackProfile {
+    /// The particles within 0.55 particle spacings of the line get
+    /// H = B·Ḡc/(4l₀) with B = 10⁶ (c ≈ 10⁻⁶ there): a band one or two
+    /// particles wide at any resolution.
+    #[default]
+    Line,
+    /// Borden et al. (2012): H = B·Ḡc/(4l₀)·(1 − 2d/l₀) for a distance
+    /// d ≤ l₀/2 from the line, B = 10³: a band l₀ wide whose history falls
+    /// linearly to zero at its edges. Needs particle spacing ≤ l₀, so that
+    /// the band holds particles.
+    Borden,
 }
 
 fn default_ppc() -> u32 {

@@ -156,6 +156,15 @@ impl Scene {
             if mat.is_some() {
                 let pf = phase_field_of(&file, &body.material);
                 if let Some(pf) = pf {
+                    let spacing = file.grid.cell_size / per_dir(body.particles_per_cell) as f64;
+                    for (k, crack) in body.cracks.iter().enumerate() {
+                        if crack.profile == CrackProfile::Borden && spacing > pf.l0 {
+                            c.err(
+                                &format!("{path}.cracks[{k}].profile"),
+                                format!("the borden profile lays history within l0/2 = {:e} m of the crack, but the particles are {spacing:e} m apart: use the line profile or more particles per cell", pf.l0 / 2.0),
+                            );
+                        }
+                    }
                     let fourth = !phase_field_gamma(pf).is_zero();
                     let kind = file.grid.shape_function;
                     if fourth
@@ -185,6 +194,9 @@ impl Scene {
                 c.point(&format!("{path}.crack_origin"), o);
             }
             for (k, crack) in body.cracks.iter().enumerate() {
+                if crack.profile == CrackProfile::Borden && has_damage(&file, &body.material) {
+                    c.err(&format!("{path}.cracks[{k}].profile"), "the borden profile is an initial history field: it is for phase-field materials, not damage");
+                }
                 if crack.points.len() < 2 {
                     c.err(&format!("{path}.cracks[{k}].points"), format!("a crack needs at least 2 points, got {}", crack.points.len()));
                 }
