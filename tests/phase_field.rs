@@ -174,16 +174,25 @@ fn phase_field_scenes_are_validated() {
     assert!(e.contains("grid.shape_function") && e.contains("quadratic_bspline or cubic_bspline"), "{e}");
     let e = Scene::from_text(&text.replace("[[0.0, 0.02], [0.05, 0.02]]", "[[0.0, 0.02]]"), None).unwrap_err().to_string();
     assert!(e.contains("bodies[0].cracks[0].points: a crack needs at least 2 points"), "{e}");
-    // Borden's initial-history band is l0 wide: it needs particles closer than l0
+    // Borden's initial-history band is l0 wide: it needs particles at most
+    // l0/2 apart (here 0.25 mm apart, l0 = 0.5 mm passes, 0.4 mm does not)
     let borden = "[[0.0, 0.02], [0.05, 0.02]], profile = \"borden\"";
     assert!(Scene::from_text(&text.replace("[[0.0, 0.02], [0.05, 0.02]]", borden), None).is_ok());
     let e = Scene::from_text(
-        &text.replace("[[0.0, 0.02], [0.05, 0.02]]", borden).replace("l0 = 5.0e-4", "l0 = 2.0e-4"),
+        &text.replace("[[0.0, 0.02], [0.05, 0.02]]", borden).replace("l0 = 5.0e-4", "l0 = 4.0e-4"),
         None,
     )
     .unwrap_err()
     .to_string();
     assert!(e.contains("bodies[0].cracks[0].profile: the borden profile"), "{e}");
+    // a damage body's initial crack is failed particles, not a history
+    let damage = std::fs::read_to_string(dir.join("d2_kalthoff.toml")).unwrap();
+    let line = "[[0.05, 0.025], [-0.001, 0.025]] }";
+    assert!(damage.contains(line));
+    let e = Scene::from_text(&damage.replace(line, "[[0.05, 0.025], [-0.001, 0.025]], profile = \"borden\" }"), None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cracks[0].profile: the borden profile is an initial history field"), "{e}");
 }
 
 #[test]

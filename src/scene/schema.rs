@@ -659,8 +659,8 @@ pub enum CrackProfile {
     Line,
     /// Borden et al. (2012): H = B·Ḡc/(4l₀)·(1 − 2d/l₀) for a distance
     /// d ≤ l₀/2 from the line, B = 10³: a band l₀ wide whose history falls
-    /// linearly to zero at its edges. Needs particle spacing ≤ l₀, so that
-    /// the band holds particles.
+    /// linearly to zero at its edges. Needs particle spacing ≤ l₀/2, so that
+    /// a row of particles lies within l₀/4 of the line.
     Borden,
 }
 

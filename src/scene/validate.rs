@@ -158,10 +158,12 @@ impl Scene {
                 if let Some(pf) = pf {
                     let spacing = file.grid.cell_size / per_dir(body.particles_per_cell) as f64;
                     for (k, crack) in body.cracks.iter().enumerate() {
-                        if crack.profile == CrackProfile::Borden && spacing > pf.l0 {
+                        // a row of particles then lies within l0/4 of the line,
+                        // with at least half the band's peak history
+                        if crack.profile == CrackProfile::Borden && spacing > 0.5 * pf.l0 {
                             c.err(
                                 &format!("{path}.cracks[{k}].profile"),
-                                format!("the borden profile lays history within l0/2 = {:e} m of the crack, but the particles are {spacing:e} m apart: use the line profile or more particles per cell", pf.l0 / 2.0),
+                                format!("the borden profile lays history within l0/2 = {:e} m of the crack, falling to 0 there, and needs particles at most l0/2 apart, but they are {spacing:e} m apart: use the line profile or more particles per cell", pf.l0 / 2.0),
                             );
                         }
                     }
