@@ -117,13 +117,20 @@ pub struct Lattice {
     pub per_dir: usize,
 }
 
+impl Lattice {
+    /// The distance between neighbouring particles, `h / per_dir`.
+    pub fn spacing(&self) -> f64 {
+        self.h / self.per_dir.max(1) as f64
+    }
+}
+
 /// Calls `emit(position)` for every particle of a body, in a fixed order
 /// (cell rows bottom to top, then sub-rows, then left to right). Only the
 /// cells overlapping the body's bounding box are visited.
 pub fn seed(shape: &ShapeSpec, holes: &[ShapeSpec], lat: &Lattice, mut emit: impl FnMut([f64; 2])) {
     let b = bounds(shape);
     let n = lat.per_dir.max(1);
-    let sub = lat.h / n as f64;
+    let sub = lat.spacing();
     let cell_range = |d: usize| {
         let lo = ((b.min[d] - lat.origin[d]) / lat.h).floor().max(0.0) as usize;
         let hi = (((b.max[d] - lat.origin[d]) / lat.h).ceil().max(0.0) as usize).min(lat.cells[d]);

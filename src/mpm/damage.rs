@@ -59,7 +59,7 @@ impl DamageState {
             tips: Vec::new(),
             seed_radius: 2.0 * h,
             fragment_damage: scene.file.output.fragment_damage,
-            spacing: (0..scene.file.bodies.len()).map(|b| h / scene.lattice(b).per_dir as f64).collect(),
+            spacing: (0..scene.file.bodies.len()).map(|b| scene.particle_spacing(b)).collect(),
             finder: FragmentFinder::default(),
         })
     }
@@ -78,7 +78,7 @@ impl DamageState {
             {
                 continue;
             }
-            let spacing = scene.file.grid.cell_size / scene.lattice(b).per_dir as f64;
+            let spacing = scene.particle_spacing(b);
             let mut particles = Vec::new();
             for p in (0..parts.len()).filter(|&p| parts.body[p] as usize == b) {
                 if crate::geometry::on_cracks(parts.x[p], &spec.cracks, spacing) {

@@ -154,7 +154,7 @@ impl PhaseFields {
         let out = bodies
             .into_iter()
             .map(|(b, cracks, params, particles, origin)| {
-                let spacing = scene.file.grid.cell_size / scene.lattice(b).per_dir as f64;
+                let spacing = scene.particle_spacing(b);
                 for &p in &particles {
                     let p = p as usize;
                     parts.history[p] = initial_history(parts.x[p], &cracks, &params, spacing);

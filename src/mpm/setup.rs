@@ -29,7 +29,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     let thickness = file.analysis.thickness;
     for (b, body) in file.bodies.iter().enumerate() {
         let lat = scene.lattice(b);
-        let spacing = lat.h / lat.per_dir as f64;
+        let spacing = lat.spacing();
         let vol = spacing * spacing * thickness;
         let mi = scene.body_material[b];
         let mat = &mats[mi];
@@ -223,8 +223,7 @@ impl Tractions {
     fn new(scene: &Scene, parts: &Particles) -> Tractions {
         let file = &scene.file;
         let b = &file.grid.boundary;
-        let h = file.grid.cell_size;
-        let spacing: Vec<f64> = (0..file.bodies.len()).map(|k| h / scene.lattice(k).per_dir as f64).collect();
+        let spacing: Vec<f64> = (0..file.bodies.len()).map(|k| scene.particle_spacing(k)).collect();
         let finest = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
         let mut sides = Vec::new();
         for (k, cond) in [&b.left, &b.right, &b.bottom, &b.top].into_iter().enumerate() {

@@ -86,6 +86,11 @@ impl Scene {
         }
     }
 
+    /// The distance between neighbouring particles of body `b` as seeded.
+    pub fn particle_spacing(&self, b: usize) -> f64 {
+        self.lattice(b).spacing()
+    }
+
     /// Validates a parsed scene; reports every problem found.
     pub fn validate(file: SceneFile) -> Result<Scene, SceneError> {
         let mut c = Checker::default();
@@ -156,7 +161,7 @@ impl Scene {
             if mat.is_some() {
                 let pf = phase_field_of(&file, &body.material);
                 if let Some(pf) = pf {
-                    let spacing = file.grid.cell_size / per_dir(body.particles_per_cell) as f64;
+                    let spacing = particle_spacing(file.grid.cell_size, body.particles_per_cell);
                     for (k, crack) in body.cracks.iter().enumerate() {
                         // a row of particles then lies within l0/4 of the line,
                         // with at least half the band's peak history
@@ -263,6 +268,11 @@ pub fn phase_field_gamma(pf: &PhaseFieldSpec) -> crate::fracture::phase_field::a
 /// Particles per direction for a per-cell count (a perfect square).
 pub fn per_dir(ppc: u32) -> usize {
     ((ppc as f64).sqrt().round() as usize).max(1)
+}
+
+/// The particle spacing of a body seeded `ppc` per cell in cells of `cell_size`.
+fn particle_spacing(cell_size: f64, ppc: u32) -> f64 {
+    cell_size / per_dir(ppc) as f64
 }
 
 /// Whether a body's material has a damage model.
