@@ -3,7 +3,7 @@
 //! Gc(θ) of eq. 8.
 
 use cleave::fracture::phase_field::anisotropy::{surface_energy, Gamma};
-use cleave::fracture::phase_field::system::{fracture_energy, FieldParticles, PhaseFieldParams, PhaseFieldSystem};
+use cleave::fracture::phase_field::system::{fracture_energy, FieldParticles, PhaseFieldParams, PhaseFieldSystem, SolveMethod, SolveStats};
 use cleave::grid::shape::{CubicBspline, Gimp, Kernel, Linear, QuadraticBspline};
 use cleave::grid::GridGeom;
 
@@ -193,6 +193,57 @@ fn phase_field_scenes_are_validated() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("cracks[0].profile: the borden profile is an initial history field"), "{e}");
+}
+
+/// Two solves with PCG, the second after the history has grown (a crack
+/// advanced by 1.5 l0): returns the second solution and the solver's
+/// counters after the first and second solves.
+fn two_pcg_solves(refactor_after: usize) -> (Vec<f64>, SolveStats, SolveStats) {
+    let (geom, x, vol) = block(0.25, 4.0, 2);
+    let params = PhaseFieldParams { gc_bar: 1.0, l0: 0.5, k_f: 0.0, gamma: Gamma::default() };
+    let band = |tip: f64| -> Vec<f64> { x.iter().map(|p| if p[1].abs() < 0.1 && p[0] < tip { 1e3 } else { 1.0 }).collect() };
+    let method = SolveMethod::Pcg { tolerance: 1e-10, max_iterations: 500, refactor_after };
+    let mut sys = PhaseFieldSystem::new();
+    let h1 = band(-1.0);
+    sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h1), &params);
+    sys.solve_with(geom.node_count(), method).unwrap();
+    let first = sys.stats;
+    let h2 = band(-0.25);
+    sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h2), &params);
+    let c = sys.solve_with(geom.node_count(), method).unwrap();
+    // the same system solved directly
+    let mut direct = PhaseFieldSystem::new();
+    direct.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h2), &params);
+    let want = direct.solve(geom.node_count()).unwrap();
+    let worst = c.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(worst < 1e-7, "PCG and direct differ by {worst}");
+    (c, first, sys.stats)
+}
+
+/// The renewal rule keeps a solve that converged with the old factor even
+/// when it took more than `refactor_after` iterations (it used to redo it
+/// with a fresh factor, throwing the iterations away), and gives up on the
+/// old factor only after `2·refactor_after` iterations.
+#[test]
+fn pcg_keeps_a_converged_solve_with_the_old_factor() {
+    // how many iterations the second solve takes with the old factor
+    let (_, a1, a2) = two_pcg_solves(1000);
+    assert_eq!((a1.factorizations, a2.factorizations), (1, 1), "no renewal with a costly factorization");
+    let k = a2.pcg_iterations - a1.pcg_iterations;
+    assert!(k >= 4, "the grown crack should cost the old factor a few iterations, took {k}");
+    // a factorization cheaper than those iterations but not under half
+    let r = k.div_ceil(2) as usize;
+    let (c, b1, b2) = two_pcg_solves(r);
+    assert_eq!(b2.pcg_solves - b1.pcg_solves, 1, "the converged solve was redone");
+    assert_eq!(b2.factorizations, b1.factorizations, "a fresh factor was made for a converged solve");
+    assert_eq!(b2.pcg_iterations - b1.pcg_iterations, k);
+    // a factorization under half the iterations: the old factor gives up
+    let (c2, d1, d2) = two_pcg_solves((k as usize - 1) / 2);
+    assert_eq!(d2.factorizations, d1.factorizations + 1, "the old factor should give up after 2·refactor_after");
+    assert_eq!(d2.pcg_solves - d1.pcg_solves, 2);
+    let worst = c.iter().zip(&c2).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(worst < 1e-7, "{worst}");
+    println!("second solve: {k} iterations with the old factor");
 }
 
 #[test]

@@ -118,10 +118,11 @@ pub struct PhaseFieldSolverSpec {
     /// PCG: iterations before falling back to a direct solve.
     #[serde(default = "default_pcg_max")]
     pub max_iterations: u32,
-    /// PCG: what a numeric factorization costs, in PCG iterations. A solve
-    /// that takes more iterations than this is redone with a fresh factor,
-    /// and the factor is renewed when a solve costs more than the average
-    /// per solve since the last factorization (this cost included).
+    /// PCG: what a numeric factorization costs, in PCG iterations. The
+    /// factor is renewed after a solve that costs more than the average per
+    /// solve since the last factorization (this cost included); a solve
+    /// with the old factor that has not converged after twice this many
+    /// iterations is redone with a fresh factor.
     #[serde(default = "default_pcg_refactor")]
     pub refactor_after: u32,
     /// Staggered iterations per step (seed 001 Algorithm 1): after the
