@@ -78,12 +78,7 @@ impl Scene {
 
     /// The seeding lattice of body `b`.
     pub fn lattice(&self, b: usize) -> Lattice {
-        Lattice {
-            origin: self.file.grid.min,
-            h: self.file.grid.cell_size,
-            cells: self.cells,
-            per_dir: per_dir(self.file.bodies[b].particles_per_cell),
-        }
+        lattice_of(&self.file.grid, self.cells, self.file.bodies[b].particles_per_cell)
     }
 
     /// The distance between neighbouring particles of body `b` as seeded.
@@ -161,7 +156,7 @@ impl Scene {
             if mat.is_some() {
                 let pf = phase_field_of(&file, &body.material);
                 if let Some(pf) = pf {
-                    let spacing = particle_spacing(file.grid.cell_size, body.particles_per_cell);
+                    let spacing = lattice_of(&file.grid, cells, body.particles_per_cell).spacing();
                     for (k, crack) in body.cracks.iter().enumerate() {
                         // a row of particles then lies within l0/4 of the line,
                         // with at least half the band's peak history
@@ -270,9 +265,9 @@ pub fn per_dir(ppc: u32) -> usize {
     ((ppc as f64).sqrt().round() as usize).max(1)
 }
 
-/// The particle spacing of a body seeded `ppc` per cell in cells of `cell_size`.
-fn particle_spacing(cell_size: f64, ppc: u32) -> f64 {
-    cell_size / per_dir(ppc) as f64
+/// The seeding lattice of a body with `ppc` particles per cell on the grid.
+fn lattice_of(grid: &GridSpec, cells: [usize; 2], ppc: u32) -> Lattice {
+    Lattice { origin: grid.min, h: grid.cell_size, cells, per_dir: per_dir(ppc) }
 }
 
 /// Whether a body's material has a damage model.
@@ -744,7 +739,7 @@ fn check_body(c: &mut Checker, path: &str, body: &BodySpec, grid: &GridSpec, cel
     if c.errors.len() > before {
         return 0;
     }
-    let lat = Lattice { origin: grid.min, h: grid.cell_size, cells, per_dir: n };
+    let lat = lattice_of(grid, cells, ppc);
     let mut count = 0usize;
     geometry::seed(&body.shape, &body.holes, &lat, |_| count += 1);
     if count == 0 {
