@@ -32,10 +32,49 @@ fn draw_line<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType
     Ok(())
 }
 
-/// Draws one chart of `lines` against time into `area`.
+/// A tick label: up to four significant digits in plain notation between
+/// 1e-3 and 1e5 (`0.1255`, `7`, `100`), scientific outside.
+fn tick(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    if !(1e-3..1e5).contains(&a) {
+        // 2.50e-5 → 2.5e-5, 1.00e-4 → 1e-4
+        let s = format!("{v:.2e}");
+        let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
+        return format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'));
+    }
+    // digits after the point for four significant digits
+    let d = 3 - a.log10().floor() as i32;
+    let r = if d >= 0 {
+        let s = 10f64.powi(d);
+        (v * s).round() / s
+    } else {
+        let s = 10f64.powi(-d);
+        (v / s).round() * s
+    };
+    format!("{r}")
+}
+
+/// The unit in which to show times up to `t_max` seconds: (factor from
+/// seconds, name), so that the axis reads in µs for a fracture run.
+fn time_unit(t_max: f64) -> (f64, &'static str) {
+    if t_max < 1e-3 {
+        (1e6, "µs")
+    } else if t_max < 1.0 {
+        (1e3, "ms")
+    } else {
+        (1.0, "s")
+    }
+}
+
+/// Draws one chart of `lines` against time (seconds) into `area`, with the
+/// time axis in µs, ms or s as fits the range.
 fn chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str, y_desc: &str, lines: &[Line]) -> Result<(), String> {
     let pts = || lines.iter().flat_map(|l| l.2.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
-    let t_max = pts().map(|p| p.0).fold(0.0f64, f64::max).max(f64::MIN_POSITIVE);
+    let (scale, unit) = time_unit(pts().map(|p| p.0).fold(0.0f64, f64::max));
+    let t_max = (scale * pts().map(|p| p.0).fold(0.0f64, f64::max)).max(f64::MIN_POSITIVE);
     let (lo, mut hi) = pts().fold((0.0f64, 0.0f64), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
     if hi - lo <= 0.0 {
         hi = lo + 1.0;
@@ -44,20 +83,21 @@ fn chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str, y_desc:
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 22))
         .margin(12)
+        .margin_right(30)
         .x_label_area_size(45)
         .y_label_area_size(80)
         .build_cartesian_2d(0.0..t_max, (lo - pad)..(hi + pad))
         .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
-        .x_desc("time in s")
+        .x_desc(format!("time in {unit}"))
         .y_desc(y_desc)
-        .x_label_formatter(&|x| format!("{x:.2e}"))
-        .y_label_formatter(&|y| format!("{y:.2e}"))
+        .x_label_formatter(&|x| tick(*x))
+        .y_label_formatter(&|y| tick(*y))
         .draw()
         .map_err(|e| e.to_string())?;
     for (name, colour, points) in lines {
-        let p: Vec<(f64, f64)> = points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+        let p: Vec<(f64, f64)> = points.iter().map(|p| (scale * p.0, p.1)).filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
         draw_line(&mut chart, name, *colour, p)?;
     }
     chart
@@ -160,7 +200,6 @@ pub fn plot_pareto(path: &Path, title: &str, x_desc: &str, y_desc: &str, points:
         // whole decades, so that the log axes have labelled ticks
         (0.99 * 10f64.powf((lo / 1.2).log10().floor()), 1.01 * 10f64.powf((hi * right).log10().ceil()))
     };
-    let tick = |v: &f64| if (1e-3..1e5).contains(v) { format!("{}", (v * 1e3).round() / 1e3) } else { format!("{v:.0e}") };
     // room on the right for the labels
     let (x0, x1) = range(&mut shown.iter().map(|p| p.0), 5.0);
     let (y0, y1) = range(&mut shown.iter().map(|p| p.1), 1.2);
@@ -181,8 +220,8 @@ pub fn plot_pareto(path: &Path, title: &str, x_desc: &str, y_desc: &str, points:
             .y_desc(y_desc)
             .x_labels(6)
             .y_labels(6)
-            .x_label_formatter(&tick)
-            .y_label_formatter(&tick)
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
             .draw()
             .map_err(|e| err(e.to_string()))?;
         let mut line: Vec<(f64, f64)> = shown.iter().filter(|p| p.3).map(|p| (p.0, p.1)).collect();
@@ -227,7 +266,10 @@ pub fn plot_energies(path: &Path, rows: &[SeriesRow]) -> Result<bool, OutputErro
     if rows.iter().any(|r| r.fracture_energy != 0.0) {
         lines.push(line("fracture", PURPLE, |r| r.fracture_energy));
     }
-    draw(path, &[("Energies", "energy in J", lines)])?;
+    // "joules", not "J": plotters draws a rotated J as a speck. In plane
+    // strain the thickness is 1 m unless the scene says otherwise, so the
+    // values are then J per metre.
+    draw(path, &[("Energies", "energy in joules", lines)])?;
     Ok(true)
 }
 
@@ -270,6 +312,22 @@ mod tests {
         assert!(plot_energies(&p, &rows).unwrap());
         assert!(std::fs::metadata(&p).unwrap().len() > 1000);
         assert!(!plot_energies(&dir.path().join("one.png"), &rows[..1]).unwrap());
+    }
+
+    #[test]
+    fn ticks_read_as_plain_numbers_in_range() {
+        assert_eq!(tick(0.0), "0");
+        assert_eq!(tick(7.0), "7");
+        assert_eq!(tick(100.0), "100");
+        assert_eq!(tick(0.1255), "0.1255");
+        assert_eq!(tick(0.30000000000000004), "0.3");
+        assert_eq!(tick(-12345.0), "-12350");
+        assert_eq!(tick(2.5e-5), "2.5e-5");
+        assert_eq!(tick(1e-4), "1e-4");
+        assert_eq!(tick(3.0e6), "3e6");
+        assert_eq!(time_unit(8e-5), (1e6, "µs"));
+        assert_eq!(time_unit(0.05), (1e3, "ms"));
+        assert_eq!(time_unit(2.0), (1.0, "s"));
     }
 }
 
