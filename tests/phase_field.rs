@@ -364,7 +364,7 @@ fn two_phase_field_bodies_meet_by_frictional_contact() {
         .unwrap()
         .replace("end = 1.0e-4", "end = 8.0e-6")
         .replace("series_rows = 201", "series_rows = 9")
-        .replace("snapshots = 11", "snapshots = 0");
+        .replace("snapshots = 11", "snapshots = 2");
     let scene = cleave::scene::Scene::from_text(&text, None).unwrap();
     assert!(scene.plan.has(Stage::PhaseField) && scene.plan.has(Stage::Contact));
     let (rec, s) = run_text(&text);
@@ -381,4 +381,24 @@ fn two_phase_field_bodies_meet_by_frictional_contact() {
     // and conserved (no walls)
     let px = rec.column("momentum_x").unwrap();
     assert!((px[k] - px[0]).abs() < 1e-9 * px[0].abs(), "momentum {} → {}", px[0], px[k]);
+    // the snapshot's fracture energy density, times the volumes, sums to
+    // each body's Ψ_f of the last row (0 before the first solve)
+    use cleave::diagnostics::FieldData;
+    assert_eq!(rec.snapshots.len(), 2);
+    for (snap, row) in [(&rec.snapshots[0], 0), (&rec.snapshots[1], k)] {
+        assert_eq!(snap.time, rec.rows[row].time);
+        let f64s = |name: &str| match snap.fields.iter().find(|f| f.name == name).map(|f| &f.data) {
+            Some(FieldData::F64(v)) => v.clone(),
+            _ => panic!("no {name}"),
+        };
+        let body = match snap.fields.iter().find(|f| f.name == "body_id").map(|f| &f.data) {
+            Some(FieldData::U32(v)) => v.clone(),
+            _ => panic!("no body_id"),
+        };
+        let (density, vol) = (f64s("fracture_energy_density"), f64s("volume"));
+        for (b, expected) in [(0, beam[row]), (1, disk[row])] {
+            let sum: f64 = (0..vol.len()).filter(|&p| body[p] == b).map(|p| vol[p] * density[p]).sum();
+            assert!((sum - expected).abs() <= 1e-9 * expected.abs(), "body {b} at row {row}: {sum} J against {expected} J");
+        }
+    }
 }

@@ -32,6 +32,31 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
 
+/// Evaluates `body` with the type `K` bound to the kernel of `kind`: one
+/// dispatch from the scene's shape function to the generic stages.
+macro_rules! by_kernel {
+    ($kind:expr, $K:ident => $body:expr) => {
+        match $kind {
+            ShapeFunctionKind::Linear => {
+                type $K = Linear;
+                $body
+            }
+            ShapeFunctionKind::Gimp => {
+                type $K = Gimp;
+                $body
+            }
+            ShapeFunctionKind::QuadraticBspline => {
+                type $K = QuadraticBspline;
+                $body
+            }
+            ShapeFunctionKind::CubicBspline => {
+                type $K = CubicBspline;
+                $body
+            }
+        }
+    };
+}
+
 /// Why a run stopped early.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {
@@ -360,12 +385,7 @@ impl Simulation {
         if rayon::current_thread_index().is_none() {
             return rayon::scope(|_| self.advance(dt));
         }
-        match self.scene.file.grid.shape_function {
-            ShapeFunctionKind::Linear => self.advance_k::<Linear>(dt),
-            ShapeFunctionKind::Gimp => self.advance_k::<Gimp>(dt),
-            ShapeFunctionKind::QuadraticBspline => self.advance_k::<QuadraticBspline>(dt),
-            ShapeFunctionKind::CubicBspline => self.advance_k::<CubicBspline>(dt),
-        }
+        by_kernel!(self.scene.file.grid.shape_function, K => self.advance_k::<K>(dt))
     }
 
     fn advance_k<K: Kernel>(&mut self, dt: f64) -> Result<(), SimError> {
@@ -634,12 +654,7 @@ impl Simulation {
         let mut extra = Vec::new();
         let mut fracture_energy = 0.0;
         if let Some(pf) = self.phase.as_mut() {
-            let energies = match self.scene.file.grid.shape_function {
-                ShapeFunctionKind::Linear => pf.fracture_energies::<Linear>(&self.geom, &self.parts),
-                ShapeFunctionKind::Gimp => pf.fracture_energies::<Gimp>(&self.geom, &self.parts),
-                ShapeFunctionKind::QuadraticBspline => pf.fracture_energies::<QuadraticBspline>(&self.geom, &self.parts),
-                ShapeFunctionKind::CubicBspline => pf.fracture_energies::<CubicBspline>(&self.geom, &self.parts),
-            };
+            let energies = by_kernel!(self.scene.file.grid.shape_function, K => pf.fracture_energies::<K>(&self.geom, &self.parts));
             fracture_energy = energies.iter().fold(0.0, |a, b| a + b); // (an empty f64 sum is −0.0)
             let s = pf.row_stats();
             extra.extend([s.assembly, s.factorization, s.solve, s.staggers as f64, s.residual]);
@@ -719,6 +734,14 @@ impl Simulation {
             &self.mats,
             grid,
         );
+        if let Some(pf) = &self.phase {
+            let kind = self.scene.file.grid.shape_function;
+            snap.fields.push(crate::diagnostics::Field {
+                name: "fracture_energy_density".into(),
+                components: 1,
+                data: crate::diagnostics::FieldData::F64(by_kernel!(kind, K => pf.fracture_energy_densities::<K>(&self.geom, &self.parts))),
+            });
+        }
         if let Some(d) = self.damage.as_mut() {
             snap.fields.push(crate::diagnostics::Field {
                 name: "fragment".into(),

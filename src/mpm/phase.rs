@@ -310,6 +310,22 @@ impl PhaseFields {
             .collect()
     }
 
+    /// Per particle, the fracture energy density Ḡc·Z of its body's last
+    /// solve, J/m³ (0 for particles of bodies without a phase field, and
+    /// before the first solve): V_p times it, summed over a body's
+    /// particles, is the body's Ψ_f of [`Self::fracture_energies`], and over
+    /// a region, the energy dissipated there.
+    pub(super) fn fracture_energy_densities<K: Kernel>(&self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
+        let mut out = vec![0.0; parts.len()];
+        for b in self.bodies.iter().filter(|b| !b.c.is_empty()) {
+            for &q in &b.particles {
+                let q = q as usize;
+                out[q] = system::fracture_energy_density::<K>(geom, &b.c, &b.params, parts.x[q]);
+            }
+        }
+        out
+    }
+
     /// The scene indices of the phase-field bodies, and of those whose
     /// crack tip is tracked.
     pub(super) fn bodies(&self) -> (Vec<usize>, Vec<usize>) {

@@ -813,6 +813,13 @@ pub fn crack_density(p: &PhaseFieldParams, c: f64, g: [f64; 2], h: [f64; 3]) -> 
     (c - 1.0).powi(2) / (4.0 * p.l0) + p.l0 * (g[0] * g[0] + g[1] * g[1]) + p.l0.powi(3) * quad
 }
 
+/// The fracture energy density Ḡc·Z (eq. 4) of the nodal field `c` at
+/// `x`, J/m³: the integrand of Ψ_f.
+pub fn fracture_energy_density<K: Kernel>(geom: &GridGeom, c: &[f64], p: &PhaseFieldParams, x: [f64; 2]) -> f64 {
+    let (cv, g, h) = field_at::<K>(geom, c, x);
+    p.gc_bar * crack_density(p, cv, g, h)
+}
+
 /// Ψ_f = Σ_p V_p Ḡc Z_p over the particles for which `keep` holds, J.
 pub fn fracture_energy<K: Kernel>(
     geom: &GridGeom,
@@ -823,10 +830,6 @@ pub fn fracture_energy<K: Kernel>(
 ) -> f64 {
     (0..parts.x.len())
         .filter(|&q| parts.member(q) && keep(parts.x[q]))
-        .map(|q| (parts.x[q], parts.vol[q]))
-        .map(|(x, v)| {
-            let (cv, g, h) = field_at::<K>(geom, c, x);
-            v * p.gc_bar * crack_density(p, cv, g, h)
-        })
+        .map(|q| parts.vol[q] * fracture_energy_density::<K>(geom, c, p, parts.x[q]))
         .fold(0.0, |a, b| a + b) // (an empty f64 sum is −0.0)
 }
