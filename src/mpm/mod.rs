@@ -36,23 +36,15 @@ use std::time::Instant;
 /// dispatch from the scene's shape function to the generic stages.
 macro_rules! by_kernel {
     ($kind:expr, $K:ident => $body:expr) => {
+        by_kernel!(@arms $kind, $K, $body, Linear, Gimp, QuadraticBspline, CubicBspline)
+    };
+    // each ShapeFunctionKind variant is named as its kernel type
+    (@arms $kind:expr, $K:ident, $body:expr, $($kernel:ident),*) => {
         match $kind {
-            ShapeFunctionKind::Linear => {
-                type $K = Linear;
+            $(ShapeFunctionKind::$kernel => {
+                type $K = $kernel;
                 $body
-            }
-            ShapeFunctionKind::Gimp => {
-                type $K = Gimp;
-                $body
-            }
-            ShapeFunctionKind::QuadraticBspline => {
-                type $K = QuadraticBspline;
-                $body
-            }
-            ShapeFunctionKind::CubicBspline => {
-                type $K = CubicBspline;
-                $body
-            }
+            })*
         }
     };
 }
