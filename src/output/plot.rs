@@ -36,7 +36,10 @@ fn draw_line<DB: DrawingBackend, X: Ranged<ValueType = f64>, Y: Ranged<ValueType
 /// 1e-3 and 1e5 (`0.1255`, `7`, `100`), scientific outside.
 fn tick(v: f64) -> String {
     let a = v.abs();
-    if v == 0.0 || !v.is_finite() {
+    if v == 0.0 {
+        return "0".to_string(); // also for −0
+    }
+    if !v.is_finite() {
         return format!("{v}");
     }
     if !(1e-3..1e5).contains(&a) {
@@ -73,8 +76,9 @@ fn time_unit(t_max: f64) -> (f64, &'static str) {
 /// time axis in µs, ms or s as fits the range.
 fn chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str, y_desc: &str, lines: &[Line]) -> Result<(), String> {
     let pts = || lines.iter().flat_map(|l| l.2.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
-    let (scale, unit) = time_unit(pts().map(|p| p.0).fold(0.0f64, f64::max));
-    let t_max = (scale * pts().map(|p| p.0).fold(0.0f64, f64::max)).max(f64::MIN_POSITIVE);
+    let t_end = pts().map(|p| p.0).fold(0.0f64, f64::max);
+    let (scale, unit) = time_unit(t_end);
+    let t_max = (scale * t_end).max(f64::MIN_POSITIVE);
     let (lo, mut hi) = pts().fold((0.0f64, 0.0f64), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
     if hi - lo <= 0.0 {
         hi = lo + 1.0;
@@ -317,6 +321,7 @@ mod tests {
     #[test]
     fn ticks_read_as_plain_numbers_in_range() {
         assert_eq!(tick(0.0), "0");
+        assert_eq!(tick(-0.0), "0");
         assert_eq!(tick(7.0), "7");
         assert_eq!(tick(100.0), "100");
         assert_eq!(tick(0.1255), "0.1255");
