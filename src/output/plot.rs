@@ -270,10 +270,10 @@ pub fn plot_energies(path: &Path, rows: &[SeriesRow]) -> Result<bool, OutputErro
     if rows.iter().any(|r| r.fracture_energy != 0.0) {
         lines.push(line("fracture", PURPLE, |r| r.fracture_energy));
     }
-    // "joules", not "J": plotters draws a rotated J as a speck. In plane
-    // strain the thickness is 1 m unless the scene says otherwise, so the
-    // values are then J per metre.
-    draw(path, &[("Energies", "energy in joules", lines)])?;
+    // The unit goes in the title: plotters draws a rotated J (or j) as a
+    // speck. In plane strain the thickness is 1 m unless the scene says
+    // otherwise, so the values are then J per metre.
+    draw(path, &[("Energies in J", "energy", lines)])?;
     Ok(true)
 }
 
