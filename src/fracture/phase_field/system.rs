@@ -320,8 +320,15 @@ impl PhaseFieldSystem {
     }
 
     /// Recomputes the per-particle footprint keys; returns whether any
-    /// changed (then the node set must be rebuilt).
-    fn update_keys<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles) -> bool {
+    /// changed (then the node set must be rebuilt). A node is in a
+    /// particle's footprint where its weight there is positive, and with
+    /// `fourth` also where one of its second derivatives is non-zero: a
+    /// quadratic B-spline has N = N' = 0 but N'' ≠ 0 at the end of its
+    /// support, where a particle on a knot sits (every third particle row
+    /// with 3 × 3 per cell). Without such a node the Hessians at the
+    /// particle do not sum to zero, c = 1 stops solving the undamaged
+    /// system, and c drops near a body's edge with no history at all.
+    fn update_keys<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, fourth: bool) -> bool {
         let n = parts.x.len();
         let fresh = self.keys.len() != n || self.dof_of.len() != geom.node_count();
         if fresh {
@@ -337,11 +344,13 @@ impl PhaseFieldSystem {
                 for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
                     let key = if parts.member(p) {
                         let xi = geom.xi(parts.x[p]);
-                        let (wx, wy) = (K::eval(xi[0], 0.0), K::eval(xi[1], 0.0));
+                        let ((wx, hx), (wy, hy)) = (K::eval2(xi[0], 0.0), K::eval2(xi[1], 0.0));
                         let mut mask = 0u64;
                         for j in 0..K::N {
                             for i in 0..K::N {
-                                if wx.w[i] * wy.w[j] > 0.0 {
+                                let curved = fourth
+                                    && (hx[i] * wy.w[j] != 0.0 || wx.w[i] * hy[j] != 0.0 || wx.dw[i] * wy.dw[j] != 0.0);
+                                if wx.w[i] * wy.w[j] > 0.0 || curved {
                                     mask |= 1 << (i + j * K::N);
                                 }
                             }
@@ -434,7 +443,7 @@ impl PhaseFieldSystem {
     /// Assembles K and F (eq. 57) from the particles.
     pub fn assemble<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, p: &PhaseFieldParams) {
         let t0 = Instant::now();
-        if self.update_keys::<K>(geom, parts) {
+        if self.update_keys::<K>(geom, parts, !p.gamma.is_zero()) {
             self.set_active::<K>(geom);
         }
         self.values.clear();
