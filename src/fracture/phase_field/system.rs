@@ -343,19 +343,29 @@ impl PhaseFieldSystem {
                 let mut changed = false;
                 for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
                     let key = if parts.member(p) {
-                        let xi = geom.xi(parts.x[p]);
-                        let ((wx, hx), (wy, hy)) = (K::eval2(xi[0], 0.0), K::eval2(xi[1], 0.0));
                         let mut mask = 0u64;
-                        for j in 0..K::N {
-                            for i in 0..K::N {
-                                let curved = fourth
-                                    && (hx[i] * wy.w[j] != 0.0 || wx.w[i] * hy[j] != 0.0 || wx.dw[i] * wy.dw[j] != 0.0);
-                                if wx.w[i] * wy.w[j] > 0.0 || curved {
-                                    mask |= 1 << (i + j * K::N);
+                        let node0 = if fourth {
+                            let s = support::<K>(geom, parts.x[p]);
+                            for k in 0..s.n {
+                                if s.w[k] > 0.0 || s.hess[k].iter().any(|&h| h != 0.0) {
+                                    mask |= 1 << k;
                                 }
                             }
-                        }
-                        let node0 = wx.base as usize + wy.base as usize * geom.nodes[0];
+                            s.node[0]
+                        } else {
+                            // the weights alone: no second derivatives on
+                            // the 2nd-order path
+                            let xi = geom.xi(parts.x[p]);
+                            let (wx, wy) = (K::eval(xi[0], 0.0), K::eval(xi[1], 0.0));
+                            for j in 0..K::N {
+                                for i in 0..K::N {
+                                    if wx.w[i] * wy.w[j] > 0.0 {
+                                        mask |= 1 << (i + j * K::N);
+                                    }
+                                }
+                            }
+                            wx.base as usize + wy.base as usize * geom.nodes[0]
+                        };
                         ((node0 as u64) << 16) | mask
                     } else {
                         u64::MAX
