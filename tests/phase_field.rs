@@ -432,14 +432,11 @@ fn two_phase_field_bodies_meet_by_frictional_contact() {
     assert_eq!(rec.snapshots.len(), 2);
     for (snap, row) in [(&rec.snapshots[0], 0), (&rec.snapshots[1], k)] {
         assert_eq!(snap.time, rec.rows[row].time);
-        let f64s = |name: &str| match snap.fields.iter().find(|f| f.name == name).map(|f| &f.data) {
+        let f64s = |name: &str| match snap.field(name) {
             Some(FieldData::F64(v)) => v.clone(),
             _ => panic!("no {name}"),
         };
-        let body = match snap.fields.iter().find(|f| f.name == "body_id").map(|f| &f.data) {
-            Some(FieldData::U32(v)) => v.clone(),
-            _ => panic!("no body_id"),
-        };
+        let Some(FieldData::U32(body)) = snap.field("body_id") else { panic!("no body_id") };
         let (density, vol) = (f64s("fracture_energy_density"), f64s("volume"));
         for (b, expected) in [(0, beam[row]), (1, disk[row])] {
             let sum: f64 = (0..vol.len()).filter(|&p| body[p] == b).map(|p| vol[p] * density[p]).sum();

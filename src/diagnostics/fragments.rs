@@ -203,7 +203,7 @@ impl FragmentFinder {
 /// write it too). None if the snapshot has no `fragment` field.
 pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
     use super::FieldData;
-    let field = |name: &str| snap.fields.iter().find(|f| f.name == name).map(|f| &f.data);
+    let field = |name: &str| snap.field(name);
     let Some(FieldData::U32(label)) = field("fragment") else {
         return None;
     };

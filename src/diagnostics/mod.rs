@@ -174,6 +174,13 @@ pub struct Snapshot {
     pub grid: Option<GridSnapshot>,
 }
 
+impl Snapshot {
+    /// The values of the particle field `name`, if the snapshot has it.
+    pub fn field(&self, name: &str) -> Option<&FieldData> {
+        self.fields.iter().find(|f| f.name == name).map(|f| &f.data)
+    }
+}
+
 /// Progress of a running simulation, reported at least every few steps.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Progress {
