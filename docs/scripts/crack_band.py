@@ -55,6 +55,15 @@ def read_vtp(path, names=None):
     return out
 
 
+def read_body(path, body, names):
+    """The arrays `names` of body `body`'s particles, in particle_id order
+    (so that two snapshots line up particle by particle)."""
+    d = read_vtp(path, names)
+    m = d['body_id'] == body
+    o = np.argsort(d['particle_id'][m])
+    return {k: v[m][o] for k, v in d.items()}
+
+
 def profile(a):
     d = read_vtp(a.snapshot, ['phase_field', 'position', 'volume', 'fracture_energy_density'])
     x, y, c = d['position'][:, 0], d['position'][:, 1], d['phase_field']
@@ -82,14 +91,7 @@ def profile(a):
 
 def split(a):
     names = ['phase_field', 'position', 'particle_id', 'volume', 'body_id', 'fracture_energy_density']
-
-    def body(path):
-        d = read_vtp(path, names)
-        m = d['body_id'] == a.body
-        o = np.argsort(d['particle_id'][m])
-        return {k: v[m][o] for k, v in d.items()}
-
-    A, B = body(a.early), body(a.late)
+    A, B = read_body(a.early, a.body, names), read_body(a.late, a.body, names)
     assert np.array_equal(A['particle_id'], B['particle_id']), "not the same particles"
     x = B['position'][:, :2]
     crack = B['phase_field'] < 0.1
@@ -127,14 +129,7 @@ def slices(a):
     the undeformed body), the fracture energy within the strip |y - Y| <
     HALF at EARLY and LATE, in units of Gc * thickness * slice width."""
     names = ['position', 'particle_id', 'volume', 'body_id', 'fracture_energy_density']
-
-    def body(path):
-        d = read_vtp(path, names)
-        m = d['body_id'] == a.body
-        o = np.argsort(d['particle_id'][m])
-        return {k: v[m][o] for k, v in d.items()}
-
-    O, A, B = body(a.first), body(a.early), body(a.late)
+    O, A, B = (read_body(f, a.body, names) for f in (a.first, a.early, a.late))
     x, y = O['position'][:, 0], O['position'][:, 1]
     eA = A['volume'] * A['fracture_energy_density']
     eB = B['volume'] * B['fracture_energy_density']
