@@ -77,7 +77,7 @@ struct Body {
 }
 
 /// Particles with c below this count as cracked for the crack tip.
-const TIP_C: f64 = 0.1;
+const TIP_C: f64 = crate::fracture::phase_field::CRACKED_C;
 
 /// Solver work since the last series row.
 #[derive(Debug, Clone, Copy, Default)]

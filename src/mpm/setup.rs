@@ -127,7 +127,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             rebuild_fraction: spec.rebuild_fraction,
             separability: spec.separability,
         };
-        let damaged: Vec<bool> = scene.materials.iter().map(|m| m.damage.is_some()).collect();
+        let damaged: Vec<bool> = scene.materials.iter().map(|m| m.damage.is_some() || m.phase_field.is_some()).collect();
         crate::fracture::dfg::Dfg::new(params, &geom, &parts, spec.self_contact.then_some(spec.surface_threshold), &damaged)
     });
     let phase = super::phase::PhaseFields::new(scene, &mut parts);

@@ -42,7 +42,10 @@ pub struct SceneFile {
     pub phase_field_solver: PhaseFieldSolverSpec,
     /// Damage-field-gradient partitioning (Homel & Herbold, seed 000):
     /// cracks of damaged material, and self-contact, as contacting
-    /// velocity fields. Absent: damage models run in single-field mode.
+    /// velocity fields. Absent: damage models and phase fields run in
+    /// single-field mode. With a phase field, a particle's damage is
+    /// 1 − c, and c < 0.1 counts as fully damaged
+    /// ([`crate::fracture::phase_field::dfg_damage`]).
     #[serde(default)]
     pub dfg: Option<DfgSpec>,
 }

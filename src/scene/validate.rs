@@ -234,9 +234,12 @@ impl Scene {
                     ),
                 );
             }
-            let any_damage = file.bodies.iter().any(|b| has_damage(&file, &b.material));
+            let any_damage = file
+                .bodies
+                .iter()
+                .any(|b| has_damage(&file, &b.material) || phase_field_of(&file, &b.material).is_some());
             if !any_damage && !dfg.self_contact {
-                c.err("dfg", "partitioning needs a material with damage or dfg.self_contact = true: nothing would be partitioned");
+                c.err("dfg", "partitioning needs a material with damage or a phase field, or dfg.self_contact = true: nothing would be partitioned");
             }
         }
 

@@ -56,6 +56,7 @@
 
 use crate::contact::unit;
 use crate::fracture::damage::FAILED;
+use crate::fracture::phase_field::dfg_damage;
 use crate::grid::shape::Kernel;
 use crate::grid::{
     scatter_coloured, weights, Bins, FieldSlots, GridGeom, MultiField, SyncPtr, TILE,
@@ -504,12 +505,13 @@ impl Dfg {
     /// 17–19) near damage, and the nodal gradients of Algorithm 1.
     pub fn field<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles, bins: &Bins) {
         let n = parts.len();
-        let damage = &parts.damage;
+        let (damage, phase) = (&parts.damage, &parts.phase);
         let surface = &self.surface;
         self.d.par_iter_mut().enumerate().for_each(|(p, d)| {
             let a = damage.get(p).copied().unwrap_or(0.0);
+            let c = phase.get(p).map_or(0.0, |&c| dfg_damage(c));
             let s = surface.get(p).copied().unwrap_or(0.0);
-            *d = a.max(s);
+            *d = a.max(c).max(s);
         });
         let r = self.params.radius;
         let skin = self.params.rebuild_fraction * r;
