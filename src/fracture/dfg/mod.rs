@@ -9,7 +9,10 @@
 //! 1. the kernel damage field normalized by the kernel sum, eqs. 17–19,
 //!    D̄(x) = Σ d_q ω(|x − x_q|/r) / Σ ω(|x − x_q|/r), ω(r̄) = 1 − 3r̄² + 2r̄³,
 //!    and its gradient at every particle near damage, with d_q = max(s_q,
-//!    D_q) (s_q the self-contact surface flag, section 2.4). The sums run
+//!    D_q) (s_q the self-contact surface flag, section 2.4; D_q a damage
+//!    model's damage, or for a phase-field particle
+//!    [`dfg_damage`]`(c_q)`, 1 − c scaled so that c < 0.1 is failed — our
+//!    extension, docs/phase-field.md). The sums run
 //!    over the particle's own contact group; r is `dfg.radius` cell
 //!    diagonals (the paper: one);
 //! 2. the approximate nonlocal node gradient of Algorithm 1: each node takes
@@ -509,6 +512,7 @@ impl Dfg {
         let surface = &self.surface;
         self.d.par_iter_mut().enumerate().for_each(|(p, d)| {
             let a = damage.get(p).copied().unwrap_or(0.0);
+            // (c = 1 on bodies without a phase field)
             let c = phase.get(p).map_or(0.0, |&c| dfg_damage(c));
             let s = surface.get(p).copied().unwrap_or(0.0);
             *d = a.max(c).max(s);
