@@ -523,7 +523,7 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
                     }
                     let job = remote::watch(&mut client, &job.id, !quiet && !json, false).await?;
                     let paths = remote::fetch(&mut client, &job.id, &out).await?;
-                    let summary = job.summary.clone().unwrap_or_default();
+                    let summary = job.summary.unwrap_or_default();
                     if json {
                         let mut v = remote::job_value(&job);
                         v["status"] = serde_json::json!(match job.state { s if s == cleave::service::proto::JobState::Succeeded as i32 => "succeeded", s if s == cleave::service::proto::JobState::Cancelled as i32 => "cancelled", _ => "failed" });

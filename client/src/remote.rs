@@ -355,7 +355,7 @@ pub async fn list(client: &mut Client, state: Option<&str>, limit: u32) -> Resul
     let mut token = String::new();
     loop {
         let page = client
-            .list_jobs(proto::ListJobsRequest { page_size: limit.min(1000).max(1), page_token: token, state })
+            .list_jobs(proto::ListJobsRequest { page_size: limit.clamp(1, 1000), page_token: token, state })
             .await?
             .into_inner();
         out.extend(page.jobs);

@@ -177,7 +177,7 @@ pub async fn run_remote(client: &mut Client, p: &Prepared) -> Result<Vec<Outcome
     let mut out = Vec::with_capacity(n);
     for (k, id) in jobs.iter().enumerate() {
         let job = remote::watch(client, id, false, false).await?;
-        let s = job.summary.clone().unwrap_or_default();
+        let s = job.summary.unwrap_or_default();
         let succeeded = job.state == cleave::service::proto::JobState::Succeeded as i32;
         let (columns, rows) = remote::fetch_series(client, id).await?;
         eprintln!("[{}/{n}] {} job {id}: {}", k + 1, label(&p.variants[k]), if succeeded { "done" } else { "ended" });

@@ -301,41 +301,6 @@ pub fn plot_crack(path: &Path, columns: &[String], rows: &[SeriesRow]) -> Result
     Ok(true)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn plots_survive_nan_and_flat_data() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("e.png");
-        let mut rows = vec![SeriesRow::default(); 3];
-        rows[1].time = 1.0;
-        rows[2].time = 2.0;
-        rows[2].kinetic_energy = f64::NAN;
-        assert!(plot_energies(&p, &rows).unwrap());
-        assert!(std::fs::metadata(&p).unwrap().len() > 1000);
-        assert!(!plot_energies(&dir.path().join("one.png"), &rows[..1]).unwrap());
-    }
-
-    #[test]
-    fn ticks_read_as_plain_numbers_in_range() {
-        assert_eq!(tick(0.0), "0");
-        assert_eq!(tick(-0.0), "0");
-        assert_eq!(tick(7.0), "7");
-        assert_eq!(tick(100.0), "100");
-        assert_eq!(tick(0.1255), "0.1255");
-        assert_eq!(tick(0.30000000000000004), "0.3");
-        assert_eq!(tick(-12345.0), "-12350");
-        assert_eq!(tick(2.5e-5), "2.5e-5");
-        assert_eq!(tick(1e-4), "1e-4");
-        assert_eq!(tick(3.0e6), "3e6");
-        assert_eq!(time_unit(8e-5), (1e6, "µs"));
-        assert_eq!(time_unit(0.05), (1e3, "ms"));
-        assert_eq!(time_unit(2.0), (1.0, "s"));
-    }
-}
-
 /// A polar plot of r(θ) (degrees) as a closed curve, one panel per series,
 /// side by side, equal axes.
 pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(), OutputError> {
@@ -437,4 +402,39 @@ pub fn plot_particle_field(
     }
     std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))?;
     Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plots_survive_nan_and_flat_data() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("e.png");
+        let mut rows = vec![SeriesRow::default(); 3];
+        rows[1].time = 1.0;
+        rows[2].time = 2.0;
+        rows[2].kinetic_energy = f64::NAN;
+        assert!(plot_energies(&p, &rows).unwrap());
+        assert!(std::fs::metadata(&p).unwrap().len() > 1000);
+        assert!(!plot_energies(&dir.path().join("one.png"), &rows[..1]).unwrap());
+    }
+
+    #[test]
+    fn ticks_read_as_plain_numbers_in_range() {
+        assert_eq!(tick(0.0), "0");
+        assert_eq!(tick(-0.0), "0");
+        assert_eq!(tick(7.0), "7");
+        assert_eq!(tick(100.0), "100");
+        assert_eq!(tick(0.1255), "0.1255");
+        assert_eq!(tick(0.30000000000000004), "0.3");
+        assert_eq!(tick(-12345.0), "-12350");
+        assert_eq!(tick(2.5e-5), "2.5e-5");
+        assert_eq!(tick(1e-4), "1e-4");
+        assert_eq!(tick(3.0e6), "3e6");
+        assert_eq!(time_unit(8e-5), (1e6, "µs"));
+        assert_eq!(time_unit(0.05), (1e3, "ms"));
+        assert_eq!(time_unit(2.0), (1.0, "s"));
+    }
 }
