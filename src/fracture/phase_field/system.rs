@@ -160,13 +160,37 @@ struct Accumulate<'a> {
 // SAFETY: the raw pointers are written only under the colouring rule.
 unsafe impl Sync for Accumulate<'_> {}
 
+/// One cell's block of K (lower triangle, `k[a·S + b]` for b ≤ a) and F:
+/// the terms of the consecutive particles whose support starts at `base`,
+/// summed here and added to the system once. Particles in a bin follow
+/// the seeding lattice, so runs of a cell's particles are the rule; the
+/// scattered additions into K, the assembly's bottleneck, drop by the
+/// run length.
+struct CellBlock {
+    /// First node of the support, or usize::MAX when the block is empty.
+    base: usize,
+    node: [usize; MAX_SUPPORT * MAX_SUPPORT],
+    k: [f64; MAX_SUPPORT * MAX_SUPPORT * MAX_SUPPORT * MAX_SUPPORT],
+    f: [f64; MAX_SUPPORT * MAX_SUPPORT],
+}
+
+impl CellBlock {
+    const S: usize = MAX_SUPPORT * MAX_SUPPORT;
+
+    fn new() -> Self {
+        CellBlock { base: usize::MAX, node: [0; Self::S], k: [0.0; Self::S * Self::S], f: [0.0; Self::S] }
+    }
+}
+
 impl Accumulate<'_> {
-    /// Adds particle q's terms of eq. 57 to K (lower triangle) and F.
+    /// Adds particle q's terms of eq. 57 to the block of its cell, after
+    /// adding the block to the system if it holds another cell.
     ///
     /// # Safety
-    /// No other task writes the entries of q's support nodes concurrently.
+    /// No other task writes the entries of the support nodes of q or of
+    /// the block's cell concurrently.
     #[inline]
-    unsafe fn particle<K: Kernel>(&self, q: usize) {
+    unsafe fn particle<K: Kernel>(&self, q: usize, blk: &mut CellBlock) {
         let parts = self.parts;
         if !parts.member(q) {
             return;
@@ -176,6 +200,12 @@ impl Accumulate<'_> {
         let reaction = v * (4.0 * p.l0 * (1.0 - p.k_f) * parts.history[q] / p.gc_bar + 1.0);
         let (c2, c4) = (4.0 * p.l0 * p.l0, 4.0 * p.l0.powi(4));
         let s = support::<K>(self.geom, parts.x[q]);
+        if blk.base != s.node[0] {
+            // SAFETY: the caller's colouring covers the block's cell.
+            unsafe { self.flush::<K>(blk) };
+            blk.base = s.node[0];
+            blk.node = s.node;
+        }
         let mut mh = [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT];
         if self.fourth {
             for a in 0..s.n {
@@ -184,19 +214,41 @@ impl Accumulate<'_> {
                 }
             }
         }
+        for a in 0..s.n {
+            blk.f[a] += v * s.w[a];
+            let row = &mut blk.k[a * CellBlock::S..a * CellBlock::S + a + 1];
+            for (b, kab) in row.iter_mut().enumerate() {
+                let mut t = reaction * s.w[a] * s.w[b] + v * c2 * (s.g[a][0] * s.g[b][0] + s.g[a][1] * s.g[b][1]);
+                if self.fourth {
+                    t += v * c4 * (s.hess[b][0] * mh[a][0] + s.hess[b][1] * mh[a][1] + s.hess[b][2] * mh[a][2]);
+                }
+                *kab += t;
+            }
+        }
+    }
+
+    /// Adds the block to K and F and empties it.
+    ///
+    /// # Safety
+    /// No other task writes the entries of the block's nodes concurrently.
+    unsafe fn flush<K: Kernel>(&self, blk: &mut CellBlock) {
+        if blk.base == usize::MAX {
+            return;
+        }
+        let n = K::N * K::N;
         let w = K::N as isize - 1;
         let side = (2 * w + 1) as usize;
         let mut dof = [u32::MAX; MAX_SUPPORT * MAX_SUPPORT];
-        for (d, &node) in dof.iter_mut().zip(&s.node[..s.n]) {
+        for (d, &node) in dof.iter_mut().zip(&blk.node[..n]) {
             *d = self.dof_of[node];
         }
-        for a in 0..s.n {
+        for a in 0..n {
             let da = dof[a];
             if da == u32::MAX {
                 continue; // zero weight from every particle: not an unknown
             }
             // SAFETY: the caller's colouring.
-            unsafe { *self.rhs.at(da as usize) += v * s.w[a] };
+            unsafe { *self.rhs.at(da as usize) += blk.f[a] };
             let (ia, ja) = ((a % K::N) as isize, (a / K::N) as isize);
             // The lower triangle (row ≥ col): dofs are numbered in node
             // order and a support's local index k = i + j·N runs in node
@@ -210,14 +262,15 @@ impl Accumulate<'_> {
                 let (ib, jb) = ((b % K::N) as isize, (b / K::N) as isize);
                 let k = ((ja - jb + w) as usize) * side + (ia - ib + w) as usize;
                 let pos = self.nbr[db as usize * side * side + k] as usize;
-                let mut kab = reaction * s.w[a] * s.w[b] + v * c2 * (s.g[a][0] * s.g[b][0] + s.g[a][1] * s.g[b][1]);
-                if self.fourth {
-                    kab += v * c4 * (s.hess[b][0] * mh[a][0] + s.hess[b][1] * mh[a][1] + s.hess[b][2] * mh[a][2]);
-                }
                 // SAFETY: the caller's colouring.
-                unsafe { *self.values.at(pos) += kab };
+                unsafe { *self.values.at(pos) += blk.k[a * CellBlock::S + b] };
             }
         }
+        for a in 0..n {
+            blk.f[a] = 0.0;
+            blk.k[a * CellBlock::S..a * CellBlock::S + a + 1].fill(0.0);
+        }
+        blk.base = usize::MAX;
     }
 }
 
@@ -475,19 +528,27 @@ impl PhaseFieldSystem {
             Some(bins) => {
                 for colour in &bins.colours {
                     colour.par_iter().for_each(|&tile| {
+                        let mut blk = CellBlock::new();
                         for &q in bins.particles_of(tile) {
                             // SAFETY: particles of same-colour tiles share no
-                            // node, hence no matrix entry; colours run in turn.
-                            unsafe { ctx.particle::<K>(q as usize) };
+                            // node, hence no matrix entry, and the block
+                            // holds one of the tile's cells; colours run in
+                            // turn.
+                            unsafe { ctx.particle::<K>(q as usize, &mut blk) };
                         }
+                        // SAFETY: as above.
+                        unsafe { ctx.flush::<K>(&mut blk) };
                     });
                 }
             }
             None => {
+                let mut blk = CellBlock::new();
                 for q in 0..parts.x.len() {
                     // SAFETY: serial.
-                    unsafe { ctx.particle::<K>(q) };
+                    unsafe { ctx.particle::<K>(q, &mut blk) };
                 }
+                // SAFETY: serial.
+                unsafe { ctx.flush::<K>(&mut blk) };
             }
         }
         // A node at the fringe of the particles' supports sees only tiny
