@@ -167,9 +167,9 @@ unsafe impl Sync for Accumulate<'_> {}
 /// scattered additions into K, the assembly's bottleneck, drop by the
 /// run length.
 struct CellBlock {
-    /// First node of the support, or usize::MAX when the block is empty.
+    /// First node of the support, or usize::MAX when the block is empty;
+    /// support node i + j·N is `base + i + j·nodes[0]`.
     base: usize,
-    node: [usize; MAX_SUPPORT * MAX_SUPPORT],
     k: [f64; MAX_SUPPORT * MAX_SUPPORT * MAX_SUPPORT * MAX_SUPPORT],
     f: [f64; MAX_SUPPORT * MAX_SUPPORT],
 }
@@ -178,7 +178,7 @@ impl CellBlock {
     const S: usize = MAX_SUPPORT * MAX_SUPPORT;
 
     fn new() -> Self {
-        CellBlock { base: usize::MAX, node: [0; Self::S], k: [0.0; Self::S * Self::S], f: [0.0; Self::S] }
+        CellBlock { base: usize::MAX, k: [0.0; Self::S * Self::S], f: [0.0; Self::S] }
     }
 }
 
@@ -204,7 +204,6 @@ impl Accumulate<'_> {
             // SAFETY: the caller's colouring covers the block's cell.
             unsafe { self.flush::<K>(blk) };
             blk.base = s.node[0];
-            blk.node = s.node;
         }
         let mut mh = [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT];
         if self.fourth {
@@ -238,9 +237,10 @@ impl Accumulate<'_> {
         let n = K::N * K::N;
         let w = K::N as isize - 1;
         let side = (2 * w + 1) as usize;
+        let nx = self.geom.nodes[0];
         let mut dof = [u32::MAX; MAX_SUPPORT * MAX_SUPPORT];
-        for (d, &node) in dof.iter_mut().zip(&blk.node[..n]) {
-            *d = self.dof_of[node];
+        for (a, d) in dof[..n].iter_mut().enumerate() {
+            *d = self.dof_of[blk.base + a % K::N + (a / K::N) * nx];
         }
         for a in 0..n {
             let da = dof[a];
