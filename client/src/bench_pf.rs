@@ -1,7 +1,9 @@
 //! `cleave bench-phase-field`: where the time of a phase-field step goes,
 //! for a scene (by default P1 at the paper's resolution), with the direct
 //! solve (the baseline) and the warm-started PCG in the same run. Prints
-//! the table and writes it to a Markdown file.
+//! the table and writes it to a Markdown file, above the file's
+//! `KEEP_BELOW` line: what a person wrote under that line survives a
+//! re-run.
 
 use anyhow::Context;
 use cleave::mpm::Simulation;
@@ -118,7 +120,40 @@ pub fn run(scene_path: &Path, out: &Path, warmup: usize, steps: usize) -> anyhow
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
     }
-    std::fs::write(out, md).with_context(|| out.display().to_string())?;
-    eprintln!("wrote {}", out.display());
+    let old = match std::fs::read_to_string(out) {
+        Ok(s) => Some(s),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(e).with_context(|| out.display().to_string()),
+    };
+    std::fs::write(out, with_kept_part(&md, old.as_deref())).with_context(|| out.display().to_string())?;
+    eprintln!("wrote {} (the text below its line \"{KEEP_BELOW}\" is kept)", out.display());
     Ok(())
+}
+
+/// The line under which the benchmark's output file holds hand-written
+/// text that a re-run keeps.
+const KEEP_BELOW: &str = "<!-- bench-phase-field writes what is above this line; what is below it is kept -->";
+
+/// The new generated text, then the marker and whatever followed the
+/// marker in the old file (nothing if it had no marker: a file without it
+/// was all generated).
+fn with_kept_part(generated: &str, old: Option<&str>) -> String {
+    let kept = old.and_then(|o| o.find(KEEP_BELOW).map(|i| &o[i + KEEP_BELOW.len()..])).unwrap_or("\n");
+    format!("{}\n\n{KEEP_BELOW}{kept}", generated.trim_end_matches('\n'))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rerun_replaces_the_table_and_keeps_the_hand_written_text() {
+        let first = with_kept_part("# T\n| a |\n", None);
+        assert_eq!(first, format!("# T\n| a |\n\n{KEEP_BELOW}\n"));
+        let edited = format!("{first}## Notes\nwritten by hand\n");
+        let second = with_kept_part("# T\n| b |\n", Some(&edited));
+        assert_eq!(second, format!("# T\n| b |\n\n{KEEP_BELOW}\n## Notes\nwritten by hand\n"));
+        // Without a marker the old file was all generated: nothing kept.
+        assert_eq!(with_kept_part("x\n", Some("old table\n")), format!("x\n\n{KEEP_BELOW}\n"));
+    }
 }
