@@ -46,6 +46,11 @@ pub struct GridGeom {
     /// particles are kept on the domain's side of them
     /// ([`GridGeom::keep_inside`]).
     pub walls: [bool; 4],
+    /// ½ for kernels of odd support (GIMP, quadratic B-spline: the support
+    /// starts at ⌊ξ + ½⌋ − 1), 0 for even (linear, cubic: ⌊ξ⌋ − k):
+    /// ⌊ξ + shift⌋ names a particle's support, which orders the particles
+    /// within a tile ([`Bins::rebuild`]).
+    pub support_shift: f64,
 }
 
 impl GridGeom {
@@ -61,6 +66,7 @@ impl GridGeom {
             domain_max: [min[0] + cells[0] as f64 * h, min[1] + cells[1] as f64 * h],
             tiles: [nodes[0].div_ceil(TILE), nodes[1].div_ceil(TILE)],
             walls: [false; 4],
+            support_shift: 0.0,
         }
     }
 
@@ -111,6 +117,19 @@ impl GridGeom {
         let cx = (xi[0].max(0.0) as usize).min(self.nodes[0] - 1) / TILE;
         let cy = (xi[1].max(0.0) as usize).min(self.nodes[1] - 1) / TILE;
         (cx + cy * self.tiles[0]) as u32
+    }
+
+    /// Which of the (TILE + 1)² supports that start in or next to the
+    /// particle's tile ([`GridGeom::tile_of`]) its kernel has: particles
+    /// with the same support get the same number.
+    #[inline(always)]
+    pub fn support_in_tile(&self, xi: [f64; 2]) -> u32 {
+        let local = |d: usize| {
+            let cell = (xi[d].max(0.0) as usize).min(self.nodes[d] - 1);
+            let support = ((xi[d] + self.support_shift).max(0.0) as usize).min(self.nodes[d] - 1);
+            (support as isize - (cell / TILE * TILE) as isize).clamp(0, TILE as isize) as u32
+        };
+        local(0) + (TILE as u32 + 1) * local(1)
     }
 
     pub fn inside_domain(&self, x: [f64; 2]) -> bool {
@@ -251,7 +270,9 @@ impl FieldSlots for GroupFields<'_> {
 pub struct Bins {
     /// Tile of each particle.
     pub tile_of: Vec<u32>,
-    /// Particle indices sorted by tile (stable: ascending index in a tile).
+    /// Particle indices sorted by tile, and in a tile by support
+    /// ([`GridGeom::support_in_tile`]; stable: ascending index among
+    /// particles of one support).
     pub order: Vec<u32>,
     /// `order[start[t]..start[t+1]]` are the particles of tile t.
     pub start: Vec<u32>,
@@ -262,25 +283,46 @@ pub struct Bins {
     /// (a particle's support reaches one node below and two above its
     /// cell, so into the neighbouring tiles).
     pub active: Vec<Range<usize>>,
+    /// Scratch of [`Bins::rebuild`]: each particle's sort key, and the
+    /// counting sort's cursor per key.
+    key: Vec<u32>,
+    cursor: Vec<u32>,
 }
 
 impl Bins {
-    /// Counting sort of particles by `tile_of` (serial, stable, so the
-    /// order is the same for any thread count).
-    pub fn rebuild(&mut self, geom: &GridGeom) {
+    /// The bins of particles at `x`.
+    pub fn new(geom: &GridGeom, x: &[[f64; 2]]) -> Bins {
+        let mut bins = Bins { tile_of: x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect(), ..Default::default() };
+        bins.rebuild(geom, x);
+        bins
+    }
+
+    /// Counting sort of particles (at `x`) by `tile_of` and, in a tile, by
+    /// support (serial, stable, so the order is the same for any thread
+    /// count). Consecutive particles of one support let the phase-field
+    /// assembly add a whole run to K at once (`CellBlock`); sorted by
+    /// tile alone, a tile's particles came row by row and a run was one
+    /// row of the support, a third of it with 3 × 3 particles per cell.
+    /// Particles that change support but not tile keep their place until
+    /// the next rebuild: the order is then a little slower, never wrong.
+    pub fn rebuild(&mut self, geom: &GridGeom, x: &[[f64; 2]]) {
+        const PER_TILE: usize = (TILE + 1) * (TILE + 1);
         let ntiles = geom.tiles[0] * geom.tiles[1];
+        self.key.clear();
+        self.key.extend(self.tile_of.iter().zip(x).map(|(&t, &x)| t * PER_TILE as u32 + geom.support_in_tile(geom.xi(x))));
+        self.cursor.clear();
+        self.cursor.resize(ntiles * PER_TILE + 1, 0);
+        for &k in &self.key {
+            self.cursor[k as usize + 1] += 1;
+        }
+        for k in 0..ntiles * PER_TILE {
+            self.cursor[k + 1] += self.cursor[k];
+        }
         self.start.clear();
-        self.start.resize(ntiles + 1, 0);
-        for &t in &self.tile_of {
-            self.start[t as usize + 1] += 1;
-        }
-        for t in 0..ntiles {
-            self.start[t + 1] += self.start[t];
-        }
-        self.order.resize(self.tile_of.len(), 0);
-        let mut cursor: Vec<u32> = self.start[..ntiles].to_vec();
-        for (p, &t) in self.tile_of.iter().enumerate() {
-            let c = &mut cursor[t as usize];
+        self.start.extend((0..=ntiles).map(|t| self.cursor[t * PER_TILE]));
+        self.order.resize(self.key.len(), 0);
+        for (p, &k) in self.key.iter().enumerate() {
+            let c = &mut self.cursor[k as usize];
             self.order[*c as usize] = p as u32;
             *c += 1;
         }
@@ -383,5 +425,51 @@ impl<T> SyncPtr<T> {
     #[allow(clippy::mut_from_ref)]
     pub unsafe fn at(&self, i: usize) -> &mut T {
         unsafe { &mut *self.0.add(i) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Within each tile, the particles of one kernel support come as one
+    /// run (what the phase-field assembly's `CellBlock` needs), for odd and
+    /// even supports.
+    #[test]
+    fn bins_keep_a_tiles_particles_of_one_support_together() {
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let x: Vec<[f64; 2]> = (0..5000).map(|_| [30.0 * next(), 30.0 * next()]).collect();
+        // (shift, first node of the support) for quadratic and cubic B-splines
+        let kernels: [(f64, fn(f64) -> f64); 2] = [(0.5, |xi| shape::floor(xi - 0.5)), (0.0, |xi| shape::floor(xi) - 1.0)];
+        for (shift, base) in kernels {
+            let mut geom = GridGeom::new([0.0, 0.0], 1.0, [30, 30]);
+            geom.support_shift = shift;
+            let bins = Bins::new(&geom, &x);
+            let mut seen = vec![false; x.len()];
+            for &p in &bins.order {
+                assert!(!std::mem::replace(&mut seen[p as usize], true), "particle {p} twice");
+            }
+            assert!(seen.iter().all(|&s| s));
+            for t in 0..(geom.tiles[0] * geom.tiles[1]) as u32 {
+                let run = bins.particles_of(t);
+                assert!(run.iter().all(|&p| bins.tile_of[p as usize] == t));
+                let support = |p: u32| {
+                    let xi = geom.xi(x[p as usize]);
+                    (base(xi[0]) as i64, base(xi[1]) as i64)
+                };
+                let mut done = std::collections::HashSet::new();
+                for (k, &p) in run.iter().enumerate() {
+                    if k > 0 && support(run[k - 1]) == support(p) {
+                        assert!(run[k - 1] < p, "stable within a support");
+                        continue;
+                    }
+                    assert!(done.insert(support(p)), "support {:?} split in tile {t} (shift {shift})", support(p));
+                }
+            }
+        }
     }
 }

@@ -5,7 +5,7 @@ use super::grid_update::Boundary;
 use super::{Simulation, StageTimes};
 use crate::contact::ContactLaw;
 use crate::geometry;
-use crate::grid::shape::Kernel;
+use crate::grid::shape::{self, Kernel};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, MultiField};
 use crate::material::Elastic;
 use crate::particles::Particles;
@@ -14,6 +14,7 @@ use crate::scene::{MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage
 pub(super) fn build(scene: &Scene) -> Simulation {
     let file = &scene.file;
     let mut geom = GridGeom::new(file.grid.min, file.grid.cell_size, scene.cells);
+    geom.support_shift = if shape::support(file.grid.shape_function) % 2 == 1 { 0.5 } else { 0.0 };
     let b = &file.grid.boundary;
     geom.walls = [&b.left, &b.right, &b.bottom, &b.top].map(|s| matches!(s, SideCondition::Fixed | SideCondition::Roller));
     let mats: Vec<Elastic> = scene.materials.iter().map(|m| Elastic::new(m, file.analysis.plane)).collect();
@@ -80,14 +81,11 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     // Damage strengths are drawn in seeding order (same seed, same result).
     let mut damage = super::damage::DamageState::new(scene, &mut parts);
 
-    // Store the particles tile by tile (stable, so ids ascend within a
-    // tile): the coloured P2G then walks memory in order.
-    let tile_of: Vec<u32> = parts.x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect();
-    let mut order: Vec<u32> = (0..parts.len() as u32).collect();
-    order.sort_by_key(|&p| tile_of[p as usize]);
+    // Store the particles in the bins' order (by tile, and by support in a
+    // tile): the coloured stages then walk memory in order.
+    let order = Bins::new(&geom, &parts.x).order;
     permute(&mut parts, &order);
-    let mut bins = Bins { tile_of: parts.x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect(), ..Default::default() };
-    bins.rebuild(&geom);
+    let bins = Bins::new(&geom, &parts.x);
 
     let (mut max_signal, mut scale, mut min_mass) = (0.0f64, 0.0, f64::INFINITY);
     for p in 0..parts.len() {
