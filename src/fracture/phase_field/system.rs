@@ -120,10 +120,13 @@ struct Support {
     hess: [[f64; 3]; MAX_SUPPORT * MAX_SUPPORT],
 }
 
-fn support<K: Kernel>(geom: &GridGeom, x: [f64; 2]) -> Support {
+/// The support of a particle at `x`; with `HESS`, the Hessians too (the
+/// 2nd-order system needs none, and they are left zero).
+fn support<K: Kernel, const HESS: bool>(geom: &GridGeom, x: [f64; 2]) -> Support {
     let xi = geom.xi(x);
-    let (wx, d2x) = K::eval2(xi[0], 0.0);
-    let (wy, d2y) = K::eval2(xi[1], 0.0);
+    let eval = |xi: f64| if HESS { K::eval2(xi, 0.0) } else { (K::eval(xi, 0.0), [0.0; MAX_SUPPORT]) };
+    let (wx, d2x) = eval(xi[0]);
+    let (wy, d2y) = eval(xi[1]);
     let (ih, ih2) = (geom.inv_h, geom.inv_h * geom.inv_h);
     let mut s = Support {
         n: K::N * K::N,
@@ -138,7 +141,9 @@ fn support<K: Kernel>(geom: &GridGeom, x: [f64; 2]) -> Support {
             s.node[k] = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
             s.w[k] = wx.w[i] * wy.w[j];
             s.g[k] = [wx.dw[i] * wy.w[j] * ih, wx.w[i] * wy.dw[j] * ih];
-            s.hess[k] = [d2x[i] * wy.w[j] * ih2, wx.w[i] * d2y[j] * ih2, wx.dw[i] * wy.dw[j] * ih2];
+            if HESS {
+                s.hess[k] = [d2x[i] * wy.w[j] * ih2, wx.w[i] * d2y[j] * ih2, wx.dw[i] * wy.dw[j] * ih2];
+            }
         }
     }
     s
@@ -191,6 +196,23 @@ impl Accumulate<'_> {
     /// the block's cell concurrently.
     #[inline]
     unsafe fn particle<K: Kernel>(&self, q: usize, blk: &mut CellBlock) {
+        // SAFETY: passed on from the caller.
+        unsafe {
+            if self.fourth {
+                self.particle_of::<K, true>(q, blk)
+            } else {
+                self.particle_of::<K, false>(q, blk)
+            }
+        }
+    }
+
+    /// [`Accumulate::particle`] for the 2nd-order (`FOURTH` false) or
+    /// 4th-order system.
+    ///
+    /// # Safety
+    /// As [`Accumulate::particle`].
+    #[inline(always)]
+    unsafe fn particle_of<K: Kernel, const FOURTH: bool>(&self, q: usize, blk: &mut CellBlock) {
         let parts = self.parts;
         if !parts.member(q) {
             return;
@@ -199,14 +221,14 @@ impl Accumulate<'_> {
         let v = parts.vol[q];
         let reaction = v * (4.0 * p.l0 * (1.0 - p.k_f) * parts.history[q] / p.gc_bar + 1.0);
         let (c2, c4) = (4.0 * p.l0 * p.l0, 4.0 * p.l0.powi(4));
-        let s = support::<K>(self.geom, parts.x[q]);
+        let s = support::<K, FOURTH>(self.geom, parts.x[q]);
         if blk.base != s.node[0] {
             // SAFETY: the caller's colouring covers the block's cell.
             unsafe { self.flush::<K>(blk) };
             blk.base = s.node[0];
         }
         let mut mh = [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT];
-        if self.fourth {
+        if FOURTH {
             for a in 0..s.n {
                 for r in 0..3 {
                     mh[a][r] = (0..3).map(|t| self.m[r][t] * s.hess[a][t]).sum();
@@ -218,7 +240,7 @@ impl Accumulate<'_> {
             let row = &mut blk.k[a * CellBlock::S..a * CellBlock::S + a + 1];
             for (b, kab) in row.iter_mut().enumerate() {
                 let mut t = reaction * s.w[a] * s.w[b] + v * c2 * (s.g[a][0] * s.g[b][0] + s.g[a][1] * s.g[b][1]);
-                if self.fourth {
+                if FOURTH {
                     t += v * c4 * (s.hess[b][0] * mh[a][0] + s.hess[b][1] * mh[a][1] + s.hess[b][2] * mh[a][2]);
                 }
                 *kab += t;
@@ -398,7 +420,7 @@ impl PhaseFieldSystem {
                     let key = if parts.member(p) {
                         let mut mask = 0u64;
                         let node0 = if fourth {
-                            let s = support::<K>(geom, parts.x[p]);
+                            let s = support::<K, true>(geom, parts.x[p]);
                             for k in 0..s.n {
                                 if s.w[k] > 0.0 || s.hess[k].iter().any(|&h| h != 0.0) {
                                     mask |= 1 << k;
@@ -584,7 +606,7 @@ impl PhaseFieldSystem {
             if w[q] == 0.0 || !parts.member(q) {
                 return;
             }
-            let s = support::<K>(geom, parts.x[q]);
+            let s = support::<K, false>(geom, parts.x[q]);
             for k in 0..s.n {
                 // SAFETY: the caller's colouring (or a serial loop).
                 unsafe { *r.at(s.node[k]) += w[q] * s.w[k] };
@@ -871,7 +893,7 @@ pub fn value_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> f64 {
 
 /// c, ∇c and ∇²c = [c,11, c,22, c,12] at a point from nodal values.
 pub fn field_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> (f64, [f64; 2], [f64; 3]) {
-    let s = support::<K>(geom, x);
+    let s = support::<K, true>(geom, x);
     let (mut v, mut g, mut h) = (0.0, [0.0; 2], [0.0; 3]);
     for k in 0..s.n {
         let ci = c[s.node[k]];
