@@ -46,11 +46,6 @@ pub struct GridGeom {
     /// particles are kept on the domain's side of them
     /// ([`GridGeom::keep_inside`]).
     pub walls: [bool; 4],
-    /// ½ for kernels of odd support (GIMP, quadratic B-spline: the support
-    /// starts at ⌊ξ + ½⌋ − 1), 0 for even (linear, cubic: ⌊ξ⌋ − k):
-    /// ⌊ξ + shift⌋ names a particle's support, which orders the particles
-    /// within a tile ([`Bins::rebuild`]).
-    pub support_shift: f64,
 }
 
 impl GridGeom {
@@ -66,7 +61,6 @@ impl GridGeom {
             domain_max: [min[0] + cells[0] as f64 * h, min[1] + cells[1] as f64 * h],
             tiles: [nodes[0].div_ceil(TILE), nodes[1].div_ceil(TILE)],
             walls: [false; 4],
-            support_shift: 0.0,
         }
     }
 
@@ -120,13 +114,17 @@ impl GridGeom {
     }
 
     /// Which of the (TILE + 1)² supports that start in or next to the
-    /// particle's tile ([`GridGeom::tile_of`]) its kernel has: particles
-    /// with the same support get the same number.
+    /// particle's tile ([`GridGeom::tile_of`]) a kernel of `support` nodes
+    /// ([`shape::Kernel::N`]) has there: particles with the same support
+    /// get the same number. ⌊ξ + shift⌋ names the support, with shift ½
+    /// for odd supports (GIMP, quadratic B-spline: it starts at
+    /// ⌊ξ + ½⌋ − 1) and 0 for even (linear, cubic: ⌊ξ⌋ − k).
     #[inline(always)]
-    pub fn support_in_tile(&self, xi: [f64; 2]) -> u32 {
+    pub fn support_in_tile(&self, xi: [f64; 2], support: usize) -> u32 {
+        let shift = if support % 2 == 1 { 0.5 } else { 0.0 };
         let local = |d: usize| {
             let cell = (xi[d].max(0.0) as usize).min(self.nodes[d] - 1);
-            let support = ((xi[d] + self.support_shift).max(0.0) as usize).min(self.nodes[d] - 1);
+            let support = ((xi[d] + shift).max(0.0) as usize).min(self.nodes[d] - 1);
             (support as isize - (cell / TILE * TILE) as isize).clamp(0, TILE as isize) as u32
         };
         local(0) + (TILE as u32 + 1) * local(1)
@@ -290,26 +288,26 @@ pub struct Bins {
 }
 
 impl Bins {
-    /// The bins of particles at `x`.
-    pub fn new(geom: &GridGeom, x: &[[f64; 2]]) -> Bins {
+    /// The bins of particles at `x` for a kernel of `support` nodes.
+    pub fn new(geom: &GridGeom, x: &[[f64; 2]], support: usize) -> Bins {
         let mut bins = Bins { tile_of: x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect(), ..Default::default() };
-        bins.rebuild(geom, x);
+        bins.rebuild(geom, x, support);
         bins
     }
 
     /// Counting sort of particles (at `x`) by `tile_of` and, in a tile, by
-    /// support (serial, stable, so the order is the same for any thread
+    /// the support a kernel of `support` nodes has there (serial, stable, so the order is the same for any thread
     /// count). Consecutive particles of one support let the phase-field
     /// assembly add a whole run to K at once (`CellBlock`); sorted by
     /// tile alone, a tile's particles came row by row and a run was one
     /// row of the support, a third of it with 3 × 3 particles per cell.
     /// Particles that change support but not tile keep their place until
     /// the next rebuild: the order is then a little slower, never wrong.
-    pub fn rebuild(&mut self, geom: &GridGeom, x: &[[f64; 2]]) {
+    pub fn rebuild(&mut self, geom: &GridGeom, x: &[[f64; 2]], support: usize) {
         const PER_TILE: usize = (TILE + 1) * (TILE + 1);
         let ntiles = geom.tiles[0] * geom.tiles[1];
         self.key.clear();
-        self.key.extend(self.tile_of.iter().zip(x).map(|(&t, &x)| t * PER_TILE as u32 + geom.support_in_tile(geom.xi(x))));
+        self.key.extend(self.tile_of.iter().zip(x).map(|(&t, &x)| t * PER_TILE as u32 + geom.support_in_tile(geom.xi(x), support)));
         self.cursor.clear();
         self.cursor.resize(ntiles * PER_TILE + 1, 0);
         for &k in &self.key {
@@ -443,12 +441,16 @@ mod tests {
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         let x: Vec<[f64; 2]> = (0..5000).map(|_| [30.0 * next(), 30.0 * next()]).collect();
-        // (shift, first node of the support) for quadratic and cubic B-splines
-        let kernels: [(f64, fn(f64) -> f64); 2] = [(0.5, |xi| shape::floor(xi - 0.5)), (0.0, |xi| shape::floor(xi) - 1.0)];
-        for (shift, base) in kernels {
-            let mut geom = GridGeom::new([0.0, 0.0], 1.0, [30, 30]);
-            geom.support_shift = shift;
-            let bins = Bins::new(&geom, &x);
+        // (support width, first node of the support) of the kernels
+        let kernels: [(usize, fn(f64) -> isize); 4] = [
+            (shape::Linear::N, |xi| shape::Linear::eval(xi, 0.25).base),
+            (shape::Gimp::N, |xi| shape::Gimp::eval(xi, 0.25).base),
+            (shape::QuadraticBspline::N, |xi| shape::QuadraticBspline::eval(xi, 0.0).base),
+            (shape::CubicBspline::N, |xi| shape::CubicBspline::eval(xi, 0.0).base),
+        ];
+        let geom = GridGeom::new([0.0, 0.0], 1.0, [30, 30]);
+        for (n, base) in kernels {
+            let bins = Bins::new(&geom, &x, n);
             let mut seen = vec![false; x.len()];
             for &p in &bins.order {
                 assert!(!std::mem::replace(&mut seen[p as usize], true), "particle {p} twice");
@@ -459,7 +461,7 @@ mod tests {
                 assert!(run.iter().all(|&p| bins.tile_of[p as usize] == t));
                 let support = |p: u32| {
                     let xi = geom.xi(x[p as usize]);
-                    (base(xi[0]) as i64, base(xi[1]) as i64)
+                    (base(xi[0]), base(xi[1]))
                 };
                 let mut done = std::collections::HashSet::new();
                 for (k, &p) in run.iter().enumerate() {
@@ -467,7 +469,7 @@ mod tests {
                         assert!(run[k - 1] < p, "stable within a support");
                         continue;
                     }
-                    assert!(done.insert(support(p)), "support {:?} split in tile {t} (shift {shift})", support(p));
+                    assert!(done.insert(support(p)), "support {:?} split in tile {t} ({n}-node kernel)", support(p));
                 }
             }
         }

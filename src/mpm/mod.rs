@@ -586,7 +586,7 @@ impl Simulation {
         self.max_signal = stats.max_signal;
         let t6 = Instant::now();
         if stats.moved_tile {
-            self.bins.rebuild(&self.geom, &self.parts.x);
+            self.bins.rebuild(&self.geom, &self.parts.x, K::N);
         }
         self.times.bins += t6.elapsed().as_secs_f64();
         if let Some(pf) = self.phase.as_mut() {

@@ -14,7 +14,6 @@ use crate::scene::{MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage
 pub(super) fn build(scene: &Scene) -> Simulation {
     let file = &scene.file;
     let mut geom = GridGeom::new(file.grid.min, file.grid.cell_size, scene.cells);
-    geom.support_shift = if shape::support(file.grid.shape_function) % 2 == 1 { 0.5 } else { 0.0 };
     let b = &file.grid.boundary;
     geom.walls = [&b.left, &b.right, &b.bottom, &b.top].map(|s| matches!(s, SideCondition::Fixed | SideCondition::Roller));
     let mats: Vec<Elastic> = scene.materials.iter().map(|m| Elastic::new(m, file.analysis.plane)).collect();
@@ -83,9 +82,10 @@ pub(super) fn build(scene: &Scene) -> Simulation {
 
     // Store the particles in the bins' order (by tile, and by support in a
     // tile): the coloured stages then walk memory in order.
-    let order = Bins::new(&geom, &parts.x).order;
+    let support = shape::support(file.grid.shape_function);
+    let order = Bins::new(&geom, &parts.x, support).order;
     permute(&mut parts, &order);
-    let bins = Bins::new(&geom, &parts.x);
+    let bins = Bins::new(&geom, &parts.x, support);
 
     let (mut max_signal, mut scale, mut min_mass) = (0.0f64, 0.0, f64::INFINITY);
     for p in 0..parts.len() {
