@@ -8,6 +8,7 @@
 
 pub mod anisotropy;
 pub mod system;
+pub mod trisolve;
 
 /// Particles with c below this are cracked: the set whose farthest point
 /// is the crack tip, and, with `[dfg]`, the "fully damaged" particles of

@@ -21,9 +21,11 @@ use crate::grid::{Bins, GridGeom, SyncPtr};
 use rayon::prelude::*;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering};
+use super::trisolve::{SolveScratch, SupernodalSolve};
+use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering};
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
+use faer::{Par, Side};
 use std::time::Instant;
 
 /// The diagonal penalty of [`PhaseFieldSystem::assemble`], relative to the
@@ -324,9 +326,13 @@ pub struct PhaseFieldSystem {
     /// cheaper too, while PCG still takes the f64 residual to its tolerance.
     l_values: Vec<f64>,
     l_single: Vec<f32>,
-    /// `values` and a right-hand side in f32, for the single factor.
+    /// `values` in f32, for the single factor.
     values_single: Vec<f32>,
-    x_single: Vec<f32>,
+    /// The triangular solves with either factor (two threads), and their
+    /// work vectors.
+    trisolve: Option<SupernodalSolve>,
+    scratch_single: SolveScratch<f32>,
+    scratch_double: SolveScratch<f64>,
     single: bool,
     /// The factor holds a factorization of a matrix with today's pattern.
     factored: bool,
@@ -367,7 +373,9 @@ impl PhaseFieldSystem {
             l_values: Vec::new(),
             l_single: Vec::new(),
             values_single: Vec::new(),
-            x_single: Vec::new(),
+            trisolve: None,
+            scratch_single: SolveScratch::default(),
+            scratch_double: SolveScratch::default(),
             single: false,
             factored: false,
             last: Vec::new(),
@@ -521,6 +529,7 @@ impl PhaseFieldSystem {
             self.col_ptr.push(self.row_idx.len());
         }
         self.symbolic = None;
+        self.trisolve = None;
         self.factored = false;
         self.last.clear();
     }
@@ -750,14 +759,18 @@ impl PhaseFieldSystem {
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let t0 = Instant::now();
         if self.symbolic.as_ref().is_none_or(|s| s.nrows() != n) {
-            let sym = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, Default::default())
+            // supernodal always, for the solves of `trisolve`
+            let params = CholeskySymbolicParams { supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL, ..Default::default() };
+            let sym = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
                 .map_err(|e| PhaseFieldError::Solver(format!("symbolic analysis: {e:?}")))?;
             let req = sym
                 .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-                .or(sym.solve_in_place_scratch::<f64>(1, Par::Seq))
-                .or(sym.factorize_numeric_llt_scratch::<f32>(Par::Seq, Default::default()))
-                .or(sym.solve_in_place_scratch::<f32>(1, Par::Seq));
+                .or(sym.factorize_numeric_llt_scratch::<f32>(Par::Seq, Default::default()));
             self.mem = MemBuffer::try_new(req).map_err(|e| PhaseFieldError::Solver(format!("workspace: {e:?}")))?;
+            let tri = SupernodalSolve::new(&sym).ok_or_else(|| PhaseFieldError::Solver("the analysis is not supernodal".into()))?;
+            let [top, g0, g1] = tri.share_work();
+            tracing::debug!(unknowns = n, factor_values = tri.len_val(), top, group0 = g0, group1 = g1, "phase-field analysis: the triangular solves' shares");
+            self.trisolve = Some(tri);
             self.symbolic = Some(sym);
             self.stats.analyses += 1;
         }
@@ -782,16 +795,11 @@ impl PhaseFieldSystem {
 
     /// x ← (L Lᵀ)⁻¹ x with the stored factor.
     fn apply_inverse(&mut self, x: &mut [f64]) {
-        let Some(sym) = self.symbolic.as_ref() else { return };
+        let Some(tri) = self.trisolve.as_ref() else { return };
         if self.single {
-            self.x_single.clear();
-            self.x_single.extend(x.iter().map(|&v| v as f32));
-            llt_solve(sym, &self.l_single, &mut self.x_single, &mut self.mem);
-            for (v, s) in x.iter_mut().zip(&self.x_single) {
-                *v = *s as f64;
-            }
+            tri.solve(&self.l_single, x, &mut self.scratch_single);
         } else {
-            llt_solve(sym, &self.l_values, x, &mut self.mem);
+            tri.solve(&self.l_values, x, &mut self.scratch_double);
         }
     }
 
@@ -867,12 +875,6 @@ fn numeric_llt<T: faer::traits::ComplexField>(
     sym.factorize_numeric_llt::<T>(l, a, Side::Lower, LltRegularization::default(), Par::Seq, MemStack::new(mem), Default::default())
         .map(|_| ())
         .map_err(|e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}")))
-}
-
-/// x ← (L Lᵀ)⁻¹ x with the factor `l`, in f64 or f32.
-fn llt_solve<T: faer::traits::ComplexField>(sym: &SymbolicCholesky<usize>, l: &[T], x: &mut [T], mem: &mut MemBuffer) {
-    let n = x.len();
-    LltRef::new(sym, l).solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(x, n, 1), Par::Seq, MemStack::new(mem));
 }
 
 /// c at a point from nodal values (what the particles take after a solve;
