@@ -135,21 +135,21 @@ pub fn miehe_split(lambda: f64, mu: f64, e: [f64; 3], ezz: f64) -> (f64, [f64; 3
     let mean = 0.5 * (a + b);
     let r = (0.25 * (a - b) * (a - b) + c * c).sqrt();
     let (e1, e2) = (mean + r, mean - r);
-    // unit eigenvector of e1 (any direction when the strain is isotropic)
-    let (nx, ny) = if r > 1e-300 {
-        let theta = 0.5 * (2.0 * c).atan2(a - b);
-        (theta.cos(), theta.sin())
+    // n⊗n of the unit eigenvector n = (cos θ, sin θ) of e1, from
+    // cos 2θ = (a − b)/2r and sin 2θ = c/r without trigonometric calls
+    // (x-axis when the strain is isotropic)
+    let (nxx, nyy, nxy) = if r > 1e-300 {
+        let q = 0.25 * (a - b) / r;
+        (0.5 + q, 0.5 - q, 0.5 * c / r)
     } else {
-        (1.0, 0.0)
+        (1.0, 0.0, 0.0)
     };
     let tr = e1 + e2 + ezz;
     let pos = |x: f64| x.max(0.0);
     let neg = |x: f64| x.min(0.0);
     let psi = 0.5 * lambda * pos(tr).powi(2) + mu * (pos(e1).powi(2) + pos(e2).powi(2) + pos(ezz).powi(2));
-    // n1 = (nx, ny), n2 = (−ny, nx)
-    let proj = |s1: f64, s2: f64| {
-        [s1 * nx * nx + s2 * ny * ny, s1 * ny * ny + s2 * nx * nx, (s1 - s2) * nx * ny]
-    };
+    // s1 n1⊗n1 + s2 n2⊗n2, with n2⊗n2 = (nyy, nxx, −nxy)
+    let proj = |s1: f64, s2: f64| [s1 * nxx + s2 * nyy, s1 * nyy + s2 * nxx, (s1 - s2) * nxy];
     let sp = proj(2.0 * mu * pos(e1), 2.0 * mu * pos(e2));
     let sn = proj(2.0 * mu * neg(e1), 2.0 * mu * neg(e2));
     let (lp, ln) = (lambda * pos(tr), lambda * neg(tr));
