@@ -206,7 +206,7 @@ impl PhaseFields {
         for body in &mut self.bodies {
             let fp = of_body(parts, body.body, Some(bins));
             body.system.assemble::<K>(geom, &fp, &body.params);
-            body.c = body.system.solve_with(geom.node_count(), self.method)?;
+            body.system.solve_into(geom.node_count(), self.method, &mut body.c)?;
             let phase = SyncPtr::new(&mut parts.phase);
             let (c, xs) = (&body.c, &parts.x);
             body.particles.par_iter().for_each(|&p| {

@@ -338,6 +338,11 @@ pub struct PhaseFieldSystem {
     factored: bool,
     /// The last solution, per dof (PCG's starting point).
     last: Vec<f64>,
+    /// The solution being computed, swapped into `last` when it is done,
+    /// and PCG's work vectors: kept between steps, so a solve allocates
+    /// nothing.
+    x: Vec<f64>,
+    work: PcgWork,
     /// PCG's renewal rule, in units of one PCG iteration: the cost of the
     /// solves since the last factorization (the factorization included)
     /// and their number; `refactor_next` asks for a fresh factor.
@@ -379,6 +384,8 @@ impl PhaseFieldSystem {
             single: false,
             factored: false,
             last: Vec::new(),
+            x: Vec::new(),
+            work: PcgWork::default(),
             cycle_cost: 0.0,
             cycle_solves: 0,
             refactor_next: false,
@@ -671,18 +678,27 @@ impl PhaseFieldSystem {
     /// Solves for c with the given method; c at every grid node (1 where
     /// inactive).
     pub fn solve_with(&mut self, nodes: usize, method: SolveMethod) -> Result<Vec<f64>, PhaseFieldError> {
+        let mut c = Vec::new();
+        self.solve_into(nodes, method, &mut c)?;
+        Ok(c)
+    }
+
+    /// [`Self::solve_with`] into `c` (resized to `nodes`), which a caller
+    /// keeps between steps.
+    pub fn solve_into(&mut self, nodes: usize, method: SolveMethod, c: &mut Vec<f64>) -> Result<(), PhaseFieldError> {
         let n = self.dofs.len();
-        let mut c = vec![1.0; nodes];
+        c.clear();
+        c.resize(nodes, 1.0);
         if n == 0 {
-            return Ok(c);
+            return Ok(());
         }
-        let x = match method {
+        match method {
             SolveMethod::Pcg { tolerance, max_iterations, refactor_after } if self.factored && self.last.len() == n && !self.refactor_next => {
                 // With the old factor PCG may spend up to two
                 // factorizations' worth of iterations before a fresh
                 // factor is made.
                 let cap = max_iterations.min(2 * refactor_after.max(1));
-                let (x, iterations) = self.timed_pcg(tolerance, cap);
+                let (converged, iterations) = self.timed_pcg(tolerance, cap);
                 // The renewal rule: as the history grows the old factor
                 // preconditions worse and the iterations climb. Refactorize
                 // when a solve costs more than the average per solve since
@@ -697,59 +713,63 @@ impl PhaseFieldSystem {
                 // for the next step. (Redoing every solve over
                 // `refactor_after` iterations threw away 2389 of the 5589
                 // solves of P1 (iii) at the paper's resolution;
-                // docs/phase-field.md.)
-                match x {
-                    Some(x) => x,
-                    // no convergence within the cap: a fresh factor, which
-                    // also preconditions the next steps
-                    None => self.renew(tolerance, max_iterations, refactor_after)?,
+                // docs/phase-field.md.) Without convergence within the cap:
+                // a fresh factor, which also preconditions the next steps.
+                if !converged {
+                    self.renew(tolerance, max_iterations, refactor_after)?;
                 }
             }
             SolveMethod::Pcg { tolerance, max_iterations, refactor_after } => self.renew(tolerance, max_iterations, refactor_after)?,
             SolveMethod::Direct => self.direct()?,
-        };
-        for (d, &node) in self.dofs.iter().enumerate() {
-            c[node as usize] = x[d];
         }
-        self.last = x;
-        Ok(c)
+        // the solution is in `x`
+        for (d, &node) in self.dofs.iter().enumerate() {
+            c[node as usize] = self.x[d];
+        }
+        std::mem::swap(&mut self.last, &mut self.x);
+        Ok(())
     }
 
     /// PCG's fresh start, which begins a new cycle of its renewal rule: an
     /// f32 factorization (counted as `refactor_after` iterations) and PCG
     /// preconditioned by it, from the last solution. Should the f32
     /// factorization fail or PCG not converge even so, a direct solve in f64.
-    fn renew(&mut self, tolerance: f64, max_iterations: usize, refactor_after: usize) -> Result<Vec<f64>, PhaseFieldError> {
-        let (x, iterations) = match self.factorize(true) {
+    /// The solution is left in `x`.
+    fn renew(&mut self, tolerance: f64, max_iterations: usize, refactor_after: usize) -> Result<(), PhaseFieldError> {
+        let (converged, iterations) = match self.factorize(true) {
             Ok(()) => self.timed_pcg(tolerance, max_iterations),
             // f32 may lose definiteness where f64 keeps it
-            Err(_) => (None, 0),
+            Err(_) => (false, 0),
         };
         self.cycle_cost = (refactor_after + iterations.max(1)) as f64;
         self.cycle_solves = 1;
-        match x {
-            Some(x) => Ok(x),
-            None => self.direct(),
+        if converged {
+            Ok(())
+        } else {
+            self.direct()
         }
     }
 
-    fn timed_pcg(&mut self, tolerance: f64, max_iterations: usize) -> (Option<Vec<f64>>, usize) {
+    fn timed_pcg(&mut self, tolerance: f64, max_iterations: usize) -> (bool, usize) {
         let t0 = Instant::now();
-        let (x, iterations) = self.pcg(tolerance, max_iterations);
+        let (converged, iterations) = self.pcg(tolerance, max_iterations);
         self.stats.solve += t0.elapsed().as_secs_f64();
         self.stats.pcg_solves += 1;
         self.stats.pcg_iterations += iterations as u64;
-        (x, iterations)
+        (converged, iterations)
     }
 
-    /// An f64 factorization and the solve with it.
-    fn direct(&mut self) -> Result<Vec<f64>, PhaseFieldError> {
+    /// An f64 factorization and the solve with it, into `x`.
+    fn direct(&mut self) -> Result<(), PhaseFieldError> {
         self.factorize(false)?;
         let t0 = Instant::now();
-        let mut x = self.rhs.clone();
+        let mut x = std::mem::take(&mut self.x);
+        x.clear();
+        x.extend_from_slice(&self.rhs);
         self.apply_inverse(&mut x);
+        self.x = x;
         self.stats.solve += t0.elapsed().as_secs_f64();
-        Ok(x)
+        Ok(())
     }
 
     /// Analysis (if the pattern is new) and numeric factorization, in f32
@@ -817,48 +837,87 @@ impl PhaseFieldSystem {
         }
     }
 
-    /// Preconditioned conjugate gradients from the last solution. Returns
-    /// the solution if it converged, and the iterations taken.
-    fn pcg(&mut self, tolerance: f64, max_iterations: usize) -> (Option<Vec<f64>>, usize) {
+    /// Preconditioned conjugate gradients from the last solution, into
+    /// `x`. Returns whether it converged, and the iterations taken.
+    fn pcg(&mut self, tolerance: f64, max_iterations: usize) -> (bool, usize) {
         let n = self.dofs.len();
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).fold(0.0, |s, t| s + t);
         let norm_b = dot(&self.rhs, &self.rhs).sqrt();
-        let mut x = if self.last.len() == n { self.last.clone() } else { vec![0.0; n] };
-        let mut ap = vec![0.0; n];
-        self.multiply(&x, &mut ap);
-        let mut r: Vec<f64> = self.rhs.iter().zip(&ap).map(|(b, y)| b - y).collect();
-        if dot(&r, &r).sqrt() <= tolerance * norm_b {
-            return (Some(x), 0);
+        let mut x = std::mem::take(&mut self.x);
+        let mut w = std::mem::take(&mut self.work);
+        x.clear();
+        if self.last.len() == n {
+            x.extend_from_slice(&self.last);
+        } else {
+            x.resize(n, 0.0);
         }
-        let mut z = r.clone();
-        self.apply_inverse(&mut z);
-        let mut p = z.clone();
-        let mut rz = dot(&r, &z);
+        let result = self.pcg_iterate(&mut x, &mut w, norm_b, tolerance, max_iterations, dot);
+        self.x = x;
+        self.work = w;
+        result
+    }
+
+    fn pcg_iterate(
+        &mut self,
+        x: &mut [f64],
+        w: &mut PcgWork,
+        norm_b: f64,
+        tolerance: f64,
+        max_iterations: usize,
+        dot: impl Fn(&[f64], &[f64]) -> f64,
+    ) -> (bool, usize) {
+        let n = x.len();
+        let PcgWork { ap, r, z, p } = w;
+        for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
+            v.clear();
+            v.resize(n, 0.0);
+        }
+        self.multiply(x, ap);
+        for i in 0..n {
+            r[i] = self.rhs[i] - ap[i];
+        }
+        if dot(r, r).sqrt() <= tolerance * norm_b {
+            return (true, 0);
+        }
+        z.copy_from_slice(r);
+        self.apply_inverse(z);
+        p.copy_from_slice(z);
+        let mut rz = dot(r, z);
         for it in 1..=max_iterations {
-            self.multiply(&p, &mut ap);
-            let pap = dot(&p, &ap);
+            self.multiply(p, ap);
+            let pap = dot(p, ap);
             if !(pap > 0.0) {
-                return (None, it);
+                return (false, it);
             }
             let alpha = rz / pap;
             for i in 0..n {
                 x[i] += alpha * p[i];
                 r[i] -= alpha * ap[i];
             }
-            if dot(&r, &r).sqrt() <= tolerance * norm_b {
-                return (Some(x), it);
+            if dot(r, r).sqrt() <= tolerance * norm_b {
+                return (true, it);
             }
-            z.copy_from_slice(&r);
-            self.apply_inverse(&mut z);
-            let rz_new = dot(&r, &z);
+            z.copy_from_slice(r);
+            self.apply_inverse(z);
+            let rz_new = dot(r, z);
             let beta = rz_new / rz;
             rz = rz_new;
             for i in 0..n {
                 p[i] = z[i] + beta * p[i];
             }
         }
-        (None, max_iterations)
+        (false, max_iterations)
     }
+}
+
+/// PCG's work vectors (the product K p, the residual, the preconditioned
+/// residual and the search direction).
+#[derive(Debug, Default)]
+struct PcgWork {
+    ap: Vec<f64>,
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
 }
 
 /// The numeric factorization of `values` (on `pattern`, lower triangle)
