@@ -271,6 +271,13 @@ impl SupernodalSolve {
         }
     }
 
+    /// Supernode s: its first column, its width, its pattern and its
+    /// values in `l` (column-major, `width + pattern` rows).
+    #[inline]
+    fn supernode<'a, T>(&'a self, s: usize, l: &'a [T]) -> (usize, usize, &'a [usize], &'a [T]) {
+        (self.begin[s], self.width(s), self.pattern(s), &l[self.val[s]..self.val[s + 1]])
+    }
+
     /// Supernode s of the forward substitution L y = b: its columns in
     /// turn, each divided by its diagonal and subtracted from the rows
     /// below (inside the block directly, the pattern's rows summed in
@@ -278,12 +285,9 @@ impl SupernodalSolve {
     /// matrix-vector product, was no faster: P1 at the paper's size.)
     #[inline]
     fn forward<T: Real>(&self, s: usize, l: &[T], x: &mut [T], tmp: &mut [T]) {
-        let (f, w) = (self.begin[s], self.width(s));
-        let pat = self.pattern(s);
-        let m = pat.len();
-        let rows = w + m;
-        let vals = &l[self.val[s]..self.val[s + 1]];
-        let tmp = &mut tmp[..m];
+        let (f, w, pat, vals) = self.supernode(s, l);
+        let rows = w + pat.len();
+        let tmp = &mut tmp[..pat.len()];
         tmp.fill(T::default());
         let xt = &mut x[f..f + w];
         for j in 0..w {
@@ -307,12 +311,9 @@ impl SupernodalSolve {
     /// product with its column.
     #[inline]
     fn backward<T: Real>(&self, s: usize, l: &[T], x: &mut [T], tmp: &mut [T]) {
-        let (f, w) = (self.begin[s], self.width(s));
-        let pat = self.pattern(s);
-        let m = pat.len();
-        let rows = w + m;
-        let vals = &l[self.val[s]..self.val[s + 1]];
-        let tmp = &mut tmp[..m];
+        let (f, w, pat, vals) = self.supernode(s, l);
+        let rows = w + pat.len();
+        let tmp = &mut tmp[..pat.len()];
         for (t, &r) in tmp.iter_mut().zip(pat) {
             *t = x[r];
         }
