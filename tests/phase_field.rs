@@ -1,6 +1,6 @@
 //! The phase-field system (issue 4): positive definiteness for every shape
 //! function, and the fracture energy of an imposed straight crack against
-//! Gc(θ) of eq. 8.
+//! Gc(θ) of eq. 8, the history, the solver and the coupled runs.
 
 use cleave::fracture::phase_field::anisotropy::{surface_energy, Gamma};
 use cleave::fracture::phase_field::system::{fracture_energy, FieldParticles, PhaseFieldParams, PhaseFieldSystem, SolveMethod, SolveStats};
@@ -491,4 +491,53 @@ fn with_dfg_partitioning_an_opening_crack_keeps_its_fracture_energy() {
     assert!(single[2] > 1.05 * single[1], "single field {single:?}");
     let separated = rec_d.column("dfg_separated_nodes").unwrap();
     assert!(*separated.last().unwrap() > 100.0, "{separated:?}");
+}
+
+/// H = max ψ⁺ (seed 001, the Kuhn–Tucker conditions after eq. 20) never
+/// decreases at any particle, though the waves of the impact load and
+/// unload the coarse plate: at some particles ψ⁺ falls below the history
+/// during the run, so a history that followed ψ⁺ would fail here.
+#[test]
+fn the_history_never_decreases() {
+    let scene = cleave::scene::Scene::from_text(&p1_coarse("1.2e-5"), None).unwrap();
+    let mut sim = cleave::mpm::Simulation::new(&scene);
+    let n = sim.particles().len();
+    // concrete of the scene, plane strain
+    let (e, nu) = (3.2e10, 0.2);
+    let (lambda, mu) = (e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), e / (2.0 * (1.0 + nu)));
+    let by_id = |sim: &cleave::mpm::Simulation| {
+        let p = sim.particles();
+        let mut h = vec![0.0; n];
+        for (k, &id) in p.id.iter().enumerate() {
+            h[id as usize] = p.history[k];
+        }
+        h
+    };
+    let mut last = by_id(&sim);
+    let (mut unloaded, mut grown, mut steps) = (0usize, 0usize, 0);
+    while sim.time() < 1.2e-5 {
+        sim.step().unwrap();
+        steps += 1;
+        let now = by_id(&sim);
+        for (id, (&a, &b)) in last.iter().zip(&now).enumerate() {
+            assert!(b >= a, "step {steps}: particle {id}'s history fell from {a} to {b}");
+            if b > a {
+                grown += 1;
+            }
+        }
+        let p = sim.particles();
+        for k in 0..n {
+            // not the pre-crack's particles, whose history the scene sets
+            // far above any ψ⁺ (B·Ḡc/4l₀ = 1.5e9 J/m³)
+            let h = p.history[k];
+            let (psi, _, _) = cleave::material::miehe_split(lambda, mu, p.strain[k], 0.0);
+            if h > 0.0 && h < 1e6 && psi < 0.5 * h {
+                unloaded += 1;
+            }
+        }
+        last = now;
+    }
+    assert!(steps > 50, "{steps} steps");
+    assert!(grown > n, "the loading grows the history: {grown} particle-steps");
+    assert!(unloaded > n, "the waves unload particles below half their history: {unloaded} particle-steps");
 }
