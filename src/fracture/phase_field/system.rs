@@ -841,8 +841,6 @@ impl PhaseFieldSystem {
     /// `x`. Returns whether it converged, and the iterations taken.
     fn pcg(&mut self, tolerance: f64, max_iterations: usize) -> (bool, usize) {
         let n = self.dofs.len();
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).fold(0.0, |s, t| s + t);
-        let norm_b = dot(&self.rhs, &self.rhs).sqrt();
         let mut x = std::mem::take(&mut self.x);
         let mut w = std::mem::take(&mut self.work);
         x.clear();
@@ -851,22 +849,16 @@ impl PhaseFieldSystem {
         } else {
             x.resize(n, 0.0);
         }
-        let result = self.pcg_iterate(&mut x, &mut w, norm_b, tolerance, max_iterations, dot);
+        let result = self.pcg_iterate(&mut x, &mut w, tolerance, max_iterations);
         self.x = x;
         self.work = w;
         result
     }
 
-    fn pcg_iterate(
-        &mut self,
-        x: &mut [f64],
-        w: &mut PcgWork,
-        norm_b: f64,
-        tolerance: f64,
-        max_iterations: usize,
-        dot: impl Fn(&[f64], &[f64]) -> f64,
-    ) -> (bool, usize) {
+    fn pcg_iterate(&mut self, x: &mut [f64], w: &mut PcgWork, tolerance: f64, max_iterations: usize) -> (bool, usize) {
         let n = x.len();
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).fold(0.0, |s, t| s + t);
+        let norm_b = dot(&self.rhs, &self.rhs).sqrt();
         let PcgWork { ap, r, z, p } = w;
         for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
             v.clear();
