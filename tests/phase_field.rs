@@ -210,6 +210,11 @@ fn phase_field_scenes_are_validated() {
     bad("k_f = 0.0 }", "k_f = 1.5 }", "materials.concrete.phase_field.k_f: must be in [0, 1)");
     bad("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 1.0, -5.0, 0.0] }", "materials.concrete.phase_field.gamma");
     bad("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 2.0] }", "give 4 or 6 numbers");
+    // the plane-stress split: only in plane stress, and only by name
+    let in_plane = "k_f = 0.0, plane_stress_split = \"in_plane\" }";
+    bad("k_f = 0.0 }", in_plane, "materials.concrete.phase_field.plane_stress_split: applies to analysis.plane = \"plane_stress\" only");
+    assert!(Scene::from_text(&text.replace("k_f = 0.0 }", in_plane).replace("plane = \"plane_strain\"", "plane = \"plane_stress\""), None).is_ok());
+    bad("k_f = 0.0 }", "k_f = 0.0, plane_stress_split = \"2d\" }", "plane_stress_split");
     // the 2nd-order model works with any shape function
     assert!(Scene::from_text(&text.replace("shape_function = \"quadratic_bspline\"", "shape_function = \"gimp\""), None).is_ok());
     let fourth_gimp = text

@@ -208,6 +208,31 @@ mod tests {
     }
 
     #[test]
+    fn both_plane_stress_splits_sum_to_plane_stress_hooke() {
+        let m = steel(MaterialModel::LinearElastic, PlaneKind::PlaneStress);
+        for e in [[1e-3, -2e-4, 3e-4], [-1e-3, -5e-4, 1e-4], [2e-3, -4e-3, 0.0]] {
+            let hooke = m.hooke(e);
+            // with ε_zz (the default) and in-plane with λ* = c12
+            for (lambda, ezz) in [(m.lambda, m.strain_zz(e)), (m.c12, 0.0)] {
+                let (psi, sp, sn) = miehe_split(lambda, m.mu, e, ezz);
+                for k in 0..3 {
+                    assert!((sp[k] + sn[k] - hooke[k]).abs() < 1e-9 * 200e9 * 1e-3, "{e:?} {lambda}: {k}");
+                }
+                let total = Elastic::energy_linear(hooke, e);
+                assert!(psi >= 0.0 && psi <= total * (1.0 + 1e-12), "{e:?}: psi+ {psi} of {total}");
+            }
+        }
+        // in-plane biaxial compression thickens the plate: tensile energy
+        // μ ε_zz² with ε_zz, none in plane
+        let e = [-1e-3, -1e-3, 0.0];
+        let ezz = m.strain_zz(e);
+        let (with_zz, _, _) = miehe_split(m.lambda, m.mu, e, ezz);
+        assert!((with_zz - m.mu * ezz * ezz).abs() < 1e-9 * with_zz, "{with_zz}");
+        let (in_plane, _, _) = miehe_split(m.c12, m.mu, e, 0.0);
+        assert_eq!(in_plane, 0.0);
+    }
+
+    #[test]
     fn neo_hookean_small_strain_matches_hooke() {
         let lin = steel(MaterialModel::LinearElastic, PlaneKind::PlaneStrain);
         let neo = steel(MaterialModel::NeoHookean, PlaneKind::PlaneStrain);

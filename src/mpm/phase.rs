@@ -29,7 +29,7 @@ use crate::grid::shape::Kernel;
 use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, Elastic};
 use crate::particles::Particles;
-use crate::scene::{phase_field_gamma, CrackProfile, CrackSpec, PhaseFieldMethod, PlaneKind, Scene};
+use crate::scene::{phase_field_gamma, CrackProfile, CrackSpec, PhaseFieldMethod, PlaneKind, PlaneStressSplit, Scene};
 use rayon::prelude::*;
 
 /// B of a `line` crack: the history on it is B·Ḡc/(4l₀), which drives c to
@@ -74,6 +74,8 @@ struct Body {
     c: Vec<f64>,
     /// The crack-tip diagnostic, if tracked.
     tip: Option<TipTracker>,
+    /// Plane stress with the in-plane split ([`PlaneStressSplit::InPlane`]).
+    in_plane: bool,
 }
 
 /// Particles with c below this count as cracked for the crack tip.
@@ -144,7 +146,8 @@ impl PhaseFields {
             let params = PhaseFieldParams { gc_bar: pf.gc, l0: pf.l0, k_f: pf.k_f, gamma };
             let particles: Vec<u32> = (0..parts.len() as u32).filter(|&p| parts.body[p as usize] as usize == b).collect();
             let origin = spec.crack_origin.or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()));
-            bodies.push((b, spec.cracks.clone(), params, particles, origin));
+            let in_plane = pf.plane_stress_split == PlaneStressSplit::InPlane;
+            bodies.push((b, spec.cracks.clone(), params, particles, origin, in_plane));
         }
         if bodies.is_empty() {
             return None;
@@ -153,7 +156,7 @@ impl PhaseFields {
         parts.history = vec![0.0; parts.len()];
         let out = bodies
             .into_iter()
-            .map(|(b, cracks, params, particles, origin)| {
+            .map(|(b, cracks, params, particles, origin, in_plane)| {
                 let spacing = scene.particle_spacing(b);
                 for &p in &particles {
                     let p = p as usize;
@@ -166,6 +169,7 @@ impl PhaseFields {
                     system: PhaseFieldSystem::new(),
                     c: Vec::new(),
                     tip: origin.map(TipTracker::new),
+                    in_plane,
                 }
             })
             .collect();
@@ -271,15 +275,17 @@ impl PhaseFields {
         for body in &self.bodies {
             let k_f = body.params.k_f;
             let reaction = 4.0 * body.params.l0 * (1.0 - k_f) / body.params.gc_bar;
+            let in_plane = body.in_plane;
             body.particles.par_iter().for_each(|&p| {
                 let p = p as usize;
                 let m = &mats[material[p] as usize];
                 let e = strain[p];
-                let ezz = match m.plane {
-                    PlaneKind::PlaneStrain => 0.0,
-                    PlaneKind::PlaneStress => m.strain_zz(e),
+                let (psi, sp, sn) = match m.plane {
+                    PlaneKind::PlaneStrain => miehe_split(m.lambda, m.mu, e, 0.0),
+                    // c12 of plane stress is λ* = 2λμ/(λ + 2μ)
+                    PlaneKind::PlaneStress if in_plane => miehe_split(m.c12, m.mu, e, 0.0),
+                    PlaneKind::PlaneStress => miehe_split(m.lambda, m.mu, e, m.strain_zz(e)),
                 };
-                let (psi, sp, sn) = miehe_split(m.lambda, m.mu, e, ezz);
                 let c = phase[p];
                 let g = (1.0 - k_f) * c * c + k_f;
                 // SAFETY: each particle index appears once in the body's list.

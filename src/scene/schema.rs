@@ -539,6 +539,27 @@ pub struct PhaseFieldSpec {
     /// Material angle φ, degrees counter-clockwise from x.
     #[serde(default)]
     pub angle: f64,
+    /// How the tensile energy ψ⁺ of Miehe's split sees a plane-stress
+    /// particle (no effect, and rejected, in plane strain).
+    #[serde(default)]
+    pub plane_stress_split: PlaneStressSplit,
+}
+
+/// Miehe's spectral split in plane stress, where seed 001 does not say
+/// which strain it decomposes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlaneStressSplit {
+    /// The 3D strain, with ε_zz = −ν/(1−ν)(εxx + εyy) as a third
+    /// principal strain (Miehe et al. 2010's split of the 3D state): an
+    /// in-plane compression thickens the plate, and μ⟨ε_zz⟩₊² is tensile
+    /// energy that can damage it.
+    #[default]
+    WithZz,
+    /// The in-plane strain alone, with the plane-stress modulus
+    /// λ* = 2λμ/(λ + 2μ) (the 2D split many plane-stress codes use): the
+    /// thickness strain drives no damage.
+    InPlane,
 }
 
 /// A body's material: either the name of an entry of `[materials]` or an

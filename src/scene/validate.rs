@@ -520,6 +520,9 @@ fn resolve_material(
         if m.model != MaterialModel::LinearElastic {
             c.err(&format!("{path}.model"), "phase-field fracture is implemented for linear_elastic materials");
         }
+        if pf.plane_stress_split != PlaneStressSplit::WithZz && plane != PlaneKind::PlaneStress {
+            c.err(&format!("{q}.plane_stress_split"), "applies to analysis.plane = \"plane_stress\" only (plane strain has no thickness strain)");
+        }
     }
     let damage = m
         .damage
