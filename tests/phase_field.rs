@@ -507,9 +507,9 @@ fn the_history_never_decreases() {
     let scene = cleave::scene::Scene::from_text(&p1_coarse("1.2e-5"), None).unwrap();
     let mut sim = cleave::mpm::Simulation::new(&scene);
     let n = sim.particles().len();
-    // concrete of the scene, plane strain
-    let (e, nu) = (3.2e10, 0.2);
-    let (lambda, mu) = (e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)), e / (2.0 * (1.0 + nu)));
+    // the scene's one material (concrete), plane strain
+    let (lambda, mu) = (scene.materials[0].lambda, scene.materials[0].mu);
+    assert_eq!(scene.materials.len(), 1);
     let by_id = |sim: &cleave::mpm::Simulation| {
         let p = sim.particles();
         let mut h = vec![0.0; n];
