@@ -164,6 +164,9 @@ pub struct Simulation {
     /// The step about to run ends on a series row (the phase field then
     /// measures its stagger residual even with one iteration allowed).
     row_due: bool,
+    /// The step about to run ends on a series row or a snapshot (the phase
+    /// field then measures Ψ_f where it solves c).
+    output_due: bool,
 }
 
 impl Simulation {
@@ -272,10 +275,10 @@ impl Simulation {
                 return Err(SimError::MaxSteps { step: self.step, time: self.time });
             }
             let dt = self.next_dt(end)?;
-            self.row_due = next_row < rows && {
-                let t = self.time + dt;
-                t >= row_time(next_row) * (1.0 - 1e-12) || t >= end * (1.0 - 1e-12)
-            };
+            let t = self.time + dt;
+            let ends = t >= end * (1.0 - 1e-12);
+            self.row_due = next_row < rows && (t >= row_time(next_row) * (1.0 - 1e-12) || ends);
+            self.output_due = self.row_due || (next_snap < snaps && (t >= snap_time(next_snap) * (1.0 - 1e-12) || ends));
             self.advance(dt)?;
             let at_end = self.time >= end * (1.0 - 1e-12);
             if next_row < rows && (self.time >= row_time(next_row) * (1.0 - 1e-12) || at_end) {
@@ -496,7 +499,7 @@ impl Simulation {
         // The implicit phase-field solve (c from the history so far)
         if let Some(pf) = self.phase.as_mut() {
             let t = Instant::now();
-            pf.solve::<K>(&self.geom, &self.bins, &mut self.parts)
+            pf.solve::<K>(&self.geom, &self.bins, &mut self.parts, self.output_due)
                 .map_err(|e| SimError::PhaseField {
                     step: self.step + 1,
                     time: self.time + dt,
@@ -591,7 +594,7 @@ impl Simulation {
         self.times.bins += t6.elapsed().as_secs_f64();
         if let Some(pf) = self.phase.as_mut() {
             let t = Instant::now();
-            pf.stagger::<K>(&self.geom, &self.bins, &mut self.parts, &self.mats, self.row_due).map_err(|e| SimError::PhaseField {
+            pf.stagger::<K>(&self.geom, &self.bins, &mut self.parts, &self.mats, self.row_due, self.output_due).map_err(|e| SimError::PhaseField {
                 step: self.step,
                 time: self.time,
                 message: e.to_string(),

@@ -126,6 +126,13 @@ pub(super) struct PhaseFields {
     /// Solves in the present step.
     staggers: u32,
     interval: Interval,
+    /// Ψ_f measured where c was solved ([`Self::solve`] and
+    /// [`Self::stagger`] with `record`): per particle V_p Ḡc Z_p (J, 0 off
+    /// the phase-field bodies), per body their sum (J), and whether the
+    /// present step recorded them.
+    energy: Vec<f64>,
+    body_energy: Vec<f64>,
+    recorded: bool,
 }
 
 /// One body's particles as the phase-field system reads them.
@@ -192,18 +199,58 @@ impl PhaseFields {
             current: false,
             staggers: 0,
             interval: Interval { residual: f64::NAN, ..Default::default() },
+            energy: Vec::new(),
+            body_energy: Vec::new(),
+            recorded: false,
         })
     }
 
     /// The step's first stagger iteration: solves every body's phase field
     /// and maps c to its particles, unless the last stagger iteration of
     /// the previous step already did so for the same positions and history.
-    pub(super) fn solve<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles) -> Result<(), PhaseFieldError> {
+    /// With `record` (the step ends on a series row or a snapshot), also
+    /// measures Ψ_f ([`Self::fracture_energies`]).
+    pub(super) fn solve<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles, record: bool) -> Result<(), PhaseFieldError> {
         self.staggers = 1;
-        if std::mem::take(&mut self.current) {
-            return Ok(());
+        self.recorded = false;
+        if !std::mem::take(&mut self.current) {
+            self.solve_all::<K>(geom, bins, parts)?;
         }
-        self.solve_all::<K>(geom, bins, parts)
+        if record {
+            self.record::<K>(geom, parts);
+        }
+        Ok(())
+    }
+
+    /// Ψ_f of each body (and its density per particle) with the c just
+    /// solved, at the positions it was solved for. Measured later, after
+    /// G2P has moved the particles, a 4th-order body's Ψ_f jumped: a
+    /// particle whose support moves onto a node that was not in the system
+    /// (c = 1 there) next to cracked ones (c ≈ 0) gets the quadratic
+    /// B-spline's second derivative, 1/h², on the jump, and l₀³ γ (∇²c)²
+    /// of that one particle is worth up to 10 % of a crack's Ψ_f (P3 (iii)
+    /// at the paper's resolution: 0.210 → 0.235 → 0.210 J over three rows
+    /// 0.5 µs apart, before this).
+    fn record<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles) {
+        self.energy.resize(parts.len(), 0.0);
+        self.body_energy.resize(self.bodies.len(), 0.0);
+        for (b, body) in self.bodies.iter().enumerate() {
+            if body.c.is_empty() {
+                self.body_energy[b] = 0.0;
+                continue;
+            }
+            let energy = SyncPtr::new(&mut self.energy);
+            let (c, xs, vol) = (&body.c, &parts.x, &parts.vol);
+            body.particles.par_iter().for_each(|&p| {
+                let p = p as usize;
+                let v = vol[p] * system::fracture_energy_density::<K>(geom, c, &body.params, xs[p]);
+                // SAFETY: each particle index appears once in the body's list.
+                unsafe { *energy.at(p) = v };
+            });
+            // in the particles' order, as system::fracture_energy sums
+            self.body_energy[b] = body.particles.iter().map(|&p| self.energy[p as usize]).fold(0.0, |a, v| a + v); // (an empty f64 sum is −0.0)
+        }
+        self.recorded = true;
     }
 
     fn solve_all<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles) -> Result<(), PhaseFieldError> {
@@ -225,7 +272,7 @@ impl PhaseFields {
     /// The staggered iterations after the history update (see the module
     /// docs); `bins` must hold the particles' present tiles. With a row
     /// due (`measure`), the residual is measured even when one iteration is
-    /// allowed.
+    /// allowed; with `record`, a new solve measures Ψ_f again.
     pub(super) fn stagger<K: Kernel>(
         &mut self,
         geom: &GridGeom,
@@ -233,6 +280,7 @@ impl PhaseFields {
         parts: &mut Particles,
         mats: &[Elastic],
         measure: bool,
+        record: bool,
     ) -> Result<(), PhaseFieldError> {
         let mut residual = f64::NAN;
         if self.max_staggers > 1 || measure {
@@ -242,6 +290,9 @@ impl PhaseFields {
                     break;
                 }
                 self.solve_all::<K>(geom, bins, parts)?;
+                if record {
+                    self.record::<K>(geom, parts);
+                }
                 self.degrade(parts, mats);
                 self.staggers += 1;
                 self.current = true;
@@ -302,8 +353,13 @@ impl PhaseFields {
     }
 
     /// Ψ_f of each phase-field body with the nodal c of the last solve, J
-    /// (0 before the first solve).
+    /// (0 before the first solve): as recorded at the positions c was
+    /// solved for when the present step was asked to ([`Self::record`]),
+    /// otherwise at the present positions.
     pub(super) fn fracture_energies<K: Kernel>(&self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
+        if self.recorded {
+            return self.body_energy.clone();
+        }
         self.bodies
             .iter()
             .map(|b| {
@@ -322,6 +378,10 @@ impl PhaseFields {
     /// particles, is the body's Ψ_f of [`Self::fracture_energies`], and over
     /// a region, the energy dissipated there.
     pub(super) fn fracture_energy_densities<K: Kernel>(&self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
+        if self.recorded {
+            // per the present volume, so that V_p times it still sums to Ψ_f
+            return self.energy.iter().zip(&parts.vol).map(|(e, v)| e / v).collect();
+        }
         let mut out = vec![0.0; parts.len()];
         for b in self.bodies.iter().filter(|b| !b.c.is_empty()) {
             for &q in &b.particles {
@@ -418,5 +478,78 @@ mod tests {
         // beyond the crack's end the distance is to its end point
         let past = initial_history([1.0e-3 + 0.625e-4, 0.0], &borden, &params, spacing);
         assert!((past - 0.5 * BORDEN_B * unit).abs() < 1e-9 * past);
+    }
+
+    /// A series row reports Ψ_f where c was solved, not where G2P has
+    /// since moved the particles: there a 4th-order crack that reaches a
+    /// free face gains a spurious jump (see [`PhaseFields::record`]).
+    #[test]
+    fn the_row_reports_the_fracture_energy_where_c_was_solved() {
+        use crate::grid::shape::QuadraticBspline as K;
+        // 4 x 4 mm, h = 0.25 mm, 3 x 3 particles per cell, 4th-order
+        // isotropic, a crack across at y = 2 mm from face to face
+        let text = r#"
+[grid]
+cell_size = 2.5e-4
+min = [-0.001, -0.001]
+max = [0.005, 0.005]
+shape_function = "quadratic_bspline"
+[analysis]
+plane = "plane_strain"
+thickness = 1.0
+[time]
+end = 1.0e-8
+dt = 1.0e-8
+[materials.m]
+model = "linear_elastic"
+density = 2450.0
+youngs_modulus = 3.2e10
+poissons_ratio = 0.2
+phase_field = { gc = 1.0, l0 = 5.0e-4, k_f = 0.0, gamma = [1.0, 1.0, 0.0, 2.0] }
+[[bodies]]
+name = "plate"
+shape = { type = "box", min = [0.0, 0.0], max = [0.004, 0.004] }
+material = "m"
+particles_per_cell = 9
+cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
+"#;
+        let scene = Scene::from_text(text, None).unwrap();
+        let mut sim = crate::mpm::Simulation::new(&scene);
+        let pf = sim.phase.as_mut().unwrap();
+        pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, true).unwrap();
+        let c = pf.bodies[0].c.clone();
+        let at = |parts: &Particles| {
+            let fp = of_body(parts, 0, None);
+            system::fracture_energy::<K>(&sim.geom, &c, &fp, &pf.bodies[0].params, |_| true)
+        };
+        let solved = at(&sim.parts);
+        // the crack holds √2·Ḡc per unit length, about: 4 mm · 1 m · √2 J/m²
+        assert!((solved / (0.004 * 2f64.sqrt()) - 1.0).abs() < 0.2, "Ψ_f = {solved}");
+        // The left face's particles sit h/6 inside it. Moved out by 0.3 h
+        // their supports keep their nodes, and Ψ_f hardly changes; by
+        // 0.7 h, they take in the node column 2 h out of the face, never in
+        // the system (c = 1 there), and Ψ_f doubles.
+        let h = 2.5e-4;
+        let face: Vec<usize> = (0..sim.parts.len()).filter(|&p| sim.parts.x[p][0] < h / 3.0).collect();
+        for &p in &face {
+            sim.parts.x[p][0] -= 0.3 * h;
+        }
+        let near = at(&sim.parts);
+        assert!((near / solved - 1.0).abs() < 0.02, "{near} against {solved}");
+        for &p in &face {
+            sim.parts.x[p][0] -= 0.4 * h;
+        }
+        let moved = at(&sim.parts);
+        assert!(moved > 1.5 * solved, "measured after the move: {moved} against {solved}");
+        let pf = sim.phase.as_ref().unwrap();
+        assert_eq!(pf.fracture_energies::<K>(&sim.geom, &sim.parts), vec![solved]);
+        let densities = pf.fracture_energy_densities::<K>(&sim.geom, &sim.parts);
+        let sum: f64 = (0..sim.parts.len()).map(|p| sim.parts.vol[p] * densities[p]).sum();
+        assert!((sum - solved).abs() < 1e-12 * solved);
+        // the next step starts without the record
+        let pf = sim.phase.as_mut().unwrap();
+        pf.current = true;
+        pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, false).unwrap();
+        assert_eq!(pf.fracture_energies::<K>(&sim.geom, &sim.parts), vec![moved]);
     }
 }

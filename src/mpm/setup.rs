@@ -168,6 +168,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         snapshot_index: 0,
         grid_valid: false,
         row_due: false,
+        output_due: false,
     }
 }
 
