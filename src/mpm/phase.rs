@@ -228,9 +228,9 @@ impl PhaseFields {
     /// particle whose support moves onto a node that was not in the system
     /// (c = 1 there) next to cracked ones (c ≈ 0) gets the quadratic
     /// B-spline's second derivative, 1/h², on the jump, and l₀³ γ (∇²c)²
-    /// of that one particle is worth up to 10 % of a crack's Ψ_f (P3 (iii)
-    /// at the paper's resolution: 0.210 → 0.235 → 0.210 J over three rows
-    /// 0.5 µs apart, before this).
+    /// of the few such particles added 12 % to the beam's Ψ_f for one row
+    /// (P3 (iii) at the paper's resolution: 0.210 → 0.235 → 0.210 J over
+    /// three rows 0.5 µs apart, before this).
     fn record<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles) {
         self.energy.resize(parts.len(), 0.0);
         self.body_energy.resize(self.bodies.len(), 0.0);
