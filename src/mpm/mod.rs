@@ -729,7 +729,7 @@ impl Simulation {
             &self.mats,
             grid,
         );
-        if let Some(pf) = &self.phase {
+        if let Some(pf) = self.phase.as_mut() {
             let kind = self.scene.file.grid.shape_function;
             snap.fields.push(crate::diagnostics::Field {
                 name: "fracture_energy_density".into(),

@@ -236,6 +236,9 @@ impl PhaseFields {
         self.body_energy.resize(self.bodies.len(), 0.0);
         for (b, body) in self.bodies.iter().enumerate() {
             if body.c.is_empty() {
+                for &p in &body.particles {
+                    self.energy[p as usize] = 0.0;
+                }
                 self.body_energy[b] = 0.0;
                 continue;
             }
@@ -355,41 +358,27 @@ impl PhaseFields {
     /// Ψ_f of each phase-field body with the nodal c of the last solve, J
     /// (0 before the first solve): as recorded at the positions c was
     /// solved for when the present step was asked to ([`Self::record`]),
-    /// otherwise at the present positions.
-    pub(super) fn fracture_energies<K: Kernel>(&self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
-        if self.recorded {
-            return self.body_energy.clone();
+    /// otherwise recorded now, at the present positions (the t = 0 row, or
+    /// a caller's own row between output steps).
+    pub(super) fn fracture_energies<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
+        if !self.recorded {
+            self.record::<K>(geom, parts);
         }
-        self.bodies
-            .iter()
-            .map(|b| {
-                if b.c.is_empty() {
-                    return 0.0;
-                }
-                let fp = of_body(parts, b.body, None);
-                system::fracture_energy::<K>(geom, &b.c, &fp, &b.params, |_| true)
-            })
-            .collect()
+        self.body_energy.clone()
     }
 
     /// Per particle, the fracture energy density Ḡc·Z of its body's last
     /// solve, J/m³ (0 for particles of bodies without a phase field, and
-    /// before the first solve): V_p times it, summed over a body's
-    /// particles, is the body's Ψ_f of [`Self::fracture_energies`], and over
-    /// a region, the energy dissipated there.
-    pub(super) fn fracture_energy_densities<K: Kernel>(&self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
-        if self.recorded {
-            // per the present volume, so that V_p times it still sums to Ψ_f
-            return self.energy.iter().zip(&parts.vol).map(|(e, v)| e / v).collect();
+    /// before the first solve), from the same record as
+    /// [`Self::fracture_energies`]: V_p times it, summed over a body's
+    /// particles, is the body's Ψ_f, and over a region, the energy
+    /// dissipated there.
+    pub(super) fn fracture_energy_densities<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
+        if !self.recorded {
+            self.record::<K>(geom, parts);
         }
-        let mut out = vec![0.0; parts.len()];
-        for b in self.bodies.iter().filter(|b| !b.c.is_empty()) {
-            for &q in &b.particles {
-                let q = q as usize;
-                out[q] = system::fracture_energy_density::<K>(geom, &b.c, &b.params, parts.x[q]);
-            }
-        }
-        out
+        // per the present volume, so that V_p times it still sums to Ψ_f
+        self.energy.iter().zip(&parts.vol).map(|(e, v)| if *v > 0.0 { e / v } else { 0.0 }).collect()
     }
 
     /// The scene indices of the phase-field bodies, and of those whose
@@ -541,7 +530,7 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
         }
         let moved = at(&sim.parts);
         assert!(moved > 1.5 * solved, "measured after the move: {moved} against {solved}");
-        let pf = sim.phase.as_ref().unwrap();
+        let pf = sim.phase.as_mut().unwrap();
         assert_eq!(pf.fracture_energies::<K>(&sim.geom, &sim.parts), vec![solved]);
         let densities = pf.fracture_energy_densities::<K>(&sim.geom, &sim.parts);
         let sum: f64 = (0..sim.parts.len()).map(|p| sim.parts.vol[p] * densities[p]).sum();
