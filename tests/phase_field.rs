@@ -215,11 +215,6 @@ fn phase_field_scenes_are_validated() {
     bad("k_f = 0.0 }", in_plane, "materials.concrete.phase_field.plane_stress_split: applies to analysis.plane = \"plane_stress\" only");
     assert!(Scene::from_text(&text.replace("k_f = 0.0 }", in_plane).replace("plane = \"plane_strain\"", "plane = \"plane_stress\""), None).is_ok());
     bad("k_f = 0.0 }", "k_f = 0.0, plane_stress_split = \"2d\" }", "plane_stress_split");
-    // the solver's halo: 0 to 8 node layers
-    let halo = |n: u32| format!("{text}\n[phase_field_solver]\nhalo = {n}\n");
-    assert!(Scene::from_text(&halo(0), None).is_ok());
-    let e = Scene::from_text(&halo(9), None).unwrap_err().to_string();
-    assert!(e.contains("phase_field_solver.halo: must be in [0, 8]"), "{e}");
     // the 2nd-order model works with any shape function
     assert!(Scene::from_text(&text.replace("shape_function = \"quadratic_bspline\"", "shape_function = \"gimp\""), None).is_ok());
     let fourth_gimp = text
@@ -550,69 +545,4 @@ fn the_history_never_decreases() {
     assert!(steps > 50, "{steps} steps");
     assert!(grown > n, "the loading grows the history: {grown} particle-steps");
     assert!(unloaded > n, "the waves unload particles below half their history: {unloaded} particle-steps");
-}
-
-/// A body that moves across the grid keeps its unknowns, sparsity pattern
-/// and analysis while its active nodes stay within the halo, and the
-/// solution is the one a fresh system gets at the new positions: the halo
-/// rows change nothing else. Beyond the halo the pattern is rebuilt.
-#[test]
-fn a_moving_body_keeps_its_pattern_within_the_halo() {
-    use cleave::fracture::phase_field::system::DEFAULT_HALO as HALO;
-    let h = 0.25;
-    let geom = GridGeom::new([0.0, 0.0], h, [24, 24]);
-    let params = PhaseFieldParams { gc_bar: 1.0, l0: 0.25, k_f: 0.0, gamma: Gamma::default() };
-    // 1.5 x 1.5 block, 2 x 2 particles per cell, a crack band at y = 2.25
-    let body = |shift: f64| {
-        let mut x = Vec::new();
-        for j in 0..12 {
-            for i in 0..12 {
-                x.push([1.5 + shift + (i as f64 + 0.5) * h / 2.0, 1.5 + (j as f64 + 0.5) * h / 2.0]);
-            }
-        }
-        let history: Vec<f64> = x.iter().map(|p| if (p[1] - 2.25).abs() < h / 2.0 { 1e3 } else { 0.0 }).collect();
-        let vol = vec![h * h / 4.0; x.len()];
-        (x, vol, history)
-    };
-    let fresh = |shift: f64, method: SolveMethod| {
-        let (x, vol, history) = body(shift);
-        let mut sys = PhaseFieldSystem::new();
-        sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &history), &params);
-        sys.solve_with(geom.node_count(), method).unwrap()
-    };
-    let pcg = SolveMethod::Pcg { tolerance: 1e-12, max_iterations: 500, refactor_after: 1000 };
-    for method in [SolveMethod::Direct, pcg] {
-        let mut sys = PhaseFieldSystem::new();
-        let moved = |sys: &mut PhaseFieldSystem, shift: f64| {
-            let (x, vol, history) = body(shift);
-            sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &history), &params);
-            sys.solve_with(geom.node_count(), method).unwrap()
-        };
-        let c0 = moved(&mut sys, 0.0);
-        let unknowns = sys.len();
-        // a third of a cell: the supports of a column of particles move on
-        let c1 = moved(&mut sys, 0.35 * h);
-        assert_eq!(sys.stats.analyses, 1, "{method:?}: the pattern was rebuilt within the halo");
-        assert_eq!(sys.len(), unknowns);
-        assert!(c1 != c0, "the body did not move");
-        let worst = c1.iter().zip(&fresh(0.35 * h, SolveMethod::Direct)).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        assert!(worst < 1e-9, "{method:?}: c differs from a fresh system's by {worst}");
-        if matches!(method, SolveMethod::Pcg { .. }) {
-            assert_eq!(sys.stats.factorizations, 1, "PCG refactorized for the moved edge");
-        }
-        // beyond the halo: a new pattern, the same solution as a fresh system
-        let far = (HALO as f64 + 1.5) * h;
-        let c2 = moved(&mut sys, far);
-        assert_eq!(sys.stats.analyses, 2, "{method:?}: the pattern was kept beyond the halo");
-        let worst = c2.iter().zip(&fresh(far, SolveMethod::Direct)).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-        assert!(worst < 1e-9, "{method:?}: c differs from a fresh system's by {worst}");
-        // c is exactly 1 wherever no particle reaches
-        let (x, ..) = body(far);
-        let reach = |n: usize| {
-            let p = [geom.origin[0] + (n % geom.nodes[0]) as f64 * h, geom.origin[1] + (n / geom.nodes[0]) as f64 * h];
-            x.iter().any(|q| (q[0] - p[0]).abs() < 1.5 * h && (q[1] - p[1]).abs() < 1.5 * h)
-        };
-        let off: Vec<(usize, f64)> = (0..geom.node_count()).filter(|&n| !reach(n) && c2[n] != 1.0).map(|n| (n, c2[n])).collect();
-        assert!(off.is_empty(), "{method:?}: c ≠ 1 where no particle reaches: {off:?}");
-    }
 }

@@ -1,8 +1,6 @@
 //! `cleave bench-phase-field`: where the time of a phase-field step goes,
 //! for a scene (by default P1 at the paper's resolution), with the direct
-//! solve (the baseline), the warm-started PCG, and PCG without the halo of
-//! node layers that keeps the sparsity pattern while a body's edges move
-//! (the baseline for the halo), in the same run. Prints
+//! solve (the baseline) and the warm-started PCG in the same run. Prints
 //! the table and writes it to a Markdown file, above the file's
 //! `KEEP_BELOW` line: what a person wrote under that line survives a
 //! re-run.
@@ -16,7 +14,7 @@ use std::time::Instant;
 
 /// Seconds per step of one method.
 struct Split {
-    method: String,
+    method: &'static str,
     /// P2G, traction, grid update, G2P, re-binning.
     mpm: f64,
     assembly: f64,
@@ -33,10 +31,9 @@ struct Split {
     pcg_iterations: f64,
 }
 
-fn measure(scene: &Scene, method: PhaseFieldMethod, halo: u32, warmup: usize, steps: usize) -> anyhow::Result<Split> {
+fn measure(scene: &Scene, method: PhaseFieldMethod, warmup: usize, steps: usize) -> anyhow::Result<Split> {
     let mut scene = scene.clone();
     scene.file.phase_field_solver.method = method;
-    scene.file.phase_field_solver.halo = halo;
     let t = Instant::now();
     let mut sim = Simulation::new(&scene);
     eprintln!("{method:?}: {} particles set up in {:.1} s", sim.particles().len(), t.elapsed().as_secs_f64());
@@ -58,13 +55,10 @@ fn measure(scene: &Scene, method: PhaseFieldMethod, halo: u32, warmup: usize, st
     let pf = per(t1.phase_field, t0.phase_field);
     let solves = (s1.pcg_solves - s0.pcg_solves).max(1) as f64;
     Ok(Split {
-        method: format!(
-            "{}, halo {halo}",
-            match method {
-                PhaseFieldMethod::Direct => "direct (Cholesky every step)",
-                PhaseFieldMethod::Pcg => "PCG (warm start, last factor)",
-            }
-        ),
+        method: match method {
+            PhaseFieldMethod::Direct => "direct (Cholesky every step)",
+            PhaseFieldMethod::Pcg => "PCG (warm start, last factor)",
+        },
         mpm,
         assembly,
         factorization,
@@ -83,13 +77,8 @@ pub fn run(scene_path: &Path, out: &Path, warmup: usize, steps: usize) -> anyhow
     let total_steps = (scene.file.time.end / dt).round();
     let threads = rayon::current_num_threads();
     let mut rows = Vec::new();
-    let halo = scene.file.phase_field_solver.halo;
-    let mut variants = vec![(PhaseFieldMethod::Direct, halo), (PhaseFieldMethod::Pcg, halo)];
-    if halo > 0 {
-        variants.push((PhaseFieldMethod::Pcg, 0));
-    }
-    for (method, halo) in variants {
-        rows.push(measure(&scene, method, halo, warmup, steps)?);
+    for method in [PhaseFieldMethod::Direct, PhaseFieldMethod::Pcg] {
+        rows.push(measure(&scene, method, warmup, steps)?);
     }
     let mut md = String::new();
     writeln!(md, "# Phase-field step: where the time goes\n")?;
@@ -98,9 +87,7 @@ pub fn run(scene_path: &Path, out: &Path, warmup: usize, steps: usize) -> anyhow
         "`cargo run --release -p cleave-client -- bench-phase-field --scene {} --warmup {warmup} --steps {steps}` \
          on this machine ({threads} threads). The scene has {} particles on {} × {} cells. \
          Seconds per step over {steps} steps after {warmup} warm-up steps (the warm-up includes the \
-         symbolic analysis); all in the same run: the direct solve is PCG's baseline, and PCG \
-         without a halo (`phase_field_solver.halo = 0`: the pattern, the analysis and PCG's factor \
-         renewed whenever the nodes the particles reach change) is the halo's. \
+         symbolic analysis); both methods in the same run, the direct solve is the baseline. \
          *Full run* extrapolates the wall time per step to the scene's {total_steps} steps \
          (series rows and snapshots not included).\n",
         scene_path.display(),
@@ -129,14 +116,6 @@ pub fn run(scene_path: &Path, out: &Path, warmup: usize, steps: usize) -> anyhow
     }
     let (d, p) = (&rows[0], &rows[1]);
     writeln!(md, "\nPCG against the direct solve: {:.2}× the wall time per step.", p.wall / d.wall)?;
-    if let Some(n) = rows.get(2) {
-        writeln!(
-            md,
-            "PCG with the halo against PCG without: {:.2}× the wall time per step, {:.2}× the factorization and analysis time.",
-            p.wall / n.wall,
-            p.factorization / n.factorization.max(f64::MIN_POSITIVE)
-        )?;
-    }
     print!("{md}");
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;

@@ -173,7 +173,7 @@ impl PhaseFields {
                     body: b as u16,
                     particles,
                     params,
-                    system: PhaseFieldSystem::with_halo(scene.file.phase_field_solver.halo as usize),
+                    system: PhaseFieldSystem::new(),
                     c: Vec::new(),
                     tip: origin.map(TipTracker::new),
                     in_plane,

@@ -137,12 +137,6 @@ pub struct PhaseFieldSolverSpec {
     /// Relative residual ‖K(H)c − F‖/‖F‖ below which the stagger loop stops.
     #[serde(default = "default_stagger_tolerance")]
     pub stagger_tolerance: f64,
-    /// Node layers kept in the system around the nodes the particles reach,
-    /// so that a body whose edges move across the grid keeps its sparsity
-    /// pattern (and symbolic analysis, and PCG's factor) until they have
-    /// moved this many cells; 0 rebuilds the pattern at every change.
-    #[serde(default = "default_halo")]
-    pub halo: u32,
 }
 
 impl Default for PhaseFieldSolverSpec {
@@ -154,16 +148,12 @@ impl Default for PhaseFieldSolverSpec {
             refactor_after: default_pcg_refactor(),
             max_staggers: default_max_staggers(),
             stagger_tolerance: default_stagger_tolerance(),
-            halo: default_halo(),
         }
     }
 }
 
 fn default_max_staggers() -> u32 {
     1
-}
-fn default_halo() -> u32 {
-    crate::fracture::phase_field::system::DEFAULT_HALO as u32
 }
 fn default_stagger_tolerance() -> f64 {
     1e-6

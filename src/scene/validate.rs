@@ -467,9 +467,6 @@ fn check_output_and_guards(c: &mut Checker, file: &SceneFile) {
     if c.finite("phase_field_solver.stagger_tolerance", pf.stagger_tolerance) && !(pf.stagger_tolerance > 0.0) {
         c.err("phase_field_solver.stagger_tolerance", format!("must be > 0, got {}", pf.stagger_tolerance));
     }
-    if pf.halo > 8 {
-        c.err("phase_field_solver.halo", format!("must be in [0, 8] node layers, got {}", pf.halo));
-    }
     if file.output.series_rows < 2 || file.output.series_rows > 10_000_000 {
         c.err("output.series_rows", format!("must be in [2, 10000000], got {}", file.output.series_rows));
     }

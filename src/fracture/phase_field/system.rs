@@ -10,20 +10,10 @@
 //!
 //! The matrix is symmetric positive definite (mass-like term with a
 //! positive coefficient, plus two positive semi-definite terms when a(n) ≥ 0
-//! for all n). Only the lower triangle is stored.
-//!
-//! The unknowns are the active nodes (those a particle's support reaches)
-//! and a halo of node layers around them ([`DEFAULT_HALO`] unless the
-//! scene says otherwise), kept while the active nodes stay inside it. A
-//! halo node no particle reaches has a row of its own, `D c_I = D` (c = 1,
-//! undamaged, as everywhere outside the system), so it changes nothing
-//! else. Bodies whose edges move across the grid then keep one sparsity
-//! pattern for many steps: the symbolic analysis (AMD ordering,
-//! elimination tree) is reused, and so is PCG's factor, for which a node
-//! entering or leaving the active set is a small change. faer does not
-//! check that a reused analysis matches the matrix, so the pattern is
-//! rebuilt (and the analysis dropped) whenever the set of unknowns
-//! changes, and only then.
+//! for all n). Only the lower triangle is stored. The symbolic analysis
+//! (AMD ordering, elimination tree) is kept while the set of active nodes
+//! is unchanged; faer does not check that a reused analysis matches the
+//! matrix, so the node set itself is compared before every reuse.
 
 use super::anisotropy::Gamma;
 use crate::grid::shape::{Kernel, MAX_SUPPORT};
@@ -308,30 +298,12 @@ impl Accumulate<'_> {
     }
 }
 
-/// Node layers kept around the active nodes by default (see the module's
-/// doc): a body's edge can move this many cells before the pattern changes.
-pub const DEFAULT_HALO: usize = 2;
-
 /// The assembled system and the factorization kept between solves.
 pub struct PhaseFieldSystem {
-    /// The unknowns' nodes (ascending), in this order: the active nodes
-    /// and their halo.
+    /// Active nodes (ascending); the unknowns, in this order.
     dofs: Vec<u32>,
     /// Dof of every grid node, or u32::MAX.
     dof_of: Vec<u32>,
-    /// Node layers kept around the active nodes.
-    halo_layers: usize,
-    /// Per dof: no particle reaches its node (a halo row, c = 1); and the
-    /// list of those dofs.
-    halo: Vec<bool>,
-    halo_dofs: Vec<u32>,
-    /// ‖F‖ over the active rows (what PCG's tolerance and the history
-    /// residual are relative to).
-    norm_f: f64,
-    /// Per grid node, scratch of `set_active` (false between calls); and
-    /// the active rows' diagonal values.
-    node_scratch: Vec<bool>,
-    diag_scratch: Vec<f64>,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     /// For column dof c and stencil offset k (see `offset_index`), the
@@ -391,24 +363,10 @@ impl Default for PhaseFieldSystem {
 }
 
 impl PhaseFieldSystem {
-    /// A system with the default halo ([`DEFAULT_HALO`]).
     pub fn new() -> Self {
-        Self::with_halo(DEFAULT_HALO)
-    }
-
-    /// A system that keeps `layers` node layers around the active nodes
-    /// (0: the unknowns are exactly the active nodes, and the pattern is
-    /// rebuilt whenever they change).
-    pub fn with_halo(layers: usize) -> Self {
         PhaseFieldSystem {
-            halo_layers: layers,
             dofs: Vec::new(),
             dof_of: Vec::new(),
-            halo: Vec::new(),
-            halo_dofs: Vec::new(),
-            norm_f: 0.0,
-            node_scratch: Vec::new(),
-            diag_scratch: Vec::new(),
             col_ptr: Vec::new(),
             row_idx: Vec::new(),
             nbr: Vec::new(),
@@ -515,23 +473,14 @@ impl PhaseFieldSystem {
         changed || fresh
     }
 
-    /// Marks the active nodes, those the particles' supports reach with
+    /// Sets the unknowns to the nodes the particles' supports reach with
     /// positive weight (the GIMP window and the knots of B-splines include
-    /// nodes at exactly zero weight, whose rows would be singular). While
-    /// they all lie among the unknowns (and those are not many times more,
-    /// as after a body shrank), the unknowns and the pattern stay and only
-    /// the halo rows are marked anew. Otherwise the unknowns become the active nodes
-    /// and the halo's layers around them, the sparsity pattern and the
-    /// position table are rebuilt, the analysis and the factor are dropped,
-    /// and the last solution is carried over node by node (c = 1 at new
-    /// nodes) for PCG's start.
+    /// nodes at exactly zero weight, whose rows would be singular), and
+    /// rebuilds the sparsity pattern and the position table.
     fn set_active<K: Kernel>(&mut self, geom: &GridGeom) {
         let nodes = geom.node_count();
+        let mut active = vec![false; nodes];
         let nx = geom.nodes[0];
-        let mut active = std::mem::take(&mut self.node_scratch);
-        active.clear();
-        active.resize(nodes, false);
-        let mut count = 0usize;
         for &key in &self.keys {
             if key >= u64::MAX - 1 {
                 continue;
@@ -539,59 +488,14 @@ impl PhaseFieldSystem {
             let base = (key >> 16) as usize;
             for k in 0..K::N * K::N {
                 if key & (1 << k) != 0 {
-                    let node = base + (k % K::N) + (k / K::N) * nx;
-                    count += usize::from(!active[node]);
-                    active[node] = true;
+                    active[base + (k % K::N) + (k / K::N) * nx] = true;
                 }
             }
         }
-        let kept = self.dof_of.len() == nodes
-            && active.iter().zip(&self.dof_of).all(|(&a, &d)| !a || d != u32::MAX)
-            && self.dofs.len() <= 4 * count + 1024;
-        if kept {
-            self.halo_dofs.clear();
-            for (d, &node) in self.dofs.iter().enumerate() {
-                self.halo[d] = !active[node as usize];
-                if self.halo[d] {
-                    self.halo_dofs.push(d as u32);
-                }
-            }
-            active.fill(false);
-            self.node_scratch = active;
+        let dofs: Vec<u32> = (0..nodes as u32).filter(|&n| active[n as usize]).collect();
+        if dofs == self.dofs && self.dof_of.len() == nodes {
             return;
         }
-        // the new unknowns: the active nodes and the halo around them
-        let mut inset = vec![false; nodes];
-        let [nx_i, ny_i] = [geom.nodes[0] as isize, geom.nodes[1] as isize];
-        let r = self.halo_layers as isize;
-        for node in (0..nodes).filter(|&n| active[n]) {
-            let (ix, iy) = ((node % nx) as isize, (node / nx) as isize);
-            for y in (iy - r).max(0)..=(iy + r).min(ny_i - 1) {
-                for x in (ix - r).max(0)..=(ix + r).min(nx_i - 1) {
-                    inset[(x + y * nx_i) as usize] = true;
-                }
-            }
-        }
-        let dofs: Vec<u32> = (0..nodes as u32).filter(|&n| inset[n as usize]).collect();
-        // the last solution, node by node, for PCG's start
-        if self.last.len() == self.dofs.len() && self.dof_of.len() == nodes && !self.last.is_empty() {
-            let last: Vec<f64> = dofs
-                .iter()
-                .map(|&n| match self.dof_of[n as usize] {
-                    u32::MAX => 1.0,
-                    d => self.last[d as usize],
-                })
-                .collect();
-            self.last = last;
-        } else {
-            self.last.clear();
-        }
-        self.halo.clear();
-        self.halo.extend(dofs.iter().map(|&n| !active[n as usize]));
-        self.halo_dofs.clear();
-        self.halo_dofs.extend((0..dofs.len() as u32).filter(|&d| self.halo[d as usize]));
-        active.fill(false);
-        self.node_scratch = active;
         self.dof_of.clear();
         self.dof_of.resize(nodes, u32::MAX);
         for (d, &n) in dofs.iter().enumerate() {
@@ -602,7 +506,7 @@ impl PhaseFieldSystem {
         // one support, i.e. within K::N − 1 nodes along each axis.
         let w = K::N as isize - 1;
         let side = (2 * w + 1) as usize;
-        let [nx, ny] = [nx_i, ny_i];
+        let [nx, ny] = [geom.nodes[0] as isize, geom.nodes[1] as isize];
         self.col_ptr.clear();
         self.row_idx.clear();
         self.diag.clear();
@@ -634,59 +538,7 @@ impl PhaseFieldSystem {
         self.symbolic = None;
         self.trisolve = None;
         self.factored = false;
-    }
-
-    /// Makes the halo rows `D c_I = D`, free of any coupling: a support's
-    /// zero-weight nodes may have added terms to them (a linear kernel's
-    /// gradient at the end of its support), which the active nodes alone,
-    /// before the halo, never received either. D is the smallest diagonal
-    /// of the active rows: a node enters or leaves the active set at the
-    /// end of the supports that reach it, where its diagonal is smallest,
-    /// so PCG's factor, made before the change, is nearly right for its
-    /// row. (With the median diagonal instead, the first 12 µs of P3 (i)
-    /// took 6161 PCG iterations against 5971.)
-    fn set_halo_rows<K: Kernel>(&mut self, geom: &GridGeom) {
-        if self.halo_dofs.is_empty() {
-            return;
-        }
-        self.diag_scratch.clear();
-        self.diag_scratch.extend(self.diag.iter().zip(&self.halo).filter(|(_, &h)| !h).map(|(&k, _)| self.values[k as usize]));
-        let d = if self.diag_scratch.is_empty() {
-            1.0
-        } else {
-            self.diag_scratch.iter().copied().fold(f64::INFINITY, f64::min)
-        };
-        let w = K::N as isize - 1;
-        let side = (2 * w + 1) as usize;
-        let nx = geom.nodes[0] as isize;
-        for &hd in &self.halo_dofs {
-            let hd = hd as usize;
-            // its column: the entries of rows at or after it
-            for k in self.col_ptr[hd]..self.col_ptr[hd + 1] {
-                self.values[k] = 0.0;
-            }
-            // its row: the entries in the columns of nodes before it
-            let node = self.dofs[hd] as isize;
-            let (ix, iy) = (node % nx, node / nx);
-            for dy in 0..=w {
-                for dx in -w..=w {
-                    let (x, y) = (ix - dx, iy - dy);
-                    if (dy == 0 && dx <= 0) || y < 0 || x < 0 || x >= nx {
-                        continue;
-                    }
-                    let col = self.dof_of[(x + y * nx) as usize];
-                    if col == u32::MAX {
-                        continue;
-                    }
-                    let pos = self.nbr[col as usize * side * side + ((dy + w) as usize) * side + (dx + w) as usize];
-                    if pos != u32::MAX {
-                        self.values[pos as usize] = 0.0;
-                    }
-                }
-            }
-            self.values[self.diag[hd] as usize] = d;
-            self.rhs[hd] = d;
-        }
+        self.last.clear();
     }
 
     /// Assembles K and F (eq. 57) from the particles.
@@ -743,14 +595,12 @@ impl PhaseFieldSystem {
         // contact). The penalty δ(c_I − 1) with δ = PIVOT_FLOOR·max K_II
         // holds such nodes at the undamaged c = 1 and changes c at
         // well-supported nodes by a relative 1e-12.
-        self.set_halo_rows::<K>(geom);
         let max_diag = self.diag.iter().map(|&k| self.values[k as usize]).fold(0.0, f64::max);
         let delta = PIVOT_FLOOR * max_diag;
         for (d, &k) in self.diag.iter().enumerate() {
             self.values[k as usize] += delta;
             self.rhs[d] += delta;
         }
-        self.norm_f = self.rhs.iter().zip(&self.halo).filter(|(_, &h)| !h).map(|(f, _)| f * f).fold(0.0, |a, b| a + b).sqrt();
         self.stats.assembly += t0.elapsed().as_secs_f64();
     }
 
@@ -762,7 +612,7 @@ impl PhaseFieldSystem {
     /// there was none. Scattered over the bins' colours when `parts` has
     /// bins, serially otherwise.
     pub fn history_residual<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, w: &[f64]) -> f64 {
-        let norm_f = self.norm_f;
+        let norm_f = self.rhs.iter().map(|f| f * f).fold(0.0, |a, b| a + b).sqrt();
         if norm_f == 0.0 {
             return 0.0;
         }
@@ -872,11 +722,9 @@ impl PhaseFieldSystem {
             SolveMethod::Pcg { tolerance, max_iterations, refactor_after } => self.renew(tolerance, max_iterations, refactor_after)?,
             SolveMethod::Direct => self.direct()?,
         }
-        // the solution is in `x`; c stays 1 at the halo rows' nodes
+        // the solution is in `x`
         for (d, &node) in self.dofs.iter().enumerate() {
-            if !self.halo[d] {
-                c[node as usize] = self.x[d];
-            }
+            c[node as usize] = self.x[d];
         }
         std::mem::swap(&mut self.last, &mut self.x);
         Ok(())
@@ -1010,7 +858,7 @@ impl PhaseFieldSystem {
     fn pcg_iterate(&mut self, x: &mut [f64], w: &mut PcgWork, tolerance: f64, max_iterations: usize) -> (bool, usize) {
         let n = x.len();
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).fold(0.0, |s, t| s + t);
-        let norm_b = self.norm_f;
+        let norm_b = dot(&self.rhs, &self.rhs).sqrt();
         let PcgWork { ap, r, z, p } = w;
         for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
             v.clear();
