@@ -5,7 +5,7 @@
 /// All particles of a simulation. Index `p` is the same particle in every
 /// array. Particles are stored tile by tile (sorted once when the
 /// simulation is built); `id` keeps the seeding order.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Particles {
     /// Stable id: the seeding order (bodies in scene order).
     pub id: Vec<u32>,

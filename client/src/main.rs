@@ -53,6 +53,17 @@ enum Command {
         /// No progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Save a checkpoint (OUT/checkpoint.bin) every this many seconds
+        /// of wall time, so that `--resume` can go on after the process
+        /// is lost; removed when the run completes. Embedded runs only.
+        #[arg(long, value_name = "SECONDS")]
+        checkpoint_every: Option<f64>,
+        /// Go on from OUT/checkpoint.bin (the same scene): the series is
+        /// cut back to the checkpoint and continued, bit for bit as if the
+        /// run had not stopped (with the PCG phase-field solver, to its
+        /// tolerance). Embedded runs only.
+        #[arg(long)]
+        resume: bool,
     },
     /// Measure particle-steps per second of the explicit step (1 and 2 threads).
     Bench {
@@ -247,7 +258,9 @@ fn main() -> ExitCode {
         return remote_main(&server, cli.token.as_deref(), cli.ca_cert.as_deref(), cli.command);
     }
     match cli.command {
-        Command::Run { scene, out, json, quiet } => run(&scene, &out, json, quiet),
+        Command::Run { scene, out, json, quiet, checkpoint_every, resume } => {
+            run(&scene, &out, json, quiet, Checkpointing { every: checkpoint_every, resume })
+        }
         Command::Validate { scene, json } => validate(&scene, json),
         Command::Submit { .. } | Command::Watch { .. } | Command::Fetch { .. } | Command::List { .. } | Command::Get { .. } | Command::Cancel { .. } => {
             eprintln!("error: this command talks to a server: give --server URL (or set CLEAVE_SERVER)");
@@ -362,10 +375,20 @@ fn validate(path: &Path, json: bool) -> ExitCode {
     }
 }
 
-/// Writes results and drives the progress bar.
+/// `cleave run`'s checkpoint options.
+#[derive(Debug, Clone, Copy)]
+struct Checkpointing {
+    /// Wall seconds between checkpoints.
+    every: Option<f64>,
+    resume: bool,
+}
+
+/// Writes results, drives the progress bar and asks for checkpoints.
 struct RunObserver {
     writer: OutputWriter,
     bar: Option<ProgressBar>,
+    checkpoint_every: Option<std::time::Duration>,
+    last_checkpoint: std::time::Instant,
 }
 
 impl Observer for RunObserver {
@@ -385,16 +408,28 @@ impl Observer for RunObserver {
                 bar.set_message(format!("step {} t = {:.3e} s", p.step, p.time));
             }
         }
-        Control::Continue
+        match self.checkpoint_every {
+            Some(every) if self.last_checkpoint.elapsed() >= every && p.time < p.end_time => {
+                self.last_checkpoint = std::time::Instant::now();
+                Control::Checkpoint
+            }
+            _ => Control::Continue,
+        }
+    }
+    fn checkpoint(&mut self, cp: cleave::mpm::Checkpoint) -> Result<(), String> {
+        let (step, time) = (cp.step(), cp.time());
+        self.writer.checkpoint(cp)?;
+        tracing::info!(step, time, "checkpoint saved");
+        Ok(())
     }
 }
 
-fn run(path: &Path, out: &Path, json: bool, quiet: bool) -> ExitCode {
+fn run(path: &Path, out: &Path, json: bool, quiet: bool, ck: Checkpointing) -> ExitCode {
     let scene = match Scene::from_path(path) {
         Ok(s) => s,
         Err(e) => return report_invalid(path, &e, json),
     };
-    match run_valid(path, &scene, out, json, quiet) {
+    match run_valid(path, &scene, out, json, quiet, ck) {
         Ok(code) => code,
         Err(e) => {
             if json {
@@ -406,7 +441,12 @@ fn run(path: &Path, out: &Path, json: bool, quiet: bool) -> ExitCode {
     }
 }
 
-fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool) -> anyhow::Result<ExitCode> {
+fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool, ck: Checkpointing) -> anyhow::Result<ExitCode> {
+    let checkpoint_every = match ck.every {
+        Some(s) if !(s.is_finite() && s >= 0.0) => anyhow::bail!("--checkpoint-every: must be a number of seconds >= 0, got {s}"),
+        Some(s) => Some(std::time::Duration::from_secs_f64(s)),
+        None => None,
+    };
     if !json {
         eprintln!(
             "{}: {} particles, {} x {} cells; plan: {}",
@@ -417,7 +457,17 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool) ->
             scene.plan
         );
     }
-    let writer = OutputWriter::create(out).with_context(|| format!("cannot write results to {}", out.display()))?;
+    let (writer, mut sim) = if ck.resume {
+        let (writer, cp) = OutputWriter::resume(out).with_context(|| format!("cannot resume the run in {}", out.display()))?;
+        if !json {
+            eprintln!("resuming at step {} (t = {:.6e} s) from {}", cp.step(), cp.time(), OutputWriter::checkpoint_path(out).display());
+        }
+        let sim = Simulation::resume(scene, cp).with_context(|| format!("cannot resume {} from {}", path.display(), OutputWriter::checkpoint_path(out).display()))?;
+        (writer, sim)
+    } else {
+        let writer = OutputWriter::create(out).with_context(|| format!("cannot write results to {}", out.display()))?;
+        (writer, Simulation::new(scene))
+    };
     let bar = (!quiet && !json).then(|| {
         let bar = ProgressBar::new(1000);
         bar.set_style(
@@ -426,8 +476,7 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool) ->
         );
         bar
     });
-    let mut obs = RunObserver { writer, bar };
-    let mut sim = Simulation::new(scene);
+    let mut obs = RunObserver { writer, bar, checkpoint_every, last_checkpoint: std::time::Instant::now() };
     let result = sim.run(&mut obs);
     if let Some(bar) = &obs.bar {
         bar.finish_and_clear();
@@ -435,6 +484,10 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool) ->
     // Write the collections and plots even after a failure: the rows and
     // snapshots up to the failure are what a user needs to see why.
     let paths = obs.writer.finish().context("finishing the output files")?;
+    if matches!(&result, Ok(s) if !s.cancelled) {
+        // a finished run's checkpoint would only repeat its end
+        let _ = std::fs::remove_file(OutputWriter::checkpoint_path(out));
+    }
     match result {
         Ok(summary) => {
             let row = summary.last_row;
@@ -516,7 +569,13 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
                 Command::Study { scene, vary, metric, reference, out, json } => {
                     study::main_remote(&mut client, study::Options { scene, vary, metric, reference, out, json }).await
                 }
-                Command::Run { scene, out, json, quiet } => {
+                Command::Run { scene, out, json, quiet, checkpoint_every, resume } => {
+                    if checkpoint_every.is_some() || resume {
+                        return Err(remote::RemoteError::new(
+                            EXIT_INVALID,
+                            "--checkpoint-every and --resume work on embedded runs only (without --server)",
+                        ));
+                    }
                     let job = remote::submit(&mut client, &scene, "").await?;
                     if !json {
                         eprintln!("{}: job {} on {server}; {} particles; plan: {}", scene.display(), job.id, job.particles, job.stages.join(" → "));

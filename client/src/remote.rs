@@ -46,7 +46,7 @@ fn code_name(c: Code) -> &'static str {
 }
 
 impl RemoteError {
-    fn new(code: u8, message: impl Into<String>) -> Self {
+    pub fn new(code: u8, message: impl Into<String>) -> Self {
         RemoteError { code, message: message.into() }
     }
 

@@ -32,7 +32,7 @@ impl CrackTip {
 }
 
 /// Follows one body's crack tip from row to row.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TipTracker {
     pub origin: [f64; 2],
     /// (time, crack length) at the last measured row.

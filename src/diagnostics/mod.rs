@@ -13,7 +13,7 @@ use serde::Serialize;
 /// `extra` holds the columns of the stages a scene has (e.g. the phase
 /// field's solver times and crack tip), named by
 /// [`Simulation::series_columns`](crate::mpm::Simulation::series_columns).
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, serde::Deserialize)]
 pub struct SeriesRow {
     pub step: u64,
     /// Simulated time, s.
@@ -208,6 +208,9 @@ pub enum Control {
     Continue,
     /// Stop at the end of this step (cancellation).
     Stop,
+    /// Hand a checkpoint of the end of this step to
+    /// [`Observer::checkpoint`], then go on.
+    Checkpoint,
 }
 
 /// Receives what a run produces. Errors from an observer (e.g. a full disk)
@@ -221,6 +224,12 @@ pub trait Observer {
     /// Called after every step; return [`Control::Stop`] to cancel.
     fn progress(&mut self, _progress: &Progress) -> Control {
         Control::Continue
+    }
+    /// The run's state at the end of the step whose progress asked for it
+    /// with [`Control::Checkpoint`], after that step's row and snapshot
+    /// were handed over.
+    fn checkpoint(&mut self, _checkpoint: crate::mpm::Checkpoint) -> Result<(), String> {
+        Ok(())
     }
 }
 

@@ -324,6 +324,39 @@ impl Bins {
             self.order[*c as usize] = p as u32;
             *c += 1;
         }
+        self.tiles_from_start(geom);
+    }
+
+    /// The bins of particles at `x` in a saved `order` (a checkpoint's:
+    /// within a tile the order depends on where the particles were at the
+    /// last rebuild, and it sets the order of the sums into the grid).
+    /// Fails if `order` does not list every particle once, tile by tile.
+    pub fn restore(&mut self, geom: &GridGeom, x: &[[f64; 2]], order: Vec<u32>) -> Result<(), String> {
+        let ntiles = geom.tiles[0] * geom.tiles[1];
+        self.tile_of = x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect();
+        let mut seen = vec![false; x.len()];
+        let sorted = order.len() == x.len()
+            && order.iter().all(|&p| (p as usize) < x.len() && !std::mem::replace(&mut seen[p as usize], true))
+            && order.windows(2).all(|w| self.tile_of[w[0] as usize] <= self.tile_of[w[1] as usize]);
+        if !sorted {
+            return Err("the saved particle order does not sort the particles by tile".into());
+        }
+        self.start.clear();
+        self.start.resize(ntiles + 1, 0);
+        for &t in &self.tile_of {
+            self.start[t as usize + 1] += 1;
+        }
+        for t in 0..ntiles {
+            self.start[t + 1] += self.start[t];
+        }
+        self.order = order;
+        self.tiles_from_start(geom);
+        Ok(())
+    }
+
+    /// The colours and the active node runs of the tiles `start` fills.
+    fn tiles_from_start(&mut self, geom: &GridGeom) {
+        let ntiles = geom.tiles[0] * geom.tiles[1];
         for c in &mut self.colours {
             c.clear();
         }

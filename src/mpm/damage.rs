@@ -26,6 +26,15 @@ pub(super) struct DamageState {
     finder: FragmentFinder,
 }
 
+/// What a checkpoint keeps of the damage stage: the energy released so
+/// far and the crack-tip trackers (the rest follows from the scene and the
+/// particle arrays).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(super) struct DamageSaved {
+    dissipated: f64,
+    tips: Vec<TipTracker>,
+}
+
 /// A body whose crack tip is tracked ([`DamageState::crack_tips`]).
 struct TrackedCrack {
     body: usize,
@@ -103,6 +112,21 @@ impl DamageState {
                 self.tips.push(TrackedCrack { body: b, particles, member, roots, tracker: TipTracker::new(o) });
             }
         }
+    }
+
+    pub(super) fn saved(&self) -> DamageSaved {
+        DamageSaved { dissipated: self.dissipated, tips: self.tips.iter().map(|t| t.tracker).collect() }
+    }
+
+    pub(super) fn restore(&mut self, s: DamageSaved) -> Result<(), String> {
+        if s.tips.len() != self.tips.len() {
+            return Err(format!("{} tracked cracks in the checkpoint, {} in the scene", s.tips.len(), self.tips.len()));
+        }
+        self.dissipated = s.dissipated;
+        for (t, tracker) in self.tips.iter_mut().zip(s.tips) {
+            t.tracker = tracker;
+        }
+        Ok(())
     }
 
     pub(super) fn update(&mut self, parts: &mut Particles, dt: f64) -> DamageStep {

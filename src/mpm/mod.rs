@@ -10,6 +10,7 @@
 //!
 //! Entry points: [`Simulation::new`] then [`Simulation::run`].
 
+mod checkpoint;
 mod damage;
 mod g2p;
 mod grid_update;
@@ -17,6 +18,7 @@ mod p2g;
 mod phase;
 mod setup;
 
+pub use checkpoint::{Checkpoint, CheckpointError};
 pub use g2p::BadKind;
 
 use crate::contact::{self, ContactLaw};
@@ -79,7 +81,7 @@ pub enum SimError {
 }
 
 /// Wall time spent in each stage, s.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct StageTimes {
     pub damage_field: f64,
     pub field_partition: f64,
@@ -167,6 +169,8 @@ pub struct Simulation {
     /// The step about to run ends on a series row or a snapshot (the phase
     /// field then measures Ψ_f where it solves c).
     output_due: bool,
+    /// Resumed from a checkpoint: where [`Simulation::run`] goes on.
+    resumed: Option<checkpoint::RunClock>,
 }
 
 impl Simulation {
@@ -260,15 +264,22 @@ impl Simulation {
         let row_time = |k: u64| end * k as f64 / (rows - 1) as f64;
         let snap_time = |k: u64| if snaps <= 1 { end } else { end * k as f64 / (snaps - 1) as f64 };
 
-        obs.series_columns(&self.series_columns()).map_err(SimError::Observer)?;
-        let mut last = self.row();
-        self.initial_energy = last.kinetic_energy + last.strain_energy;
-        obs.series_row(&last).map_err(SimError::Observer)?;
-        let (mut next_row, mut next_snap) = (1u64, 0u64);
-        if snaps > 0 && snap_time(0) <= 0.0 {
-            self.emit_snapshot(obs)?;
-            next_snap = 1;
-        }
+        let (mut last, mut next_row, mut next_snap) = match self.resumed.take() {
+            // a resumed run's header, first rows and snapshots are written
+            Some(c) => (c.last, c.next_row, c.next_snap),
+            None => {
+                obs.series_columns(&self.series_columns()).map_err(SimError::Observer)?;
+                let last = self.row();
+                self.initial_energy = last.kinetic_energy + last.strain_energy;
+                obs.series_row(&last).map_err(SimError::Observer)?;
+                let mut next_snap = 0;
+                if snaps > 0 && snap_time(0) <= 0.0 {
+                    self.emit_snapshot(obs)?;
+                    next_snap = 1;
+                }
+                (last, 1, next_snap)
+            }
+        };
         let mut cancelled = false;
         while self.time < end * (1.0 - 1e-12) {
             if self.step >= max_steps {
@@ -302,9 +313,16 @@ impl Simulation {
                 kinetic_energy: last.kinetic_energy,
                 strain_energy: last.strain_energy,
             };
-            if obs.progress(&progress) == Control::Stop {
-                cancelled = true;
-                break;
+            match obs.progress(&progress) {
+                Control::Continue => {}
+                Control::Stop => {
+                    cancelled = true;
+                    break;
+                }
+                Control::Checkpoint => {
+                    let cp = self.checkpoint_at(checkpoint::RunClock { next_row, next_snap, last: last.clone() });
+                    obs.checkpoint(cp).map_err(SimError::Observer)?;
+                }
             }
         }
         if !cancelled && last.step != self.step {

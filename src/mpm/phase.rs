@@ -135,6 +135,17 @@ pub(super) struct PhaseFields {
     recorded: bool,
 }
 
+/// What a checkpoint keeps of the phase fields (`mpm::checkpoint`): per
+/// body the nodal c of the last solve (PCG's warm start; the particles'
+/// c and H are in the particle arrays) and the crack-tip tracker, and
+/// whether c is current for the next step.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(super) struct PhaseState {
+    c: Vec<Vec<f64>>,
+    tips: Vec<Option<TipTracker>>,
+    current: bool,
+}
+
 /// One body's particles as the phase-field system reads them.
 fn of_body<'a>(parts: &'a Particles, body: u16, bins: Option<&'a Bins>) -> FieldParticles<'a> {
     FieldParticles { x: &parts.x, vol: &parts.vol, history: &parts.history, body: Some((&parts.body, body)), bins }
@@ -203,6 +214,31 @@ impl PhaseFields {
             body_energy: Vec::new(),
             recorded: false,
         })
+    }
+
+    pub(super) fn state(&self) -> PhaseState {
+        PhaseState {
+            c: self.bodies.iter().map(|b| b.c.clone()).collect(),
+            tips: self.bodies.iter().map(|b| b.tip).collect(),
+            current: self.current,
+        }
+    }
+
+    /// Takes up a checkpoint's [`PhaseState`]; the solver starts afresh
+    /// (analysis and factor on the next solve).
+    pub(super) fn restore(&mut self, s: PhaseState) -> Result<(), String> {
+        if s.c.len() != self.bodies.len() || s.tips.len() != self.bodies.len() {
+            return Err(format!("{} phase-field bodies in the checkpoint, {} in the scene", s.c.len(), self.bodies.len()));
+        }
+        for ((body, c), tip) in self.bodies.iter_mut().zip(s.c).zip(s.tips) {
+            if tip.is_some() != body.tip.is_some() {
+                return Err(format!("body {}: the crack tip is tracked in one and not the other", body.body));
+            }
+            body.c = c;
+            body.tip = tip;
+        }
+        self.current = s.current;
+        Ok(())
     }
 
     /// The step's first stagger iteration: solves every body's phase field

@@ -169,6 +169,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         grid_valid: false,
         row_due: false,
         output_due: false,
+        resumed: None,
     }
 }
 

@@ -15,6 +15,7 @@ pub use plot::{plot_crack, plot_energies, plot_log_x, plot_pareto, plot_particle
 pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
 
 use crate::diagnostics::{Observer, SeriesRow, Snapshot};
+use crate::mpm::{Checkpoint, CheckpointError};
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -49,6 +50,21 @@ pub struct OutputPaths {
     pub snapshots: Vec<PathBuf>,
 }
 
+/// The checkpoint's file name in an output directory.
+pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
+
+/// What a checkpoint keeps of an [`OutputWriter`].
+#[derive(serde::Serialize, serde::Deserialize)]
+struct WriterState {
+    columns: Vec<String>,
+    rows: Vec<SeriesRow>,
+    particle_entries: Vec<(f64, String)>,
+    grid_entries: Vec<(f64, String)>,
+    snapshots: Vec<PathBuf>,
+    /// Length of `series.csv` at the checkpoint.
+    series_bytes: u64,
+}
+
 /// Writes a run's results into a directory as they arrive.
 pub struct OutputWriter {
     dir: PathBuf,
@@ -78,6 +94,69 @@ impl OutputWriter {
             particle_entries: Vec::new(),
             grid_entries: Vec::new(),
             snapshots: Vec::new(),
+        })
+    }
+
+    /// The writer's state, for a checkpoint of the run (postcard bytes; see
+    /// [`OutputWriter::resume`]). Flushes the series first.
+    fn checkpoint_state(&mut self) -> Result<Vec<u8>, OutputError> {
+        self.series.flush().map_err(|e| OutputError::new(&self.series_path, e))?;
+        let bytes = self.series.get_ref().metadata().map_err(|e| OutputError::new(&self.series_path, e))?.len();
+        let state = WriterState {
+            columns: self.columns.clone(),
+            rows: self.rows.clone(),
+            particle_entries: self.particle_entries.clone(),
+            grid_entries: self.grid_entries.clone(),
+            snapshots: self.snapshots.clone(),
+            series_bytes: bytes,
+        };
+        postcard::to_stdvec(&state).map_err(|e| OutputError::new(&self.series_path, std::io::Error::other(e)))
+    }
+
+    /// Where [`Observer::checkpoint`] saves a run's checkpoint in its
+    /// output directory.
+    pub fn checkpoint_path(dir: &Path) -> PathBuf {
+        dir.join(CHECKPOINT_FILE)
+    }
+
+    /// The writer of a run resumed in `dir` from its checkpoint
+    /// ([`OutputWriter::checkpoint_path`]), and the checkpoint for
+    /// [`Simulation::resume`](crate::mpm::Simulation::resume):
+    /// `series.csv` is cut back to the rows written up to the checkpoint
+    /// (rows a lost later part of the run wrote are dropped; the resumed
+    /// run writes them again) and goes on from there. Snapshot files of
+    /// the lost part are overwritten as the resumed run reaches them.
+    pub fn resume(dir: &Path) -> Result<(OutputWriter, Checkpoint), OutputError> {
+        let path = Self::checkpoint_path(dir);
+        let cp = Checkpoint::load(&path).map_err(|e| match e {
+            CheckpointError::Io(e) => OutputError::new(&path, e),
+            e => OutputError::new(&path, std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string())),
+        })?;
+        let writer = Self::resume_with(dir, &cp.observer)?;
+        Ok((writer, cp))
+    }
+
+    fn resume_with(dir: &Path, state: &[u8]) -> Result<OutputWriter, OutputError> {
+        let series_path = dir.join("series.csv");
+        let bad = |m: String| OutputError::new(&series_path, std::io::Error::new(std::io::ErrorKind::InvalidData, m));
+        let s: WriterState = postcard::from_bytes(state).map_err(|e| bad(format!("the checkpoint's output state: {e}")))?;
+        let file = std::fs::OpenOptions::new().write(true).open(&series_path).map_err(|e| OutputError::new(&series_path, e))?;
+        let len = file.metadata().map_err(|e| OutputError::new(&series_path, e))?.len();
+        if len < s.series_bytes {
+            return Err(bad(format!("{len} bytes, shorter than the {} the checkpoint has written", s.series_bytes)));
+        }
+        file.set_len(s.series_bytes).map_err(|e| OutputError::new(&series_path, e))?;
+        let mut file = file;
+        std::io::Seek::seek(&mut file, std::io::SeekFrom::End(0)).map_err(|e| OutputError::new(&series_path, e))?;
+        Ok(OutputWriter {
+            dir: dir.to_path_buf(),
+            series: BufWriter::new(file),
+            series_path,
+            columns: s.columns,
+            rows: s.rows,
+            particle_entries: s.particle_entries,
+            grid_entries: s.grid_entries,
+            snapshots: s.snapshots,
         })
     }
 
@@ -124,6 +203,15 @@ impl Observer for OutputWriter {
             .map_err(|e| OutputError::new(&self.series_path, e).to_string())?;
         self.rows.push(row.clone());
         Ok(())
+    }
+
+    /// Saves the checkpoint, with this writer's state, in the output
+    /// directory ([`OutputWriter::checkpoint_path`]), atomically: the
+    /// previous one stays until the new one is whole.
+    fn checkpoint(&mut self, mut cp: Checkpoint) -> Result<(), String> {
+        cp.observer = self.checkpoint_state().map_err(|e| e.to_string())?;
+        let path = Self::checkpoint_path(&self.dir);
+        cp.save(&path).map_err(|e| format!("{}: {e}", path.display()))
     }
 
     fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {

@@ -491,6 +491,32 @@ impl Dfg {
         }
     }
 
+    /// What a checkpoint keeps of the neighbour lists: the positions they
+    /// were built at (empty before the first build) and the builds so far.
+    pub fn neighbour_state(&self) -> (Vec<[f64; 2]>, u64) {
+        (self.neighbours.x_built.clone(), self.neighbours.builds)
+    }
+
+    /// The neighbour lists of a checkpoint ([`Dfg::neighbour_state`]):
+    /// built again at the same positions, so that they and the rebuild
+    /// rule are as the run left them.
+    pub fn restore_neighbours(&mut self, geom: &GridGeom, parts: &Particles, x_built: &[[f64; 2]], builds: u64) {
+        self.neighbours = Neighbours::default();
+        if !x_built.is_empty() {
+            self.build_neighbours(geom, parts, x_built);
+        }
+        self.neighbours.builds = builds;
+    }
+
+    /// The neighbour lists at positions `x` (the search reach is the
+    /// kernel radius plus twice the rebuild skin).
+    fn build_neighbours(&mut self, geom: &GridGeom, parts: &Particles, x: &[[f64; 2]]) {
+        let r = self.params.radius;
+        let skin = self.params.rebuild_fraction * r;
+        let groups: Vec<u16> = parts.group.iter().map(|&g| g as u16).collect();
+        self.neighbours.build(x, &groups, r + 2.0 * skin, geom.domain_min, geom.domain_max);
+    }
+
     pub fn stats(&self) -> DfgStats {
         DfgStats {
             neighbour_builds: self.neighbours.builds,
@@ -520,14 +546,7 @@ impl Dfg {
         let r = self.params.radius;
         let skin = self.params.rebuild_fraction * r;
         if self.neighbours.stale(&parts.x, skin) {
-            let groups: Vec<u16> = parts.group.iter().map(|&g| g as u16).collect();
-            self.neighbours.build(
-                &parts.x,
-                &groups,
-                r + 2.0 * skin,
-                geom.domain_min,
-                geom.domain_max,
-            );
+            self.build_neighbours(geom, parts, &parts.x);
         }
         // Tiles with a failed particle (d = 1) in them or next to them. Only
         // a node that a failed particle maps to can separate (section 2.3);

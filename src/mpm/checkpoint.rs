@@ -1,0 +1,283 @@
+//! Checkpoints: the state a run needs to go on from the end of a step as if
+//! it had never stopped, so that a long run survives the loss of its
+//! process (a job scheduler's time limit, a reboot) and picks up where its
+//! last checkpoint was written.
+//!
+//! What is kept: every particle array, the clock and the energy
+//! bookkeeping, the run loop's next row and snapshot, the bins' particle
+//! order (the order in which particles are summed into the grid), the
+//! phase fields' nodal c (PCG's warm start), whether c is current, the
+//! crack-tip trackers, the energy released by damage, and the positions
+//! DFG's neighbour lists were built at. What is rebuilt: everything
+//! derived from the scene (seeding, the initial crack particles, surface
+//! flags, Weibull strengths are overwritten by the saved ones), the
+//! grid, the neighbour lists (from the saved positions) and the phase-field
+//! solver's analysis and factor.
+//!
+//! A resumed run repeats the uninterrupted one bit for bit, except that
+//! the phase-field solver starts without a factor: with the direct
+//! solver nothing changes (the factor is a function of the matrix), with
+//! PCG the first solve after resuming refactorizes where the uninterrupted
+//! run would have iterated with its older factor, so c agrees to the PCG
+//! tolerance, not bit for bit. The solver's counts and the stage times in
+//! the run summary are those since the resume.
+//!
+//! On disk: `b"CLEAVECKPT1\n"` then the [`Checkpoint`] in postcard (serde's
+//! compact binary format); a file from another format version or another
+//! scene is refused with the reason.
+
+use super::{Simulation, StageTimes};
+use crate::diagnostics::SeriesRow;
+use crate::particles::Particles;
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+use std::io::{Read, Write};
+
+const MAGIC: &[u8; 12] = b"CLEAVECKPT1\n";
+
+/// Why a checkpoint could not be written, read or resumed from.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    #[error("{0}")]
+    Io(#[from] std::io::Error),
+    #[error("not a cleave checkpoint (no CLEAVECKPT1 header)")]
+    NotACheckpoint,
+    #[error("checkpoint is damaged or from another format: {0}")]
+    Decode(String),
+    #[error("the scene is not the one the checkpoint was written for: {path} is {scene} in the scene, {checkpoint} in the checkpoint")]
+    SceneMismatch { path: String, scene: String, checkpoint: String },
+    #[error("checkpoint does not fit the scene: {0}")]
+    Inconsistent(String),
+}
+
+/// A run's state at the end of a step (see the module docs).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Checkpoint {
+    /// The cleave version that wrote it.
+    pub version: String,
+    /// The state of whoever writes the run's results, saved and loaded
+    /// with the checkpoint (opaque to the engine; the CLI keeps its
+    /// output writer's, [`crate::output::OutputWriter::checkpoint_state`]).
+    pub observer: Vec<u8>,
+    /// The scene file it was written for, as JSON.
+    scene: String,
+    pub(super) state: State,
+}
+
+/// The run loop's position: the next series row and snapshot to write,
+/// and the last row written.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(super) struct RunClock {
+    pub next_row: u64,
+    pub next_snap: u64,
+    pub last: SeriesRow,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(super) struct State {
+    pub step: u64,
+    pub time: f64,
+    pub dt: f64,
+    pub max_signal: f64,
+    pub external_work: f64,
+    pub abs_work: f64,
+    pub initial_energy: f64,
+    pub contact_steps: u64,
+    pub snapshot_index: u32,
+    pub times: StageTimes,
+    pub clock: RunClock,
+    pub parts: Particles,
+    pub bins_order: Vec<u32>,
+    pub phase: Option<super::phase::PhaseState>,
+    pub damage: Option<super::damage::DamageSaved>,
+    /// DFG's neighbour lists: the positions they were built at and the
+    /// builds so far.
+    pub dfg: Option<(Vec<[f64; 2]>, u64)>,
+}
+
+impl Checkpoint {
+    /// The step it was written at.
+    pub fn step(&self) -> u64 {
+        self.state.step
+    }
+
+    /// The simulated time it was written at, s.
+    pub fn time(&self) -> f64 {
+        self.state.time
+    }
+
+    /// Writes the checkpoint (header, then postcard).
+    pub fn write_to(&self, w: &mut impl Write) -> Result<(), CheckpointError> {
+        w.write_all(MAGIC)?;
+        postcard::to_io(self, &mut *w).map_err(|e| CheckpointError::Decode(e.to_string()))?;
+        w.flush()?;
+        Ok(())
+    }
+
+    /// Reads a checkpoint written by [`Checkpoint::write_to`].
+    pub fn read_from(r: &mut impl Read) -> Result<Checkpoint, CheckpointError> {
+        let mut bytes = Vec::new();
+        r.read_to_end(&mut bytes)?;
+        let body = bytes.strip_prefix(MAGIC.as_slice()).ok_or(CheckpointError::NotACheckpoint)?;
+        postcard::from_bytes(body).map_err(|e| CheckpointError::Decode(e.to_string()))
+    }
+
+    /// Writes the checkpoint to `path` atomically: to `path.tmp` first,
+    /// then renamed, so that a crash while writing leaves the previous
+    /// checkpoint in place.
+    pub fn save(&self, path: &std::path::Path) -> Result<(), CheckpointError> {
+        let tmp = path.with_extension("tmp");
+        {
+            let mut f = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+            self.write_to(&mut f)?;
+            f.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        }
+        std::fs::rename(&tmp, path)?;
+        Ok(())
+    }
+
+    /// Reads the checkpoint at `path`.
+    pub fn load(path: &std::path::Path) -> Result<Checkpoint, CheckpointError> {
+        let mut f = std::io::BufReader::new(std::fs::File::open(path)?);
+        Checkpoint::read_from(&mut f)
+    }
+}
+
+/// The scene file as the checkpoint stores it.
+fn scene_json(scene: &Scene) -> String {
+    serde_json::to_string(&scene.file).unwrap_or_default()
+}
+
+/// The first place where two JSON values differ, as a field path and the
+/// two values (None if they are equal).
+fn first_difference(path: &str, a: &serde_json::Value, b: &serde_json::Value) -> Option<(String, String, String)> {
+    use serde_json::Value;
+    let join = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            for (k, va) in x {
+                match y.get(k) {
+                    Some(vb) => {
+                        if let Some(d) = first_difference(&join(k), va, vb) {
+                            return Some(d);
+                        }
+                    }
+                    None => return Some((join(k), va.to_string(), "absent".into())),
+                }
+            }
+            y.keys().find(|k| !x.contains_key(*k)).map(|k| (join(k), "absent".into(), y[k].to_string()))
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
+            x.iter().zip(y).enumerate().find_map(|(i, (va, vb))| first_difference(&format!("{path}[{i}]"), va, vb))
+        }
+        _ if a == b => None,
+        _ => Some((if path.is_empty() { "(the scene)".into() } else { path.to_string() }, a.to_string(), b.to_string())),
+    }
+}
+
+impl Simulation {
+    /// The state at the end of the present step, with the run loop at
+    /// `clock`.
+    pub(super) fn checkpoint_at(&self, clock: RunClock) -> Checkpoint {
+        Checkpoint {
+            version: crate::VERSION.to_string(),
+            observer: Vec::new(),
+            scene: scene_json(&self.scene),
+            state: State {
+                step: self.step,
+                time: self.time,
+                dt: self.dt,
+                max_signal: self.max_signal,
+                external_work: self.external_work,
+                abs_work: self.abs_work,
+                initial_energy: self.initial_energy,
+                contact_steps: self.contact_steps,
+                snapshot_index: self.snapshot_index,
+                times: self.times.clone(),
+                clock,
+                parts: self.parts.clone(),
+                bins_order: self.bins.order.clone(),
+                phase: self.phase.as_ref().map(|p| p.state()),
+                damage: self.damage.as_ref().map(|d| d.saved()),
+                dfg: self.dfg.as_ref().map(|d| d.neighbour_state()),
+            },
+        }
+    }
+
+    /// The simulation of `scene` at the checkpoint: [`Simulation::run`]
+    /// then goes on from its step, writing the rows and snapshots that
+    /// follow (not the series' header nor the rows before). The scene must
+    /// be the one the checkpoint was written for.
+    pub fn resume(scene: &Scene, cp: Checkpoint) -> Result<Simulation, CheckpointError> {
+        let now = serde_json::to_value(&scene.file).unwrap_or_default();
+        let then: serde_json::Value =
+            serde_json::from_str(&cp.scene).map_err(|e| CheckpointError::Decode(format!("its scene: {e}")))?;
+        if let Some((path, checkpoint, scene)) = first_difference("", &then, &now) {
+            return Err(CheckpointError::SceneMismatch { path, scene, checkpoint });
+        }
+        let mut sim = Simulation::new(scene);
+        let s = cp.state;
+        let bad = |m: String| CheckpointError::Inconsistent(m);
+        if s.parts.len() != sim.parts.len() || s.parts.id != sim.parts.id {
+            return Err(bad(format!(
+                "{} particles in the checkpoint, {} seeded from the scene (or in another order)",
+                s.parts.len(),
+                sim.parts.len()
+            )));
+        }
+        if s.phase.is_some() != sim.phase.is_some() || s.damage.is_some() != sim.damage.is_some() || s.dfg.is_some() != sim.dfg.is_some() {
+            return Err(bad("its stages are not the scene's".into()));
+        }
+        sim.parts = s.parts;
+        sim.group_of = sim.parts.group.clone();
+        sim.bins.restore(&sim.geom, &sim.parts.x, s.bins_order).map_err(bad)?;
+        if let (Some(pf), Some(st)) = (sim.phase.as_mut(), s.phase) {
+            pf.restore(st).map_err(bad)?;
+        }
+        if let (Some(d), Some(st)) = (sim.damage.as_mut(), s.damage) {
+            d.restore(st).map_err(bad)?;
+        }
+        if let (Some(d), Some((x_built, builds))) = (sim.dfg.as_mut(), s.dfg) {
+            if x_built.len() != sim.parts.len() && !x_built.is_empty() {
+                return Err(bad("DFG's neighbour positions are not one per particle".into()));
+            }
+            d.restore_neighbours(&sim.geom, &sim.parts, &x_built, builds);
+        }
+        sim.step = s.step;
+        sim.time = s.time;
+        sim.dt = s.dt;
+        sim.max_signal = s.max_signal;
+        sim.external_work = s.external_work;
+        sim.abs_work = s.abs_work;
+        sim.initial_energy = s.initial_energy;
+        sim.contact_steps = s.contact_steps;
+        sim.snapshot_index = s.snapshot_index;
+        sim.times = s.times;
+        sim.resumed = Some(s.clock);
+        Ok(sim)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn the_first_difference_names_the_field() {
+        let a = json!({"time": {"end": 1.0, "dt": 2.0}, "bodies": [{"name": "a"}, {"name": "b"}]});
+        let b = json!({"time": {"end": 1.0, "dt": 2.0}, "bodies": [{"name": "a"}, {"name": "c"}]});
+        assert_eq!(first_difference("", &a, &a), None);
+        assert_eq!(first_difference("", &a, &b), Some(("bodies[1].name".into(), "\"b\"".into(), "\"c\"".into())));
+        let c = json!({"time": {"end": 2.0, "dt": 2.0}});
+        assert_eq!(first_difference("", &json!({"time": {"end": 1.0, "dt": 2.0}}), &c).map(|d| d.0), Some("time.end".into()));
+    }
+
+    #[test]
+    fn a_file_without_the_header_is_refused() {
+        let r = Checkpoint::read_from(&mut &b"CLEAVESNAP1\nxyz"[..]);
+        assert!(matches!(r, Err(CheckpointError::NotACheckpoint)), "{r:?}");
+        let r = Checkpoint::read_from(&mut &b"CLEAVECKPT1\n\x01\x02"[..]);
+        assert!(matches!(r, Err(CheckpointError::Decode(_))), "{r:?}");
+    }
+}

@@ -1,0 +1,196 @@
+//! Checkpoint and resume (`mpm::checkpoint`): a run that loses its process
+//! after a checkpoint and is resumed from it writes what the uninterrupted
+//! run writes, bit for bit (with PCG, to the solver's tolerance).
+
+use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
+use cleave::mpm::{Checkpoint, CheckpointError, Simulation};
+use cleave::output::OutputWriter;
+use cleave::particles::Particles;
+use cleave::scene::Scene;
+use std::path::Path;
+
+fn scene_text(file: &str, edits: &[(&str, &str)]) -> String {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut text = std::fs::read_to_string(dir.join(file)).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{file} has no {from:?}");
+        text = text.replace(from, to);
+    }
+    text
+}
+
+/// An output writer that asks for a checkpoint at the end of step `at`
+/// and then stops (the process "is lost") `lost` steps later, after it has
+/// written rows and snapshots past the checkpoint.
+struct Interrupted {
+    writer: OutputWriter,
+    at: u64,
+    lost: u64,
+}
+
+impl Observer for Interrupted {
+    fn series_columns(&mut self, c: &[String]) -> Result<(), String> {
+        self.writer.series_columns(c)
+    }
+    fn series_row(&mut self, r: &SeriesRow) -> Result<(), String> {
+        self.writer.series_row(r)
+    }
+    fn snapshot(&mut self, s: &Snapshot) -> Result<(), String> {
+        self.writer.snapshot(s)
+    }
+    fn progress(&mut self, p: &Progress) -> Control {
+        match p.step {
+            s if s == self.at => Control::Checkpoint,
+            s if s == self.at + self.lost => Control::Stop,
+            _ => Control::Continue,
+        }
+    }
+    fn checkpoint(&mut self, cp: Checkpoint) -> Result<(), String> {
+        self.writer.checkpoint(cp)
+    }
+}
+
+/// What a run in `dir` leaves: the series, the snapshot collection, the
+/// last snapshot's particles, and the final particles.
+struct Outcome {
+    series: String,
+    pvd: String,
+    last_vtp: Vec<u8>,
+    parts: Particles,
+    steps: u64,
+}
+
+fn outcome(dir: &Path, sim: &Simulation) -> Outcome {
+    let series = std::fs::read_to_string(dir.join("series.csv")).unwrap();
+    let pvd = std::fs::read_to_string(dir.join("particles.pvd")).unwrap();
+    let mut vtps: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "vtp"))
+        .collect();
+    vtps.sort();
+    let last_vtp = std::fs::read(vtps.last().unwrap()).unwrap();
+    Outcome { series, pvd, last_vtp, parts: sim.particles().clone(), steps: sim.steps() }
+}
+
+/// Runs `text` through to the end, and again with a checkpoint at step
+/// `at`, the process lost `lost` steps later, and a resume in the same
+/// directory; returns both outcomes.
+fn straight_and_resumed(text: &str, at: u64, lost: u64) -> (Outcome, Outcome) {
+    let scene = Scene::from_text(text, None).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let (a, b) = (tmp.path().join("straight"), tmp.path().join("resumed"));
+
+    let mut w = OutputWriter::create(&a).unwrap();
+    let mut sim = Simulation::new(&scene);
+    let s = sim.run(&mut w).unwrap();
+    assert!(!s.cancelled);
+    w.finish().unwrap();
+    let straight = outcome(&a, &sim);
+    assert!(straight.steps > at + lost, "the run has {} steps", straight.steps);
+
+    let mut obs = Interrupted { writer: OutputWriter::create(&b).unwrap(), at, lost };
+    let mut sim = Simulation::new(&scene);
+    let s = sim.run(&mut obs).unwrap();
+    assert!(s.cancelled);
+    assert_eq!(s.steps, at + lost);
+    obs.writer.finish().unwrap();
+    let lost_series = std::fs::read_to_string(b.join("series.csv")).unwrap();
+    assert!(lost_series.lines().count() > 2, "the lost run wrote rows");
+
+    let (mut w, cp) = OutputWriter::resume(&b).unwrap();
+    assert_eq!(cp.step(), at);
+    let mut sim = Simulation::resume(&scene, cp).unwrap();
+    let s = sim.run(&mut w).unwrap();
+    assert!(!s.cancelled);
+    w.finish().unwrap();
+    (straight, outcome(&b, &sim))
+}
+
+/// The series without its wall-time columns (`pf_*_s`), which no two runs
+/// share.
+fn without_wall_times(series: &str) -> Vec<Vec<String>> {
+    let mut lines = series.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let keep = |k: usize| !(header[k].starts_with("pf_") && header[k].ends_with("_s"));
+    std::iter::once(series.lines().next().unwrap())
+        .chain(lines)
+        .map(|l| l.split(',').enumerate().filter(|&(k, _)| keep(k)).map(|(_, v)| v.to_string()).collect())
+        .collect()
+}
+
+fn assert_same(a: &Outcome, b: &Outcome) {
+    assert_eq!(a.steps, b.steps);
+    let (sa, sb) = (without_wall_times(&a.series), without_wall_times(&b.series));
+    assert_eq!(sa.len(), sb.len(), "series.csv has {} lines straight, {} resumed", sa.len(), sb.len());
+    for (k, (x, y)) in sa.iter().zip(&sb).enumerate() {
+        assert_eq!(x, y, "series.csv line {k} differs");
+    }
+    assert_eq!(a.pvd, b.pvd, "particles.pvd differs");
+    assert!(a.last_vtp == b.last_vtp, "the last snapshot differs");
+    assert!(a.parts == b.parts, "the final particles differ");
+}
+
+#[test]
+fn a_resumed_phase_field_run_repeats_the_straight_one_bit_for_bit() {
+    // P1 coarse (one phase field, direct solver, crack tip): 10 us
+    let text = scene_text("p1_plate_coarse.toml", &[("end = 8.0e-5", "end = 1.0e-5"), ("snapshots = 9", "snapshots = 4")]);
+    let (a, b) = straight_and_resumed(&text, 40, 15);
+    assert_same(&a, &b);
+}
+
+#[test]
+fn a_resumed_damage_run_with_dfg_and_contact_repeats_the_straight_one_bit_for_bit() {
+    // the dynamic Brazilian disk (time-to-failure damage with Weibull
+    // strengths, DFG partitioning, platens in contact), to 10 us where
+    // the disk has cracked
+    let text = scene_text("d4_brazilian.toml", &[("end = 1.5e-5", "end = 1.0e-5"), ("series_rows = 151", "series_rows = 41"), ("snapshots = 16", "snapshots = 5")]);
+    let (a, b) = straight_and_resumed(&text, 150, 20);
+    let failed = |o: &Outcome| o.parts.damage.iter().filter(|&&d| d >= 1.0).count();
+    assert!(failed(&a) > 0, "no particle failed: the test would not exercise the damage state");
+    assert_same(&a, &b);
+}
+
+#[test]
+fn with_pcg_a_resumed_run_agrees_to_the_solver_tolerance() {
+    // the PCG's factor is not in the checkpoint: the first solve after the
+    // resume refactorizes, so c differs within the tolerance; with [dfg]
+    let text = scene_text("p1_plate_coarse.toml", &[("end = 8.0e-5", "end = 1.0e-5"), ("snapshots = 9", "snapshots = 2")])
+        + "\n[phase_field_solver]\nmethod = \"pcg\"\ntolerance = 1e-10\n\n[dfg]\n";
+    let (a, b) = straight_and_resumed(&text, 40, 15);
+    assert_eq!(a.steps, b.steps);
+    let worst = |f: fn(&Particles) -> Vec<f64>| {
+        let (x, y) = (f(&a.parts), f(&b.parts));
+        let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        x.iter().zip(&y).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max) / scale
+    };
+    let dc = worst(|p| p.phase.clone());
+    let dv = worst(|p| p.v.iter().flatten().copied().collect());
+    let dh = worst(|p| p.history.clone());
+    println!("relative differences after resuming with PCG: c {dc:.2e}, v {dv:.2e}, H {dh:.2e}");
+    assert!(dc < 1e-6 && dv < 1e-6 && dh < 1e-6, "c {dc:e}, v {dv:e}, H {dh:e}");
+    assert!(a.parts.phase.iter().any(|&c| c < 0.5), "no damage: the test would not exercise c");
+}
+
+#[test]
+fn resuming_refuses_another_scene_and_names_the_field() {
+    let text = scene_text("two_disks.toml", &[("end = 3.0", "end = 0.05")]);
+    let scene = Scene::from_text(&text, None).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let mut obs = Interrupted { writer: OutputWriter::create(tmp.path()).unwrap(), at: 3, lost: 1 };
+    Simulation::new(&scene).run(&mut obs).unwrap();
+    let (_, cp) = OutputWriter::resume(tmp.path()).unwrap();
+    let other = Scene::from_text(&text.replace("end = 0.05", "end = 0.06"), None).unwrap();
+    let e = Simulation::resume(&other, cp.clone()).err().unwrap();
+    assert!(matches!(e, CheckpointError::SceneMismatch { .. }), "{e}");
+    let msg = e.to_string();
+    assert!(msg.contains("time.end") && msg.contains("0.06") && msg.contains("0.05"), "{msg}");
+    // the same scene resumes
+    assert!(Simulation::resume(&scene, cp).is_ok());
+    // a damaged file is refused with the reason, not a panic
+    let path = OutputWriter::checkpoint_path(tmp.path());
+    let bytes = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+    let e = OutputWriter::resume(tmp.path()).err().unwrap().to_string();
+    assert!(e.contains("checkpoint.bin") && e.contains("damaged"), "{e}");
+}
