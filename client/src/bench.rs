@@ -198,6 +198,8 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
             threads_per_job: threads,
             max_particles: u64::MAX,
             max_queued: 100,
+            // the overhead measured is that of the service alone
+            checkpoint_every: None,
         },
         token: None,
         max_request_bytes: 16 << 20,

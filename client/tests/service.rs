@@ -308,6 +308,66 @@ async fn a_killed_server_keeps_finished_jobs_and_fails_the_interrupted_one() {
     assert!(stdout(&o).lines().last().unwrap().contains("SUCCEEDED"));
 }
 
+/// Waits until the job has saved a checkpoint newer than `after`.
+async fn wait_checkpoint(server: &Server, id: &str, after: Option<std::time::SystemTime>) {
+    let path = server.data.join("jobs").join(id).join("checkpoint.bin");
+    let t0 = Instant::now();
+    loop {
+        let modified = std::fs::metadata(&path).and_then(|m| m.modified()).ok();
+        if modified.is_some_and(|m| after.is_none_or(|a| m > a)) {
+            return;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "no checkpoint of {id}");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_job_resumes_from_its_checkpoint_after_a_kill_and_a_shutdown_with_the_same_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let text = slow_scene()
+        .replace("end = 10.0", "end = 0.03")
+        .replace("series_rows = 1000", "series_rows = 40")
+        .replace("snapshots = 1000", "snapshots = 4");
+    let scene = dir.path().join("spin.toml");
+    std::fs::write(&scene, &text).unwrap();
+    let local = dir.path().join("local");
+    let o = Command::new(cleave_bin()).args(["run", "--quiet"]).arg(&scene).arg("--out").arg(&local).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+
+    let flags = ["--checkpoint-every", "0.2"];
+    let mut server = Server::start(&data, &flags);
+    let mut c = server.client().await;
+    let job = c.submit_job(proto::SubmitJobRequest { scene: text.clone(), ..Default::default() }).await.unwrap().into_inner();
+    wait_state(&mut c, &job.id, proto::JobState::Running, Duration::from_secs(30)).await;
+    wait_checkpoint(&server, &job.id, None).await;
+    server.kill(); // SIGKILL in the middle of the run, after a checkpoint
+    let first = std::fs::metadata(server.data.join("jobs").join(&job.id).join("checkpoint.bin")).unwrap().modified().unwrap();
+
+    // the next server resumes it; then a graceful stop (SIGTERM) checkpoints it
+    let mut server = Server::start(&data, &flags);
+    let mut c = server.client().await;
+    wait_state(&mut c, &job.id, proto::JobState::Running, Duration::from_secs(30)).await;
+    wait_checkpoint(&server, &job.id, Some(first)).await;
+    let j = c.get_job(proto::GetJobRequest { job_id: job.id.clone() }).await.unwrap().into_inner();
+    assert_eq!(j.state, proto::JobState::Running as i32, "the job ended before the shutdown: make the scene longer");
+    let term = Command::new("kill").arg("-TERM").arg(server.child.id().to_string()).status().unwrap();
+    assert!(term.success());
+    let status = server.child.wait().unwrap();
+    assert!(status.success(), "the server did not stop cleanly: {status:?}");
+
+    let server = Server::start(&data, &flags);
+    let mut c = server.client().await;
+    let j = wait_state(&mut c, &job.id, proto::JobState::Succeeded, Duration::from_secs(120)).await;
+    assert!(j.error.is_empty(), "{}", j.error);
+    assert!(!server.data.join("jobs").join(&job.id).join("checkpoint.bin").exists(), "the finished job's checkpoint is left");
+    let remote = dir.path().join("remote");
+    let o = server.cli(&["fetch", &job.id, "--out", remote.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    same_files(&local, &remote);
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_blow_up_fails_with_a_diagnosis_while_another_job_finishes() {
     let dir = tempfile::tempdir().unwrap();

@@ -36,6 +36,11 @@ struct Args {
     /// Largest request accepted, in bytes.
     #[arg(long, env = "CLEAVE_MAX_REQUEST_BYTES", default_value_t = 16 << 20)]
     max_request_bytes: usize,
+    /// Seconds of wall time between a running job's checkpoints (0: none).
+    /// A job with a checkpoint survives the server: the next server resumes
+    /// it, with the results it would have had.
+    #[arg(long, env = "CLEAVE_CHECKPOINT_EVERY", default_value_t = 600.0)]
+    checkpoint_every: f64,
     /// PEM certificate chain for TLS (with --tls-key).
     #[arg(long, env = "CLEAVE_TLS_CERT", requires = "tls_key")]
     tls_cert: Option<PathBuf>,
@@ -59,6 +64,11 @@ fn main() -> anyhow::Result<()> {
             threads_per_job: threads.max(1),
             max_particles: a.max_particles,
             max_queued: a.max_queued_jobs,
+            checkpoint_every: match a.checkpoint_every {
+                s if !(s.is_finite() && s >= 0.0) => anyhow::bail!("--checkpoint-every: must be a number of seconds >= 0, got {s}"),
+                0.0 => None,
+                s => Some(std::time::Duration::from_secs_f64(s)),
+            },
         },
         token: a.token.filter(|t| !t.is_empty()),
         max_request_bytes: a.max_request_bytes,

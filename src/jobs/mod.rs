@@ -6,6 +6,14 @@
 //! once, each on its own OS thread (outside any async runtime) with its own
 //! rayon pool. A job that fails numerically or panics ends FAILED with the
 //! diagnosis; the manager keeps serving.
+//!
+//! With `checkpoint_every`, a running job saves its state
+//! (`mpm::checkpoint`, with its observer's: the series' length, the
+//! snapshot and row counts) to `jobs/<id>/checkpoint.bin` at that interval
+//! of wall time, and when the server stops (shut down or killed) a job with
+//! a checkpoint is not lost: the next server queues it first and resumes
+//! it from there, with the same results as a run that never stopped. A
+//! shut-down server checkpoints its running jobs before it stops them.
 
 mod bus;
 pub mod snapfile;
@@ -130,6 +138,8 @@ pub struct JobConfig {
     pub threads_per_job: usize,
     pub max_particles: u64,
     pub max_queued: usize,
+    /// Wall time between a running job's checkpoints (None: none).
+    pub checkpoint_every: Option<std::time::Duration>,
 }
 
 /// Seconds since the Unix epoch.
@@ -150,6 +160,8 @@ struct Inner {
     queue: Mutex<Queue>,
     wake: Condvar,
     buses: Mutex<HashMap<String, Arc<JobBus>>>,
+    /// The server is shutting down: running jobs checkpoint, then stop.
+    stopping: AtomicBool,
 }
 
 /// Owns the jobs: submit, query, cancel, watch.
@@ -163,20 +175,30 @@ pub type SnapshotHeader = snapfile::SnapshotHeader;
 
 impl JobManager {
     /// Opens the store, settles jobs a previous server left behind (running
-    /// ones become FAILED "server stopped"; queued ones are queued again),
+    /// ones resume from their checkpoint, first in the queue, or without
+    /// one become FAILED "server stopped"; queued ones are queued again),
     /// and starts the runner threads.
     pub fn start(config: JobConfig) -> Result<JobManager, JobError> {
         let store = Store::open(&config.data_dir)?;
+        let queued = store.ids_in_state(JobState::Queued)?;
+        let mut waiting = VecDeque::new();
         for id in store.ids_in_state(JobState::Running)? {
-            store.finish(&id, JobState::Failed, now(), Some("server stopped while the job was running"), None)?;
-            tracing::warn!(job = %id, "marked FAILED: the server stopped while it was running");
+            if checkpoint_path(&store.job_dir(&id)).exists() {
+                store.set_state(&id, JobState::Queued)?;
+                tracing::warn!(job = %id, "the server stopped while it was running: queued to resume from its checkpoint");
+                waiting.push_back(id);
+            } else {
+                store.finish(&id, JobState::Failed, now(), Some("server stopped while the job was running"), None)?;
+                tracing::warn!(job = %id, "marked FAILED: the server stopped while it was running");
+            }
         }
-        let waiting: VecDeque<String> = store.ids_in_state(JobState::Queued)?.into();
+        waiting.extend(queued);
         let inner = Arc::new(Inner {
             store,
             queue: Mutex::new(Queue { waiting, running: HashMap::new(), shutdown: false }),
             wake: Condvar::new(),
             buses: Mutex::new(HashMap::new()),
+            stopping: AtomicBool::new(false),
             config,
         });
         for k in 0..inner.config.max_concurrent.max(1) {
@@ -189,15 +211,32 @@ impl JobManager {
         Ok(JobManager { inner })
     }
 
-    /// Stops taking jobs from the queue (running jobs finish their step and
-    /// are cancelled).
+    /// Stops taking jobs from the queue. Running jobs finish their step and
+    /// stop; with checkpoints on, they save one first and the next server
+    /// resumes them, otherwise they are cancelled.
     pub fn shutdown(&self) {
         let mut q = lock(&self.inner.queue);
         q.shutdown = true;
+        self.inner.stopping.store(true, Ordering::SeqCst);
         for flag in q.running.values() {
             flag.store(true, Ordering::SeqCst);
         }
         self.inner.wake.notify_all();
+    }
+
+    /// Waits (up to `limit`) until no job runs, after [`Self::shutdown`];
+    /// whether they all stopped.
+    pub fn wait_stopped(&self, limit: std::time::Duration) -> bool {
+        let t0 = Instant::now();
+        loop {
+            if lock(&self.inner.queue).running.is_empty() {
+                return true;
+            }
+            if t0.elapsed() >= limit {
+                return false;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
     }
 
     pub fn config(&self) -> &JobConfig {
@@ -394,8 +433,31 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
     tracing::info!(job = %id, "running");
     let dir = inner.store.job_dir(id);
     std::fs::create_dir_all(&dir).map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
-    let series = std::fs::File::create(dir.join("series.csv"))
-        .map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
+    let cp_path = checkpoint_path(&dir);
+    let resume = if cp_path.exists() {
+        match resume_job(&dir, &scene) {
+            Ok(r) => Some(r),
+            Err(e) => {
+                let msg = format!("cannot resume from its checkpoint: {e}");
+                inner.store.finish(id, JobState::Failed, now(), Some(&msg), None)?;
+                bus.push_state(JobState::Failed, Some(msg));
+                return Ok(());
+            }
+        }
+    } else {
+        None
+    };
+    let (series, saved, sim) = match resume {
+        Some((series, saved, sim)) => {
+            tracing::info!(job = %id, step = sim.steps(), time = sim.time(), "resumed from its checkpoint");
+            (series, saved, Some(sim))
+        }
+        None => {
+            let series = std::fs::File::create(dir.join("series.csv"))
+                .map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
+            (series, ObserverState::default(), None)
+        }
+    };
     let mut observer = JobObserver {
         dir: dir.clone(),
         series: std::io::BufWriter::new(series),
@@ -403,9 +465,14 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
         cancel: cancel.clone(),
         started: Instant::now(),
         last_emit: None,
-        snapshots: 0,
-        rows: 0,
-        last_row: None,
+        snapshots: saved.snapshots,
+        rows: saved.rows,
+        last_row: saved.last_row,
+        wall_before: saved.wall_seconds,
+        checkpoint_every: inner.config.checkpoint_every,
+        last_checkpoint: Instant::now(),
+        stopping: &inner.stopping,
+        stop_next: false,
     };
     let threads = inner.config.threads_per_job.max(1);
     let pool = rayon::ThreadPoolBuilder::new()
@@ -414,10 +481,21 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
         .build()
         .map_err(|e| JobError::Store(format!("cannot build a thread pool: {e}")))?;
     let outcome = pool.install(|| {
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Simulation::new(&scene).run(&mut observer)))
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let mut sim = sim.unwrap_or_else(|| Simulation::new(&scene));
+            sim.run(&mut observer)
+        }))
     });
     let _ = std::io::Write::flush(&mut observer.series);
-    let wall = observer.started.elapsed().as_secs_f64();
+    let wall = observer.wall_before + observer.started.elapsed().as_secs_f64();
+    if inner.stopping.load(Ordering::SeqCst) && observer.stop_next && matches!(&outcome, Ok(Ok(s)) if s.cancelled) {
+        // stopped by the server's shutdown after a checkpoint: the next
+        // server resumes it (the store keeps it RUNNING until then)
+        bus.push_state(JobState::Queued, Some("the server is stopping; the job resumes from its checkpoint when it starts again".into()));
+        tracing::info!(job = %id, "checkpointed for the next server");
+        return Ok(());
+    }
+    let _ = std::fs::remove_file(&cp_path);
     let mut summary = JobSummary {
         wall_seconds: wall,
         snapshots: observer.snapshots,
@@ -456,6 +534,41 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
     Ok(())
 }
 
+/// A job's checkpoint file in its directory.
+fn checkpoint_path(dir: &Path) -> PathBuf {
+    dir.join("checkpoint.bin")
+}
+
+/// What a job's checkpoint keeps of its observer.
+#[derive(Debug, Default, Serialize, Deserialize)]
+struct ObserverState {
+    /// Length of `series.csv` at the checkpoint.
+    series_bytes: u64,
+    snapshots: u32,
+    rows: u32,
+    last_row: Option<SeriesRow>,
+    /// Wall time the job had run, s.
+    wall_seconds: f64,
+}
+
+/// A job resumed from its checkpoint: its series cut back to the
+/// checkpoint (and opened to append), the observer's counts, and the
+/// simulation.
+fn resume_job(dir: &Path, scene: &Scene) -> Result<(std::fs::File, ObserverState, Simulation), String> {
+    let cp = crate::mpm::Checkpoint::load(&checkpoint_path(dir)).map_err(|e| e.to_string())?;
+    let saved: ObserverState = postcard::from_bytes(&cp.observer).map_err(|e| format!("its observer state: {e}"))?;
+    let path = dir.join("series.csv");
+    let mut series = std::fs::OpenOptions::new().write(true).open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let len = series.metadata().map_err(|e| e.to_string())?.len();
+    if len < saved.series_bytes {
+        return Err(format!("{} has {len} bytes, fewer than the {} of the checkpoint", path.display(), saved.series_bytes));
+    }
+    series.set_len(saved.series_bytes).map_err(|e| e.to_string())?;
+    std::io::Seek::seek(&mut series, std::io::SeekFrom::End(0)).map_err(|e| e.to_string())?;
+    let sim = Simulation::resume(scene, cp).map_err(|e| e.to_string())?;
+    Ok((series, saved, sim))
+}
+
 /// Streams a running job's results to its directory and its event log.
 struct JobObserver<'a> {
     dir: PathBuf,
@@ -467,9 +580,32 @@ struct JobObserver<'a> {
     snapshots: u32,
     rows: u32,
     last_row: Option<SeriesRow>,
+    /// Wall time of the job before its resume, s.
+    wall_before: f64,
+    checkpoint_every: Option<std::time::Duration>,
+    last_checkpoint: Instant,
+    stopping: &'a AtomicBool,
+    /// A checkpoint for the server's shutdown was saved: stop.
+    stop_next: bool,
 }
 
 impl Observer for JobObserver<'_> {
+    fn checkpoint(&mut self, mut cp: crate::mpm::Checkpoint) -> Result<(), String> {
+        use std::io::Write;
+        let path = self.dir.join("series.csv");
+        self.series.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+        let state = ObserverState {
+            series_bytes: self.series.get_ref().metadata().map_err(|e| format!("{}: {e}", path.display()))?.len(),
+            snapshots: self.snapshots,
+            rows: self.rows,
+            last_row: self.last_row.clone(),
+            wall_seconds: self.wall_before + self.started.elapsed().as_secs_f64(),
+        };
+        cp.observer = postcard::to_stdvec(&state).map_err(|e| e.to_string())?;
+        let target = checkpoint_path(&self.dir);
+        cp.save(&target).map_err(|e| format!("{}: {e}", target.display()))
+    }
+
     fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
         use std::io::Write;
         writeln!(self.series, "{}", columns.join(",")).map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))
@@ -496,6 +632,11 @@ impl Observer for JobObserver<'_> {
 
     fn progress(&mut self, p: &Progress) -> Control {
         if self.cancel.load(Ordering::SeqCst) {
+            // a shutdown (not a user's cancel) saves a checkpoint first
+            if self.checkpoint_every.is_some() && self.stopping.load(Ordering::SeqCst) && !self.stop_next && p.time < p.end_time {
+                self.stop_next = true;
+                return Control::Checkpoint;
+            }
             return Control::Stop;
         }
         // At most one progress event per 1 % or 0.25 s.
@@ -520,7 +661,13 @@ impl Observer for JobObserver<'_> {
             }));
             self.last_emit = Some((now, fraction));
         }
-        Control::Continue
+        match self.checkpoint_every {
+            Some(every) if self.last_checkpoint.elapsed() >= every && p.time < p.end_time => {
+                self.last_checkpoint = Instant::now();
+                Control::Checkpoint
+            }
+            _ => Control::Continue,
+        }
     }
 }
 

@@ -149,10 +149,18 @@ impl Store {
             .map_err(db_err)
     }
 
+    /// Sets a job's state alone (a job queued again to resume).
+    pub fn set_state(&self, id: &str, state: JobState) -> Result<(), JobError> {
+        self.conn()
+            .execute("UPDATE jobs SET state = ?1 WHERE id = ?2", params![state.as_str(), id])
+            .map(|_| ())
+            .map_err(db_err)
+    }
+
     pub fn set_running(&self, id: &str, started_at: f64) -> Result<(), JobError> {
         self.conn()
             .execute(
-                "UPDATE jobs SET state = ?1, started_at = ?2 WHERE id = ?3",
+                "UPDATE jobs SET state = ?1, started_at = COALESCE(started_at, ?2) WHERE id = ?3",
                 params![JobState::Running.as_str(), started_at, id],
             )
             .map(|_| ())
