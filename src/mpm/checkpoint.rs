@@ -8,11 +8,11 @@
 //! order (the order in which particles are summed into the grid), the
 //! phase fields' nodal c (PCG's warm start), whether c is current, the
 //! crack-tip trackers, the energy released by damage, and the positions
-//! DFG's neighbour lists were built at. What is rebuilt: everything
-//! derived from the scene (seeding, the initial crack particles, surface
-//! flags, Weibull strengths are overwritten by the saved ones), the
-//! grid, the neighbour lists (from the saved positions) and the phase-field
-//! solver's analysis and factor.
+//! DFG's neighbour lists were built at. What is rebuilt: what follows from
+//! the scene alone (the seeding, which the saved particle arrays then
+//! overwrite; the bodies' particle lists, DFG's surface flags, the
+//! traction particles), the grid, the neighbour lists (from the saved
+//! positions) and the phase-field solver's analysis and factor.
 //!
 //! A resumed run repeats the uninterrupted one bit for bit, except that
 //! the phase-field solver starts without a factor: with the direct
@@ -175,6 +175,33 @@ fn first_difference(path: &str, a: &serde_json::Value, b: &serde_json::Value) ->
     }
 }
 
+/// The first particle array whose length differs between `a` and `b`.
+fn other_layout(a: &Particles, b: &Particles) -> Option<&'static str> {
+    let lengths = |p: &Particles| {
+        [
+            ("id", p.id.len()),
+            ("body", p.body.len()),
+            ("material", p.material.len()),
+            ("group", p.group.len()),
+            ("x", p.x.len()),
+            ("v", p.v.len()),
+            ("mass", p.mass.len()),
+            ("vol", p.vol.len()),
+            ("vol0", p.vol0.len()),
+            ("stress", p.stress.len()),
+            ("strain", p.strain.len()),
+            ("def_grad", p.def_grad.len()),
+            ("affine", p.affine.len()),
+            ("half_size", p.half_size.len()),
+            ("phase", p.phase.len()),
+            ("history", p.history.len()),
+            ("damage", p.damage.len()),
+            ("strength", p.strength.len()),
+        ]
+    };
+    lengths(a).into_iter().zip(lengths(b)).find(|(x, y)| x.1 != y.1).map(|(x, _)| x.0)
+}
+
 impl Simulation {
     /// The state at the end of the present step, with the run loop at
     /// `clock`.
@@ -225,6 +252,9 @@ impl Simulation {
                 sim.parts.len()
             )));
         }
+        if let Some(array) = other_layout(&s.parts, &sim.parts) {
+            return Err(bad(format!("its particle array `{array}` does not have the scene's length")));
+        }
         if s.phase.is_some() != sim.phase.is_some() || s.damage.is_some() != sim.damage.is_some() || s.dfg.is_some() != sim.dfg.is_some() {
             return Err(bad("its stages are not the scene's".into()));
         }
@@ -232,7 +262,7 @@ impl Simulation {
         sim.group_of = sim.parts.group.clone();
         sim.bins.restore(&sim.geom, &sim.parts.x, s.bins_order).map_err(bad)?;
         if let (Some(pf), Some(st)) = (sim.phase.as_mut(), s.phase) {
-            pf.restore(st).map_err(bad)?;
+            pf.restore(st, sim.geom.node_count()).map_err(bad)?;
         }
         if let (Some(d), Some(st)) = (sim.damage.as_mut(), s.damage) {
             d.restore(st).map_err(bad)?;

@@ -265,7 +265,8 @@ impl Simulation {
         let snap_time = |k: u64| if snaps <= 1 { end } else { end * k as f64 / (snaps - 1) as f64 };
 
         let (mut last, mut next_row, mut next_snap) = match self.resumed.take() {
-            // a resumed run's header, first rows and snapshots are written
+            // a resumed run's header, rows and snapshots up to the
+            // checkpoint were written before it
             Some(c) => (c.last, c.next_row, c.next_snap),
             None => {
                 obs.series_columns(&self.series_columns()).map_err(SimError::Observer)?;

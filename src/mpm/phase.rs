@@ -224,11 +224,14 @@ impl PhaseFields {
         }
     }
 
-    /// Takes up a checkpoint's [`PhaseState`]; the solver starts afresh
-    /// (analysis and factor on the next solve).
-    pub(super) fn restore(&mut self, s: PhaseState) -> Result<(), String> {
+    /// Takes up a checkpoint's [`PhaseState`] for a grid of `nodes` nodes;
+    /// the solver starts afresh (analysis and factor on the next solve).
+    pub(super) fn restore(&mut self, s: PhaseState, nodes: usize) -> Result<(), String> {
         if s.c.len() != self.bodies.len() || s.tips.len() != self.bodies.len() {
             return Err(format!("{} phase-field bodies in the checkpoint, {} in the scene", s.c.len(), self.bodies.len()));
+        }
+        if let Some(c) = s.c.iter().find(|c| !c.is_empty() && c.len() != nodes) {
+            return Err(format!("a phase field of {} nodes, the grid has {nodes}", c.len()));
         }
         for ((body, c), tip) in self.bodies.iter_mut().zip(s.c).zip(s.tips) {
             if tip.is_some() != body.tip.is_some() {
