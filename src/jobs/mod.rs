@@ -557,14 +557,7 @@ struct ObserverState {
 fn resume_job(dir: &Path, scene: &Scene) -> Result<(std::fs::File, ObserverState, Simulation), String> {
     let cp = crate::mpm::Checkpoint::load(&checkpoint_path(dir)).map_err(|e| e.to_string())?;
     let saved: ObserverState = postcard::from_bytes(&cp.observer).map_err(|e| format!("its observer state: {e}"))?;
-    let path = dir.join("series.csv");
-    let mut series = std::fs::OpenOptions::new().write(true).open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let len = series.metadata().map_err(|e| e.to_string())?.len();
-    if len < saved.series_bytes {
-        return Err(format!("{} has {len} bytes, fewer than the {} of the checkpoint", path.display(), saved.series_bytes));
-    }
-    series.set_len(saved.series_bytes).map_err(|e| e.to_string())?;
-    std::io::Seek::seek(&mut series, std::io::SeekFrom::End(0)).map_err(|e| e.to_string())?;
+    let series = crate::output::reopen_series(&dir.join("series.csv"), saved.series_bytes).map_err(|e| e.to_string())?;
     let sim = Simulation::resume(scene, cp).map_err(|e| e.to_string())?;
     Ok((series, saved, sim))
 }

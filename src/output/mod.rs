@@ -50,6 +50,21 @@ pub struct OutputPaths {
     pub snapshots: Vec<PathBuf>,
 }
 
+/// A run's `series.csv` cut back to the `bytes` it had at a checkpoint
+/// and opened to append the rows that follow.
+pub(crate) fn reopen_series(path: &Path, bytes: u64) -> Result<File, OutputError> {
+    let io = |e| OutputError::new(path, e);
+    let mut file = std::fs::OpenOptions::new().write(true).open(path).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    if len < bytes {
+        let m = format!("{len} bytes, fewer than the {bytes} it had at the checkpoint");
+        return Err(io(std::io::Error::new(std::io::ErrorKind::InvalidData, m)));
+    }
+    file.set_len(bytes).map_err(io)?;
+    std::io::Seek::seek(&mut file, std::io::SeekFrom::End(0)).map_err(io)?;
+    Ok(file)
+}
+
 /// The checkpoint's file name in an output directory.
 pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
 
@@ -140,14 +155,7 @@ impl OutputWriter {
         let series_path = dir.join("series.csv");
         let bad = |m: String| OutputError::new(&series_path, std::io::Error::new(std::io::ErrorKind::InvalidData, m));
         let s: WriterState = postcard::from_bytes(state).map_err(|e| bad(format!("the checkpoint's output state: {e}")))?;
-        let file = std::fs::OpenOptions::new().write(true).open(&series_path).map_err(|e| OutputError::new(&series_path, e))?;
-        let len = file.metadata().map_err(|e| OutputError::new(&series_path, e))?.len();
-        if len < s.series_bytes {
-            return Err(bad(format!("{len} bytes, shorter than the {} the checkpoint has written", s.series_bytes)));
-        }
-        file.set_len(s.series_bytes).map_err(|e| OutputError::new(&series_path, e))?;
-        let mut file = file;
-        std::io::Seek::seek(&mut file, std::io::SeekFrom::End(0)).map_err(|e| OutputError::new(&series_path, e))?;
+        let file = reopen_series(&series_path, s.series_bytes)?;
         Ok(OutputWriter {
             dir: dir.to_path_buf(),
             series: BufWriter::new(file),
