@@ -418,8 +418,9 @@ impl Observer for RunObserver {
     }
     fn checkpoint(&mut self, cp: cleave::mpm::Checkpoint) -> Result<(), String> {
         let (step, time) = (cp.step(), cp.time());
+        let t0 = std::time::Instant::now();
         self.writer.checkpoint(cp)?;
-        tracing::info!(step, time, "checkpoint saved");
+        tracing::info!(step, time, seconds = t0.elapsed().as_secs_f64(), "checkpoint saved");
         Ok(())
     }
 }
