@@ -435,7 +435,7 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
     std::fs::create_dir_all(&dir).map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
     let cp_path = checkpoint_path(&dir);
     let resume = if cp_path.exists() {
-        match resume_job(&dir, &scene) {
+        match resume_job(&dir) {
             Ok(r) => Some(r),
             Err(e) => {
                 let msg = format!("cannot resume from its checkpoint: {e}");
@@ -447,10 +447,10 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
     } else {
         None
     };
-    let (series, saved, sim) = match resume {
-        Some((series, saved, sim)) => {
-            tracing::info!(job = %id, step = sim.steps(), time = sim.time(), "resumed from its checkpoint");
-            (series, saved, Some(sim))
+    let (series, saved, cp) = match resume {
+        Some((series, saved, cp)) => {
+            tracing::info!(job = %id, step = cp.step(), time = cp.time(), "resumes from its checkpoint");
+            (series, saved, Some(cp))
         }
         None => {
             let series = std::fs::File::create(dir.join("series.csv"))
@@ -482,8 +482,11 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
         .map_err(|e| JobError::Store(format!("cannot build a thread pool: {e}")))?;
     let outcome = pool.install(|| {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            let mut sim = sim.unwrap_or_else(|| Simulation::new(&scene));
-            sim.run(&mut observer)
+            let mut sim = match cp {
+                Some(cp) => Simulation::resume(&scene, cp).map_err(|e| format!("cannot resume from its checkpoint: {e}"))?,
+                None => Simulation::new(&scene),
+            };
+            sim.run(&mut observer).map_err(|e| e.to_string())
         }))
     });
     let _ = std::io::Write::flush(&mut observer.series);
@@ -517,7 +520,7 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
             summary.time = s.time;
             (JobState::Succeeded, None)
         }
-        Ok(Err(e)) => (JobState::Failed, Some(e.to_string())),
+        Ok(Err(e)) => (JobState::Failed, Some(e)),
         Err(panic) => {
             let what = panic
                 .downcast_ref::<&str>()
@@ -551,15 +554,14 @@ struct ObserverState {
     wall_seconds: f64,
 }
 
-/// A job resumed from its checkpoint: its series cut back to the
-/// checkpoint (and opened to append), the observer's counts, and the
-/// simulation.
-fn resume_job(dir: &Path, scene: &Scene) -> Result<(std::fs::File, ObserverState, Simulation), String> {
+/// A job's checkpoint, read back: its series cut back to the checkpoint
+/// (and opened to append), the observer's counts, and the checkpoint for
+/// [`Simulation::resume`].
+fn resume_job(dir: &Path) -> Result<(std::fs::File, ObserverState, crate::mpm::Checkpoint), String> {
     let cp = crate::mpm::Checkpoint::load(&checkpoint_path(dir)).map_err(|e| e.to_string())?;
     let saved: ObserverState = postcard::from_bytes(&cp.observer).map_err(|e| format!("its observer state: {e}"))?;
     let series = crate::output::reopen_series(&dir.join("series.csv"), saved.series_bytes).map_err(|e| e.to_string())?;
-    let sim = Simulation::resume(scene, cp).map_err(|e| e.to_string())?;
-    Ok((series, saved, sim))
+    Ok((series, saved, cp))
 }
 
 /// Streams a running job's results to its directory and its event log.
