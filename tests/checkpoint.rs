@@ -98,9 +98,11 @@ fn straight_and_resumed(text: &str, at: u64, lost: u64) -> (Outcome, Outcome) {
     let lost_series = std::fs::read_to_string(b.join("series.csv")).unwrap();
     assert!(lost_series.lines().count() > 2, "the lost run wrote rows");
 
-    let (mut w, cp) = OutputWriter::resume(&b).unwrap();
+    let mut cp = OutputWriter::load_checkpoint(&b).unwrap();
     assert_eq!(cp.step(), at);
+    let state = std::mem::take(&mut cp.observer);
     let mut sim = Simulation::resume(&scene, cp).unwrap();
+    let mut w = OutputWriter::resume(&b, &state).unwrap();
     let s = sim.run(&mut w).unwrap();
     assert!(!s.cancelled);
     w.finish().unwrap();
@@ -179,7 +181,7 @@ fn resuming_refuses_another_scene_and_names_the_field() {
     let tmp = tempfile::tempdir().unwrap();
     let mut obs = Interrupted { writer: OutputWriter::create(tmp.path()).unwrap(), at: 3, lost: 1 };
     Simulation::new(&scene).run(&mut obs).unwrap();
-    let (_, cp) = OutputWriter::resume(tmp.path()).unwrap();
+    let cp = OutputWriter::load_checkpoint(tmp.path()).unwrap();
     let other = Scene::from_text(&text.replace("end = 0.05", "end = 0.06"), None).unwrap();
     let e = Simulation::resume(&other, cp.clone()).err().unwrap();
     assert!(matches!(e, CheckpointError::SceneMismatch { .. }), "{e}");
@@ -191,6 +193,6 @@ fn resuming_refuses_another_scene_and_names_the_field() {
     let path = OutputWriter::checkpoint_path(tmp.path());
     let bytes = std::fs::read(&path).unwrap();
     std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
-    let e = OutputWriter::resume(tmp.path()).err().unwrap().to_string();
+    let e = OutputWriter::load_checkpoint(tmp.path()).err().unwrap().to_string();
     assert!(e.contains("checkpoint.bin") && e.contains("damaged"), "{e}");
 }

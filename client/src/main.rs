@@ -459,11 +459,15 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool, ck
         );
     }
     let (writer, mut sim) = if ck.resume {
-        let (writer, cp) = OutputWriter::resume(out).with_context(|| format!("cannot resume the run in {}", out.display()))?;
+        // the scene is checked against the checkpoint before the series is
+        // touched: a refused resume leaves the results as they were
+        let mut cp = OutputWriter::load_checkpoint(out).with_context(|| format!("cannot resume the run in {}", out.display()))?;
         if !json {
             eprintln!("resuming at step {} (t = {:.6e} s) from {}", cp.step(), cp.time(), OutputWriter::checkpoint_path(out).display());
         }
+        let state = std::mem::take(&mut cp.observer);
         let sim = Simulation::resume(scene, cp).with_context(|| format!("cannot resume {} from {}", path.display(), OutputWriter::checkpoint_path(out).display()))?;
+        let writer = OutputWriter::resume(out, &state).with_context(|| format!("cannot resume the run in {}", out.display()))?;
         (writer, sim)
     } else {
         let writer = OutputWriter::create(out).with_context(|| format!("cannot write results to {}", out.display()))?;

@@ -134,24 +134,26 @@ impl OutputWriter {
         dir.join(CHECKPOINT_FILE)
     }
 
-    /// The writer of a run resumed in `dir` from its checkpoint
-    /// ([`OutputWriter::checkpoint_path`]), and the checkpoint for
-    /// [`Simulation::resume`](crate::mpm::Simulation::resume):
-    /// `series.csv` is cut back to the rows written up to the checkpoint
-    /// (rows a lost later part of the run wrote are dropped; the resumed
-    /// run writes them again) and goes on from there. Snapshot files of
-    /// the lost part are overwritten as the resumed run reaches them.
-    pub fn resume(dir: &Path) -> Result<(OutputWriter, Checkpoint), OutputError> {
+    /// The checkpoint of the run in `dir` ([`OutputWriter::checkpoint_path`]).
+    /// Resuming: [`Simulation::resume`](crate::mpm::Simulation::resume)
+    /// with it (which checks it against the scene), then
+    /// [`OutputWriter::resume`] with its `observer` bytes.
+    pub fn load_checkpoint(dir: &Path) -> Result<Checkpoint, OutputError> {
         let path = Self::checkpoint_path(dir);
-        let cp = Checkpoint::load(&path).map_err(|e| match e {
+        Checkpoint::load(&path).map_err(|e| match e {
             CheckpointError::Io(e) => OutputError::new(&path, e),
             e => OutputError::new(&path, std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string())),
-        })?;
-        let writer = Self::resume_with(dir, &cp.observer)?;
-        Ok((writer, cp))
+        })
     }
 
-    fn resume_with(dir: &Path, state: &[u8]) -> Result<OutputWriter, OutputError> {
+    /// The writer of a run resumed in `dir` from a checkpoint whose
+    /// `observer` bytes are `state` ([`Observer::checkpoint`] of this
+    /// writer): `series.csv` is cut back to the rows written up to the
+    /// checkpoint (rows a lost later part of the run wrote are dropped; the
+    /// resumed run writes them again) and goes on from there. Snapshot
+    /// files of the lost part are overwritten as the resumed run reaches
+    /// them.
+    pub fn resume(dir: &Path, state: &[u8]) -> Result<OutputWriter, OutputError> {
         let series_path = dir.join("series.csv");
         let bad = |m: String| OutputError::new(&series_path, std::io::Error::new(std::io::ErrorKind::InvalidData, m));
         let s: WriterState = postcard::from_bytes(state).map_err(|e| bad(format!("the checkpoint's output state: {e}")))?;
