@@ -539,7 +539,7 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
 
 /// A job's checkpoint file in its directory.
 fn checkpoint_path(dir: &Path) -> PathBuf {
-    dir.join("checkpoint.bin")
+    dir.join(crate::output::CHECKPOINT_FILE)
 }
 
 /// What a job's checkpoint keeps of its observer.
@@ -586,19 +586,16 @@ struct JobObserver<'a> {
 
 impl Observer for JobObserver<'_> {
     fn checkpoint(&mut self, mut cp: crate::mpm::Checkpoint) -> Result<(), String> {
-        use std::io::Write;
-        let path = self.dir.join("series.csv");
-        self.series.flush().map_err(|e| format!("{}: {e}", path.display()))?;
+        let series_bytes = crate::output::flushed_len(&mut self.series, &self.dir.join("series.csv")).map_err(|e| e.to_string())?;
         let state = ObserverState {
-            series_bytes: self.series.get_ref().metadata().map_err(|e| format!("{}: {e}", path.display()))?.len(),
+            series_bytes,
             snapshots: self.snapshots,
             rows: self.rows,
             last_row: self.last_row.clone(),
             wall_seconds: self.wall_before + self.started.elapsed().as_secs_f64(),
         };
         cp.observer = postcard::to_stdvec(&state).map_err(|e| e.to_string())?;
-        let target = checkpoint_path(&self.dir);
-        cp.save(&target).map_err(|e| format!("{}: {e}", target.display()))
+        crate::output::save_checkpoint(&checkpoint_path(&self.dir), &cp).map_err(|e| e.to_string())
     }
 
     fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {

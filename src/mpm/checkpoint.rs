@@ -122,20 +122,6 @@ impl Checkpoint {
         postcard::from_bytes(body).map_err(|e| CheckpointError::Decode(e.to_string()))
     }
 
-    /// Writes the checkpoint to `path` atomically: to `path.tmp` first,
-    /// then renamed, so that a crash while writing leaves the previous
-    /// checkpoint in place.
-    pub fn save(&self, path: &std::path::Path) -> Result<(), CheckpointError> {
-        let tmp = path.with_extension("tmp");
-        {
-            let mut f = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
-            self.write_to(&mut f)?;
-            f.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        }
-        std::fs::rename(&tmp, path)?;
-        Ok(())
-    }
-
     /// Reads the checkpoint at `path`.
     pub fn load(path: &std::path::Path) -> Result<Checkpoint, CheckpointError> {
         let mut f = std::io::BufReader::new(std::fs::File::open(path)?);

@@ -65,7 +65,26 @@ pub(crate) fn reopen_series(path: &Path, bytes: u64) -> Result<File, OutputError
     Ok(file)
 }
 
-/// The checkpoint's file name in an output directory.
+/// The length of a series after flushing it: what [`reopen_series`] cuts
+/// it back to.
+pub(crate) fn flushed_len(series: &mut BufWriter<File>, path: &Path) -> Result<u64, OutputError> {
+    let io = |e| OutputError::new(path, e);
+    series.flush().map_err(io)?;
+    Ok(series.get_ref().metadata().map_err(io)?.len())
+}
+
+/// Writes a checkpoint to `path` atomically ([`write_atomic`]): a crash
+/// while writing leaves the previous checkpoint in place.
+pub fn save_checkpoint(path: &Path, cp: &Checkpoint) -> Result<(), OutputError> {
+    write_atomic(path, |w| {
+        cp.write_to(w).map_err(|e| match e {
+            CheckpointError::Io(e) => e,
+            e => std::io::Error::other(e.to_string()),
+        })
+    })
+}
+
+/// The checkpoint's file name in an output directory (and a server job's).
 pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
 
 /// What a checkpoint keeps of an [`OutputWriter`].
@@ -115,8 +134,7 @@ impl OutputWriter {
     /// The writer's state, for a checkpoint of the run (postcard bytes; see
     /// [`OutputWriter::resume`]). Flushes the series first.
     fn checkpoint_state(&mut self) -> Result<Vec<u8>, OutputError> {
-        self.series.flush().map_err(|e| OutputError::new(&self.series_path, e))?;
-        let bytes = self.series.get_ref().metadata().map_err(|e| OutputError::new(&self.series_path, e))?.len();
+        let bytes = flushed_len(&mut self.series, &self.series_path)?;
         let state = WriterState {
             columns: self.columns.clone(),
             rows: self.rows.clone(),
@@ -220,8 +238,7 @@ impl Observer for OutputWriter {
     /// previous one stays until the new one is whole.
     fn checkpoint(&mut self, mut cp: Checkpoint) -> Result<(), String> {
         cp.observer = self.checkpoint_state().map_err(|e| e.to_string())?;
-        let path = Self::checkpoint_path(&self.dir);
-        cp.save(&path).map_err(|e| format!("{}: {e}", path.display()))
+        save_checkpoint(&Self::checkpoint_path(&self.dir), &cp).map_err(|e| e.to_string())
     }
 
     fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
