@@ -387,8 +387,7 @@ struct Checkpointing {
 struct RunObserver {
     writer: OutputWriter,
     bar: Option<ProgressBar>,
-    checkpoint_every: Option<std::time::Duration>,
-    last_checkpoint: std::time::Instant,
+    checkpoints: cleave::mpm::CheckpointTimer,
 }
 
 impl Observer for RunObserver {
@@ -408,12 +407,10 @@ impl Observer for RunObserver {
                 bar.set_message(format!("step {} t = {:.3e} s", p.step, p.time));
             }
         }
-        match self.checkpoint_every {
-            Some(every) if self.last_checkpoint.elapsed() >= every && p.time < p.end_time => {
-                self.last_checkpoint = std::time::Instant::now();
-                Control::Checkpoint
-            }
-            _ => Control::Continue,
+        if self.checkpoints.due(p) {
+            Control::Checkpoint
+        } else {
+            Control::Continue
         }
     }
     fn checkpoint(&mut self, cp: cleave::mpm::Checkpoint) -> Result<(), String> {
@@ -481,7 +478,7 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool, ck
         );
         bar
     });
-    let mut obs = RunObserver { writer, bar, checkpoint_every, last_checkpoint: std::time::Instant::now() };
+    let mut obs = RunObserver { writer, bar, checkpoints: cleave::mpm::CheckpointTimer::new(checkpoint_every) };
     let result = sim.run(&mut obs);
     if let Some(bar) = &obs.bar {
         bar.finish_and_clear();

@@ -469,8 +469,7 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
         rows: saved.rows,
         last_row: saved.last_row,
         wall_before: saved.wall_seconds,
-        checkpoint_every: inner.config.checkpoint_every,
-        last_checkpoint: Instant::now(),
+        checkpoints: crate::mpm::CheckpointTimer::new(inner.config.checkpoint_every),
         stopping: &inner.stopping,
         stop_next: false,
     };
@@ -544,7 +543,7 @@ fn checkpoint_path(dir: &Path) -> PathBuf {
 
 /// What a job's checkpoint keeps of its observer.
 #[derive(Debug, Default, Serialize, Deserialize)]
-struct ObserverState {
+pub(crate) struct ObserverState {
     /// Length of `series.csv` at the checkpoint.
     series_bytes: u64,
     snapshots: u32,
@@ -577,8 +576,7 @@ struct JobObserver<'a> {
     last_row: Option<SeriesRow>,
     /// Wall time of the job before its resume, s.
     wall_before: f64,
-    checkpoint_every: Option<std::time::Duration>,
-    last_checkpoint: Instant,
+    checkpoints: crate::mpm::CheckpointTimer,
     stopping: &'a AtomicBool,
     /// A checkpoint for the server's shutdown was saved: stop.
     stop_next: bool,
@@ -625,7 +623,7 @@ impl Observer for JobObserver<'_> {
     fn progress(&mut self, p: &Progress) -> Control {
         if self.cancel.load(Ordering::SeqCst) {
             // a shutdown (not a user's cancel) saves a checkpoint first
-            if self.checkpoint_every.is_some() && self.stopping.load(Ordering::SeqCst) && !self.stop_next && p.time < p.end_time {
+            if self.checkpoints.enabled() && self.stopping.load(Ordering::SeqCst) && !self.stop_next && p.time < p.end_time {
                 self.stop_next = true;
                 return Control::Checkpoint;
             }
@@ -653,12 +651,10 @@ impl Observer for JobObserver<'_> {
             }));
             self.last_emit = Some((now, fraction));
         }
-        match self.checkpoint_every {
-            Some(every) if self.last_checkpoint.elapsed() >= every && p.time < p.end_time => {
-                self.last_checkpoint = Instant::now();
-                Control::Checkpoint
-            }
-            _ => Control::Continue,
+        if self.checkpoints.due(p) {
+            Control::Checkpoint
+        } else {
+            Control::Continue
         }
     }
 }

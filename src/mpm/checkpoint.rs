@@ -24,7 +24,9 @@
 //!
 //! On disk: `b"CLEAVECKPT1\n"` then the [`Checkpoint`] in postcard (serde's
 //! compact binary format); a file from another format version or another
-//! scene is refused with the reason.
+//! scene is refused with the reason. The header's number names the layout
+//! of the saved types, which `checkpoint_layout.json` beside this file
+//! holds (a test fails when a saved type changes without it).
 
 use super::{Simulation, StageTimes};
 use crate::diagnostics::SeriesRow;
@@ -126,6 +128,39 @@ impl Checkpoint {
     pub fn load(path: &std::path::Path) -> Result<Checkpoint, CheckpointError> {
         let mut f = std::io::BufReader::new(std::fs::File::open(path)?);
         Checkpoint::read_from(&mut f)
+    }
+}
+
+/// When an observer asks for its next checkpoint: every `every` of wall
+/// time, never at the last step (the run's results are complete then and
+/// its checkpoint is removed). The one rule of the CLI's writer and the
+/// server's jobs.
+#[derive(Debug, Clone)]
+pub struct CheckpointTimer {
+    every: Option<std::time::Duration>,
+    last: std::time::Instant,
+}
+
+impl CheckpointTimer {
+    /// A timer that starts now; `None` never asks.
+    pub fn new(every: Option<std::time::Duration>) -> CheckpointTimer {
+        CheckpointTimer { every, last: std::time::Instant::now() }
+    }
+
+    /// Whether checkpoints are asked for at all.
+    pub fn enabled(&self) -> bool {
+        self.every.is_some()
+    }
+
+    /// Whether a checkpoint is due at `p`; if so the interval starts again.
+    pub fn due(&mut self, p: &crate::diagnostics::Progress) -> bool {
+        match self.every {
+            Some(every) if self.last.elapsed() >= every && p.time < p.end_time => {
+                self.last = std::time::Instant::now();
+                true
+            }
+            _ => false,
+        }
     }
 }
 
@@ -287,6 +322,37 @@ mod tests {
         assert_eq!(first_difference("", &a, &b), Some(("bodies[1].name".into(), "\"b\"".into(), "\"c\"".into())));
         let c = json!({"time": {"end": 2.0, "dt": 2.0}});
         assert_eq!(first_difference("", &json!({"time": {"end": 1.0, "dt": 2.0}}), &c).map(|d| d.0), Some("time.end".into()));
+    }
+
+    /// postcard writes no field names nor types: a file read with another
+    /// layout fails to decode, or worse decodes into other values. The
+    /// header's number (`CLEAVECKPT1`) names the layout, so that older files
+    /// are refused as another format; this test holds the layout that
+    /// number stands for (the checkpoint's types and the observers' states
+    /// it carries) and fails when a saved type changes.
+    #[test]
+    fn the_file_layout_is_the_one_its_header_names() {
+        use serde_reflection::{Tracer, TracerConfig};
+        let mut tracer = Tracer::new(TracerConfig::default());
+        tracer.trace_simple_type::<Checkpoint>().expect("trace the checkpoint's types");
+        // the observers' own state, saved in `Checkpoint::observer`
+        tracer.trace_simple_type::<crate::output::WriterState>().expect("trace the CLI writer's state");
+        tracer.trace_simple_type::<crate::jobs::ObserverState>().expect("trace a job's state");
+        let registry = tracer.registry().expect("every saved type is known");
+        let layout = serde_json::to_string_pretty(&registry).expect("layout as JSON") + "\n";
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/mpm/checkpoint_layout.json");
+        let held = std::fs::read_to_string(&path).unwrap_or_default();
+        if layout != held {
+            let fresh = path.with_extension("json.new");
+            std::fs::write(&fresh, &layout).expect("write the new layout");
+            panic!(
+                "the checkpoint's saved types changed (new layout in {}): raise the number in MAGIC \
+                 (CLEAVECKPT1 -> CLEAVECKPT2, so that files in the old layout are refused) and replace {} with it",
+                fresh.display(),
+                path.display()
+            );
+        }
+        assert!(MAGIC.starts_with(b"CLEAVECKPT"));
     }
 
     #[test]

@@ -18,7 +18,7 @@ mod p2g;
 mod phase;
 mod setup;
 
-pub use checkpoint::{Checkpoint, CheckpointError};
+pub use checkpoint::{Checkpoint, CheckpointError, CheckpointTimer};
 pub use g2p::BadKind;
 
 use crate::contact::{self, ContactLaw};

@@ -89,7 +89,7 @@ pub const CHECKPOINT_FILE: &str = "checkpoint.bin";
 
 /// What a checkpoint keeps of an [`OutputWriter`].
 #[derive(serde::Serialize, serde::Deserialize)]
-struct WriterState {
+pub(crate) struct WriterState {
     columns: Vec<String>,
     rows: Vec<SeriesRow>,
     particle_entries: Vec<(f64, String)>,
