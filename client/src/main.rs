@@ -152,6 +152,16 @@ enum Command {
         /// Print the table as one JSON object.
         #[arg(long)]
         json: bool,
+        /// Go on with the study an earlier `cleave study` left in --out
+        /// (same scene and settings): its finished runs are kept, a run
+        /// with a checkpoint goes on from it, the others run.
+        #[arg(long)]
+        resume: bool,
+        /// Save the running variant's state every SECONDS of wall time
+        /// (DIR/runs/NNN/checkpoint.bin), so that --resume loses at most
+        /// that much of it. Runs in this process only.
+        #[arg(long, value_name = "SECONDS")]
+        checkpoint_every: Option<f64>,
     },
     /// The effective surface energy Gc(θ) of the anisotropic phase field
     /// (eq. 8 of Kakouris & Triantafyllou) as a table and a polar plot.
@@ -267,8 +277,8 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INVALID)
         }
         Command::GcPolar { gamma, gc_bar, angle_step, json, out } => gc_polar::run(&gamma, gc_bar, angle_step, json, &out),
-        Command::Study { scene, vary, metric, reference, out, json } => {
-            study::main_local(study::Options { scene, vary, metric, reference, out, json })
+        Command::Study { scene, vary, metric, reference, out, json, resume, checkpoint_every } => {
+            study::main_local(study::Options { scene, vary, metric, reference, out, json, resume, checkpoint_every })
         }
         Command::Plot { series, out } => match plot(&series, out.as_deref()) {
             Ok(()) => ExitCode::SUCCESS,
@@ -568,8 +578,8 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
         let result: Result<ExitCode, remote::RemoteError> = async {
             match command {
                 Command::Validate { scene, json } => remote::validate(&mut client, &scene, json).await,
-                Command::Study { scene, vary, metric, reference, out, json } => {
-                    study::main_remote(&mut client, study::Options { scene, vary, metric, reference, out, json }).await
+                Command::Study { scene, vary, metric, reference, out, json, resume, checkpoint_every } => {
+                    study::main_remote(&mut client, study::Options { scene, vary, metric, reference, out, json, resume, checkpoint_every }).await
                 }
                 Command::Run { scene, out, json, quiet, checkpoint_every, resume } => {
                     if checkpoint_every.is_some() || resume {

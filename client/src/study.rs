@@ -6,14 +6,23 @@
 //!
 //! Writes `DIR/study.csv` (a row per run), `DIR/study.png` (error against
 //! wall time, log–log, the Pareto front marked) and, per run,
-//! `DIR/runs/NNN/scene.json` (the variant, to rerun alone) and
-//! `DIR/runs/NNN/series.csv`.
+//! `DIR/runs/NNN/scene.json` (the variant, to rerun alone),
+//! `DIR/runs/NNN/series.csv` and `DIR/runs/NNN/outcome.json` (how it
+//! ended, once it has).
+//!
+//! A study outlives its process: `--resume` keeps the runs an earlier
+//! `cleave study` into the same DIR finished (same scene and settings,
+//! checked against their `scene.json`) and runs the others; with
+//! `--checkpoint-every` a run in this process saves its state in
+//! `DIR/runs/NNN/checkpoint.bin`, and `--resume` goes on from there. On a
+//! server each run's job id is kept in `DIR/runs/NNN/job`; `--resume`
+//! follows a job the server still has rather than submitting it again.
 
 use crate::remote::{self, Client};
 use crate::{report_invalid, EXIT_FAILED, EXIT_INVALID};
 use anyhow::Context;
-use cleave::diagnostics::{Recorder, SeriesRow};
-use cleave::mpm::Simulation;
+use cleave::diagnostics::{Control, Observer, Progress, Recorder, SeriesRow, Snapshot};
+use cleave::mpm::{CheckpointTimer, Simulation};
 use cleave::scene::{Format, SceneError};
 use cleave::study::{self, Axis, Metric, Reference, Variant};
 use serde_json::json;
@@ -29,6 +38,12 @@ pub struct Options {
     pub reference: String,
     pub out: PathBuf,
     pub json: bool,
+    /// Keep the runs an earlier study into `out` finished, go on from the
+    /// checkpoints of those it did not.
+    pub resume: bool,
+    /// Save a running variant's state every this many seconds of wall
+    /// time (runs in this process only).
+    pub checkpoint_every: Option<f64>,
 }
 
 /// The variants, validated and written to `DIR/runs`, with the metric and
@@ -42,6 +57,8 @@ pub struct Prepared {
     /// In this process: the first variant's simulation, built to check the
     /// metric's column and then run (seeded once).
     first: Option<Simulation>,
+    /// With `--resume`: the runs an earlier study finished, kept.
+    done: Vec<Option<Outcome>>,
 }
 
 /// How one run ended.
@@ -59,6 +76,50 @@ fn run_dir(out: &Path, k: usize) -> PathBuf {
     out.join("runs").join(format!("{k:03}"))
 }
 
+/// How a finished run ended, beside its series.
+const OUTCOME_FILE: &str = "outcome.json";
+
+/// The server's job id of a run (`--server`).
+const JOB_FILE: &str = "job";
+
+/// Writes `outcome.json` of run `k` (after its series).
+fn save_outcome(dir: &Path, o: &Outcome) -> std::io::Result<()> {
+    let v = json!({"failure": o.failure, "wall_seconds": o.wall_seconds, "steps": o.steps, "particles": o.particles});
+    let tmp = dir.join(format!("{OUTCOME_FILE}.tmp"));
+    std::fs::write(&tmp, v.to_string())?;
+    std::fs::rename(&tmp, dir.join(OUTCOME_FILE))
+}
+
+/// A finished run of an earlier study: its `outcome.json` and series.
+/// None if it has no outcome yet; Err if what is there cannot be read.
+fn load_outcome(dir: &Path) -> Result<Option<Outcome>, String> {
+    let path = dir.join(OUTCOME_FILE);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(format!("{}: {e}", path.display())),
+    };
+    let bad = |why: String| format!("{}: {why}", path.display());
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+    let number = |key: &str| v.get(key).and_then(|x| x.as_f64()).ok_or_else(|| bad(format!("no number {key:?}")));
+    let failure = v.get("failure").and_then(|f| f.as_str()).map(str::to_string);
+    let series = dir.join("series.csv");
+    let (columns, rows) = match std::fs::read_to_string(&series) {
+        Ok(t) => cleave::output::parse_series(&t).map_err(|e| format!("{}: {e}", series.display()))?,
+        // a run that failed before its first row has no series
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && failure.is_some() => (Vec::new(), Vec::new()),
+        Err(e) => return Err(format!("{}: {e}", series.display())),
+    };
+    Ok(Some(Outcome {
+        failure,
+        wall_seconds: number("wall_seconds")?,
+        steps: number("steps")? as u64,
+        particles: number("particles")? as u64,
+        columns,
+        rows,
+    }))
+}
+
 /// Parses the options, builds and validates every variant (all problems
 /// at once, before anything runs) and writes their scenes. `local`: the
 /// runs happen here, so the metric's column is checked on the first
@@ -72,6 +133,9 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
     };
     if opts.vary.is_empty() {
         return Err(usage("give at least one --vary KEY=V1,V2,…".into()));
+    }
+    if let Some(s) = opts.checkpoint_every.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+        return Err(usage(format!("--checkpoint-every: must be a number of seconds >= 0, got {s}")));
     }
     let axes = opts.vary.iter().map(|s| Axis::parse(s)).collect::<Result<Vec<_>, _>>().map_err(usage)?;
     let metric = Metric::parse(&opts.metric).map_err(usage)?;
@@ -90,7 +154,7 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
         .map_err(|e| report_invalid(&opts.scene, &e, opts.json))?;
     // the metric's column must exist (the first variant's columns; a
     // setting such as dfg=off can still drop it for others: their rows say so)
-    let first = local.then(|| Simulation::new(&variants[0].scene));
+    let mut first = local.then(|| Simulation::new(&variants[0].scene));
     let columns = first.as_ref().map_or_else(|| vec![metric.column().to_string()], Simulation::series_columns);
     if !columns.iter().any(|c| c == metric.column()) {
         return Err(usage(format!(
@@ -100,6 +164,41 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
             columns.join(", ")
         )));
     }
+    // what an earlier study left in `out`: refused unless resumed, and
+    // resumed only with the same variants (nothing stored is overwritten)
+    let mut done = Vec::with_capacity(variants.len());
+    for (k, v) in variants.iter().enumerate() {
+        let dir = run_dir(&opts.out, k);
+        let scene_path = dir.join("scene.json");
+        let earlier = std::fs::read_to_string(&scene_path).ok();
+        let has_results = [OUTCOME_FILE, cleave::output::CHECKPOINT_FILE, JOB_FILE].iter().any(|f| dir.join(f).exists());
+        if !opts.resume {
+            if has_results {
+                return Err(usage(format!(
+                    "{} holds the runs of an earlier study: --resume goes on with it (its finished runs are kept), or give another --out",
+                    opts.out.display()
+                )));
+            }
+            done.push(None);
+            continue;
+        }
+        match earlier {
+            Some(text) if text != v.text => {
+                return Err(usage(format!(
+                    "--resume: {} is not this study's run {k} ({}): the scene or the --vary settings changed; resume with the ones it was started with, or give another --out",
+                    scene_path.display(),
+                    label(v)
+                )))
+            }
+            Some(_) => done.push(load_outcome(&dir).map_err(|e| usage(format!("--resume: {e}")))?),
+            None => done.push(None),
+        }
+    }
+    // the first variant's simulation, built for the column check, is run
+    // only if that variant is to run from its start
+    if done[0].is_some() || (opts.resume && run_dir(&opts.out, 0).join(cleave::output::CHECKPOINT_FILE).exists()) {
+        first = None;
+    }
     for (k, v) in variants.iter().enumerate() {
         let dir = run_dir(&opts.out, k);
         if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("scene.json"), &v.text)) {
@@ -107,46 +206,140 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
             return Err(ExitCode::from(EXIT_FAILED));
         }
     }
-    Ok(Prepared { opts, axes, metric, reference, variants, first })
+    Ok(Prepared { opts, axes, metric, reference, variants, first, done })
 }
 
 fn label(v: &Variant) -> String {
     v.settings.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")
 }
 
-/// Runs the variants one after the other in this process.
+/// Runs the variants one after the other in this process (those an
+/// earlier study finished are kept; one it checkpointed goes on from its
+/// checkpoint).
 pub fn run_local(p: &mut Prepared) -> Vec<Outcome> {
     let n = p.variants.len();
     let mut first = p.first.take();
-    p.variants
-        .iter()
-        .enumerate()
-        .map(|(k, v)| {
-            eprintln!("[{}/{n}] {} ({} particles)", k + 1, label(v), v.scene.total_particles());
-            let mut sim = first.take().unwrap_or_else(|| Simulation::new(&v.scene));
-            let mut obs = Recorder::series_only();
-            let t0 = std::time::Instant::now();
-            let result = sim.run(&mut obs);
-            let wall = t0.elapsed().as_secs_f64();
-            let (failure, steps) = match result {
-                Ok(s) => (None, s.steps),
-                Err(e) => (Some(e.to_string()), obs.rows.last().map_or(0, |r| r.step)),
-            };
-            let o = Outcome { failure, wall_seconds: wall, steps, particles: v.scene.total_particles() as u64, columns: obs.columns, rows: obs.rows };
-            keep(p, k, &o);
-            o
-        })
-        .collect()
+    let every = p.opts.checkpoint_every.map(std::time::Duration::from_secs_f64);
+    let mut out = Vec::with_capacity(n);
+    for k in 0..n {
+        let v = &p.variants[k];
+        if let Some(o) = p.done[k].take() {
+            eprintln!("[{}/{n}] {}: finished by the earlier study, kept", k + 1, label(v));
+            out.push(o);
+            continue;
+        }
+        let dir = run_dir(&p.opts.out, k);
+        let mut obs = StudyObserver { rec: Recorder::series_only(), timer: CheckpointTimer::new(every), dir: &dir, wall_before: 0.0, started: std::time::Instant::now() };
+        let resumed = match resume_run(v, &dir, &mut obs) {
+            Ok(sim) => sim,
+            Err(e) => {
+                eprintln!("[{}/{n}] {}: cannot resume ({e}); running it from the start", k + 1, label(v));
+                None
+            }
+        };
+        match &resumed {
+            Some(sim) => eprintln!("[{}/{n}] {} ({} particles), from its checkpoint at step {}", k + 1, label(v), v.scene.total_particles(), sim.steps()),
+            None => eprintln!("[{}/{n}] {} ({} particles)", k + 1, label(v), v.scene.total_particles()),
+        }
+        let mut sim = resumed.or_else(|| first.take()).unwrap_or_else(|| Simulation::new(&v.scene));
+        first = None;
+        obs.started = std::time::Instant::now();
+        let result = sim.run(&mut obs);
+        let wall = obs.wall_before + obs.started.elapsed().as_secs_f64();
+        let (failure, steps) = match result {
+            Ok(s) => (None, s.steps),
+            Err(e) => (Some(e.to_string()), obs.rec.rows.last().map_or(0, |r| r.step)),
+        };
+        let o = Outcome { failure, wall_seconds: wall, steps, particles: v.scene.total_particles() as u64, columns: obs.rec.columns, rows: obs.rec.rows };
+        keep(p, k, &o);
+        out.push(o);
+    }
+    out
+}
+
+/// The simulation of run `dir` at its checkpoint, with the observer's rows
+/// and wall time taken back; None without a checkpoint.
+fn resume_run(v: &Variant, dir: &Path, obs: &mut StudyObserver) -> Result<Option<Simulation>, String> {
+    if !cleave::output::OutputWriter::checkpoint_path(dir).exists() {
+        return Ok(None);
+    }
+    let cp = cleave::output::OutputWriter::load_checkpoint(dir).map_err(|e| e.to_string())?;
+    let saved: SavedRun = serde_json::from_slice(&cp.observer).map_err(|e| format!("its study state: {e}"))?;
+    let series = dir.join("series.csv");
+    let text = std::fs::read_to_string(&series).map_err(|e| format!("{}: {e}", series.display()))?;
+    let (columns, mut rows) = cleave::output::parse_series(&text).map_err(|e| format!("{}: {e}", series.display()))?;
+    if rows.len() < saved.rows {
+        return Err(format!("{} has {} rows, the checkpoint {}", series.display(), rows.len(), saved.rows));
+    }
+    rows.truncate(saved.rows);
+    let sim = Simulation::resume(&v.scene, cp).map_err(|e| e.to_string())?;
+    obs.rec.columns = columns;
+    obs.rec.rows = rows;
+    obs.wall_before = saved.wall_seconds;
+    Ok(Some(sim))
+}
+
+/// What a study run's checkpoint keeps of its observer (JSON in
+/// `Checkpoint::observer`): the rows then in `series.csv` and the wall
+/// time so far.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SavedRun {
+    rows: usize,
+    wall_seconds: f64,
+}
+
+/// Keeps a run's series in memory and, when its timer says so, saves the
+/// series so far and a checkpoint into the run's directory.
+struct StudyObserver<'a> {
+    rec: Recorder,
+    timer: CheckpointTimer,
+    dir: &'a Path,
+    /// Wall seconds of the run before it was resumed.
+    wall_before: f64,
+    started: std::time::Instant,
+}
+
+impl Observer for StudyObserver<'_> {
+    fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
+        self.rec.series_columns(columns)
+    }
+    fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
+        self.rec.series_row(row)
+    }
+    fn snapshot(&mut self, _snapshot: &Snapshot) -> Result<(), String> {
+        Ok(())
+    }
+    fn progress(&mut self, p: &Progress) -> Control {
+        if self.timer.due(p) {
+            Control::Checkpoint
+        } else {
+            Control::Continue
+        }
+    }
+    fn checkpoint(&mut self, mut cp: cleave::mpm::Checkpoint) -> Result<(), String> {
+        let wall_seconds = self.wall_before + self.started.elapsed().as_secs_f64();
+        cleave::output::write_series_csv(&self.dir.join("series.csv"), &self.rec.columns, &self.rec.rows).map_err(|e| e.to_string())?;
+        cp.observer = serde_json::to_vec(&SavedRun { rows: self.rec.rows.len(), wall_seconds }).map_err(|e| e.to_string())?;
+        cleave::output::save_checkpoint(&cleave::output::OutputWriter::checkpoint_path(self.dir), &cp).map_err(|e| e.to_string())
+    }
 }
 
 /// Writes a finished run's series at once (a study cut short keeps the
 /// runs it finished) and says how it went.
 fn keep(p: &Prepared, k: usize, o: &Outcome) {
-    if !o.columns.is_empty() {
-        let path = run_dir(&p.opts.out, k).join("series.csv");
-        if let Err(e) = cleave::output::write_series_csv(&path, &o.columns, &o.rows) {
-            eprintln!("warning: cannot write {}: {e}", path.display());
+    let dir = run_dir(&p.opts.out, k);
+    let path = dir.join("series.csv");
+    let series = if o.columns.is_empty() { Ok(()) } else { cleave::output::write_series_csv(&path, &o.columns, &o.rows) };
+    match series {
+        // the outcome only once the series is whole: `--resume` keeps it
+        Ok(()) => {
+            if let Err(e) = save_outcome(&dir, o) {
+                eprintln!("warning: cannot write {}: {e}", dir.join(OUTCOME_FILE).display());
+            }
+            let _ = std::fs::remove_file(cleave::output::OutputWriter::checkpoint_path(&dir));
+            let _ = std::fs::remove_file(dir.join(JOB_FILE));
         }
+        Err(e) => eprintln!("warning: cannot write {}: {e}", path.display()),
     }
     let metric = match metric_of(p, o) {
         Ok(v) => format!("metric {v:.6e}"),
@@ -166,16 +359,43 @@ fn metric_of(p: &Prepared, o: &Outcome) -> Result<f64, String> {
 
 /// Submits every variant to the server at once (it runs them up to its
 /// limit in parallel), then follows each to its end and fetches its series.
-pub async fn run_remote(client: &mut Client, p: &Prepared) -> Result<Vec<Outcome>, remote::RemoteError> {
+pub async fn run_remote(client: &mut Client, p: &mut Prepared) -> Result<Vec<Outcome>, remote::RemoteError> {
     let n = p.variants.len();
-    let mut jobs = Vec::with_capacity(n);
+    let mut jobs: Vec<Option<String>> = Vec::with_capacity(n);
     for k in 0..n {
-        let path = run_dir(&p.opts.out, k).join("scene.json");
-        let job = remote::submit(client, &path, &format!("study {k:03}: {}", label(&p.variants[k]))).await?;
-        jobs.push(job.id);
+        if p.done[k].is_some() {
+            jobs.push(None);
+            continue;
+        }
+        let dir = run_dir(&p.opts.out, k);
+        // a job an earlier study submitted, if the server still knows it
+        if p.opts.resume {
+            if let Ok(id) = std::fs::read_to_string(dir.join(JOB_FILE)) {
+                let id = id.trim().to_string();
+                match remote::get(client, &id).await {
+                    Ok(_) => {
+                        eprintln!("[{}/{n}] {}: following job {id}, submitted by the earlier study", k + 1, label(&p.variants[k]));
+                        jobs.push(Some(id));
+                        continue;
+                    }
+                    Err(e) if e.code == crate::EXIT_INVALID => {} // not found: submit again
+                    Err(e) => return Err(e),
+                }
+            }
+        }
+        let job = remote::submit(client, &dir.join("scene.json"), &format!("study {k:03}: {}", label(&p.variants[k]))).await?;
+        if let Err(e) = std::fs::write(dir.join(JOB_FILE), &job.id) {
+            eprintln!("warning: cannot write {}: {e}", dir.join(JOB_FILE).display());
+        }
+        jobs.push(Some(job.id));
     }
     let mut out = Vec::with_capacity(n);
     for (k, id) in jobs.iter().enumerate() {
+        let Some(id) = id else {
+            eprintln!("[{}/{n}] {}: finished by the earlier study, kept", k + 1, label(&p.variants[k]));
+            out.push(p.done[k].take().expect("a kept run"));
+            continue;
+        };
         let job = remote::watch(client, id, false, false).await?;
         let s = job.summary.unwrap_or_default();
         let succeeded = job.state == cleave::service::proto::JobState::Succeeded as i32;
@@ -347,11 +567,17 @@ pub fn main_local(opts: Options) -> ExitCode {
 
 /// `cleave study --server URL`.
 pub async fn main_remote(client: &mut Client, opts: Options) -> Result<ExitCode, remote::RemoteError> {
-    let p = match prepare(opts, false) {
+    if opts.checkpoint_every.is_some() {
+        return Err(remote::RemoteError::new(
+            crate::EXIT_INVALID,
+            "--checkpoint-every works on runs in this process; a server checkpoints its jobs itself (cleave-server --checkpoint-every)",
+        ));
+    }
+    let mut p = match prepare(opts, false) {
         Ok(p) => p,
         Err(code) => return Ok(code),
     };
-    let outcomes = run_remote(client, &p).await?;
+    let outcomes = run_remote(client, &mut p).await?;
     Ok(report(finish(&p, &outcomes)))
 }
 

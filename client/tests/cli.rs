@@ -333,3 +333,80 @@ fn study_rejects_bad_settings_before_running() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("bodies[2].particles_per_cell: index 2 out of range"), "{}", stderr(&o));
 }
+
+/// A study outlives its process: killed while its second run is under way
+/// (after that run's first checkpoint), `--resume` keeps the first run as
+/// it was, takes the second up from its checkpoint, and ends with the
+/// series a run of that variant alone writes. Without `--resume` the
+/// directory of an earlier study is refused; with other settings too.
+#[test]
+fn a_killed_study_resumes_keeping_its_finished_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    // a spinning square: 25 600 particles, about 1.4e-4 s a step
+    let scene = r#"
+[grid]
+cell_size = 0.01
+max = [1.0, 1.0]
+[time]
+end = 0.002
+cfl = 0.5
+[[bodies]]
+shape = { type = "box", min = [0.1, 0.1], max = [0.9, 0.9] }
+material = { model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }
+velocity_gradient = [[0.0, -0.5], [0.5, 0.0]]
+[output]
+series_rows = 200
+"#;
+    let path = write(dir.path(), "spin.toml", scene.as_bytes());
+    let out = dir.path().join("study");
+    let args = |extra: &[&str]| {
+        let mut c = cleave();
+        c.args(["study", path.to_str().unwrap(), "--vary", "time.end=0.002,0.06", "--metric", "kinetic_energy"])
+            .args(["--out", out.to_str().unwrap()])
+            .args(extra);
+        c
+    };
+    let mut child = args(&["--checkpoint-every", "0.1"]).stderr(std::process::Stdio::null()).spawn().unwrap();
+    let run1 = out.join("runs").join("001");
+    let t0 = std::time::Instant::now();
+    while !run1.join("checkpoint.bin").exists() {
+        assert!(child.try_wait().unwrap().is_none(), "the study ended before its second run's first checkpoint: make it longer");
+        assert!(t0.elapsed() < std::time::Duration::from_secs(120), "no checkpoint");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL: no chance to tidy up
+    child.wait().unwrap();
+    assert!(!run1.join("outcome.json").exists(), "the second run finished before the kill: make it longer");
+    let kept = std::fs::read_to_string(out.join("runs").join("000").join("outcome.json")).unwrap();
+
+    // not resumed: refused, nothing touched
+    let o = args(&[]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("holds the runs of an earlier study: --resume"), "{}", stderr(&o));
+    // other settings: refused
+    let o = cleave()
+        .args(["study", path.to_str().unwrap(), "--vary", "time.end=0.002,0.05", "--metric", "kinetic_energy", "--resume"])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("is not this study's run 1 (time.end=0.05)"), "{}", stderr(&o));
+    assert!(run1.join("checkpoint.bin").exists());
+
+    let o = args(&["--resume"]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(e.contains("finished by the earlier study, kept") && e.contains("from its checkpoint at step"), "{e}");
+    assert_eq!(std::fs::read_to_string(out.join("runs").join("000").join("outcome.json")).unwrap(), kept);
+    assert!(!run1.join("checkpoint.bin").exists(), "the checkpoint outlived the finished run");
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    assert!(csv.lines().skip(1).all(|l| l.split(',').nth(2) == Some("ok")), "{csv}");
+
+    // the resumed run's series is the straight run's
+    let alone = dir.path().join("alone");
+    let o = cleave().args(["run", "--quiet"]).arg(run1.join("scene.json")).arg("--out").arg(&alone).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (a, b) = (std::fs::read(run1.join("series.csv")).unwrap(), std::fs::read(alone.join("series.csv")).unwrap());
+    assert!(a == b, "the resumed run's series differs from the straight run's");
+}

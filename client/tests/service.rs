@@ -448,7 +448,9 @@ fn tls_with_a_self_signed_certificate() {
 
 /// `cleave study --server`: the variants run as jobs on the server and the
 /// study's metrics are the ones of the same study in this process (the
-/// wall times differ: the server's jobs share its cores).
+/// wall times differ: the server's jobs share its cores). `--resume`
+/// submits no job again: not for a finished run, nor for one whose job
+/// the server still has.
 #[test]
 fn a_study_against_a_server_measures_what_an_embedded_one_does() {
     let dir = tempfile::tempdir().unwrap();
@@ -484,7 +486,30 @@ fn a_study_against_a_server_measures_what_an_embedded_one_does() {
     assert_eq!(a.len(), 2);
     assert!(a.iter().all(|m| m.0.is_f64()), "{a:?}");
     assert_eq!(a, b);
-    let o = server.cli(&["list", "--json"]);
-    let list: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
-    assert_eq!(list.as_array().unwrap().len(), 2);
+    let jobs = || -> Vec<serde_json::Value> {
+        let o = server.cli(&["list", "--json"]);
+        serde_json::from_str::<serde_json::Value>(stdout(&o).trim()).unwrap().as_array().unwrap().clone()
+    };
+    assert_eq!(jobs().len(), 2);
+
+    // --resume keeps the finished runs and submits nothing
+    let mut resume: Vec<&str> = remote_args.iter().map(String::as_str).collect();
+    resume.push("--resume");
+    assert_eq!(metrics(&server.cli(&resume)), b);
+    assert_eq!(jobs().len(), 2);
+    // a run whose job the earlier study submitted but did not see end is
+    // followed, not submitted again
+    let run1 = dir.path().join("remote").join("runs").join("001");
+    std::fs::remove_file(run1.join("outcome.json")).unwrap();
+    let id = jobs().iter().find(|j| j["label"].as_str().unwrap().starts_with("study 001")).unwrap()["id"].as_str().unwrap().to_string();
+    std::fs::write(run1.join("job"), &id).unwrap();
+    let o = server.cli(&resume);
+    assert!(stderr(&o).contains(&format!("following job {id}")), "{}", stderr(&o));
+    assert_eq!(metrics(&o), b);
+    assert_eq!(jobs().len(), 2);
+    assert!(!run1.join("job").exists());
+    // --checkpoint-every is for runs in this process
+    let mut ck = resume.clone();
+    ck.extend(["--checkpoint-every", "10"]);
+    assert_eq!(server.cli(&ck).status.code(), Some(2));
 }
