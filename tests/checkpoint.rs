@@ -45,7 +45,7 @@ impl Observer for Interrupted {
             _ => Control::Continue,
         }
     }
-    fn checkpoint(&mut self, cp: Checkpoint) -> Result<(), String> {
+    fn checkpoint(&mut self, cp: Checkpoint<'_>) -> Result<(), String> {
         self.writer.checkpoint(cp)
     }
 }

@@ -423,7 +423,7 @@ impl Observer for RunObserver {
             Control::Continue
         }
     }
-    fn checkpoint(&mut self, cp: cleave::mpm::Checkpoint) -> Result<(), String> {
+    fn checkpoint(&mut self, cp: cleave::mpm::Checkpoint<'_>) -> Result<(), String> {
         let (step, time) = (cp.step(), cp.time());
         let t0 = std::time::Instant::now();
         self.writer.checkpoint(cp)?;

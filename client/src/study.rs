@@ -316,7 +316,7 @@ impl Observer for StudyObserver<'_> {
             Control::Continue
         }
     }
-    fn checkpoint(&mut self, mut cp: cleave::mpm::Checkpoint) -> Result<(), String> {
+    fn checkpoint(&mut self, mut cp: cleave::mpm::Checkpoint<'_>) -> Result<(), String> {
         let wall_seconds = self.wall_before + self.started.elapsed().as_secs_f64();
         cleave::output::write_series_csv(&self.dir.join("series.csv"), &self.rec.columns, &self.rec.rows).map_err(|e| e.to_string())?;
         cp.observer = serde_json::to_vec(&SavedRun { rows: self.rec.rows.len(), wall_seconds }).map_err(|e| e.to_string())?;

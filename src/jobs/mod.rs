@@ -556,7 +556,7 @@ pub(crate) struct ObserverState {
 /// A job's checkpoint, read back: its series cut back to the checkpoint
 /// (and opened to append), the observer's counts, and the checkpoint for
 /// [`Simulation::resume`].
-fn resume_job(dir: &Path) -> Result<(std::fs::File, ObserverState, crate::mpm::Checkpoint), String> {
+fn resume_job(dir: &Path) -> Result<(std::fs::File, ObserverState, crate::mpm::Checkpoint<'static>), String> {
     let cp = crate::mpm::Checkpoint::load(&checkpoint_path(dir)).map_err(|e| e.to_string())?;
     let saved: ObserverState = postcard::from_bytes(&cp.observer).map_err(|e| format!("its observer state: {e}"))?;
     let series = crate::output::reopen_series(&dir.join("series.csv"), saved.series_bytes).map_err(|e| e.to_string())?;
@@ -583,7 +583,7 @@ struct JobObserver<'a> {
 }
 
 impl Observer for JobObserver<'_> {
-    fn checkpoint(&mut self, mut cp: crate::mpm::Checkpoint) -> Result<(), String> {
+    fn checkpoint(&mut self, mut cp: crate::mpm::Checkpoint<'_>) -> Result<(), String> {
         let series_bytes = crate::output::flushed_len(&mut self.series, &self.dir.join("series.csv")).map_err(|e| e.to_string())?;
         let state = ObserverState {
             series_bytes,

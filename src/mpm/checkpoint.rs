@@ -33,6 +33,7 @@ use crate::diagnostics::SeriesRow;
 use crate::particles::Particles;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::io::{Read, Write};
 
 const MAGIC: &[u8; 12] = b"CLEAVECKPT1\n";
@@ -52,9 +53,12 @@ pub enum CheckpointError {
     Inconsistent(String),
 }
 
-/// A run's state at the end of a step (see the module docs).
+/// A run's state at the end of a step (see the module docs). The one a
+/// run hands its observer borrows the particle arrays from the simulation
+/// (nothing is copied to save it); one read from a file owns them
+/// (`Checkpoint<'static>`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Checkpoint {
+pub struct Checkpoint<'a> {
     /// The cleave version that wrote it.
     pub version: String,
     /// The state of whoever writes the run's results, saved and loaded
@@ -63,7 +67,7 @@ pub struct Checkpoint {
     pub observer: Vec<u8>,
     /// The scene file it was written for, as JSON.
     scene: String,
-    pub(super) state: State,
+    pub(super) state: State<'a>,
 }
 
 /// The run loop's position: the next series row and snapshot to write,
@@ -76,7 +80,7 @@ pub(super) struct RunClock {
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub(super) struct State {
+pub(super) struct State<'a> {
     pub step: u64,
     pub time: f64,
     pub dt: f64,
@@ -88,8 +92,8 @@ pub(super) struct State {
     pub snapshot_index: u32,
     pub times: StageTimes,
     pub clock: RunClock,
-    pub parts: Particles,
-    pub bins_order: Vec<u32>,
+    pub parts: Cow<'a, Particles>,
+    pub bins_order: Cow<'a, [u32]>,
     pub phase: Option<super::phase::PhaseState>,
     pub damage: Option<super::damage::DamageSaved>,
     /// DFG's neighbour lists: the positions they were built at and the
@@ -97,7 +101,35 @@ pub(super) struct State {
     pub dfg: Option<(Vec<[f64; 2]>, u64)>,
 }
 
-impl Checkpoint {
+impl Checkpoint<'_> {
+    /// A checkpoint that owns all it holds (copies what it borrowed).
+    pub fn into_owned(self) -> Checkpoint<'static> {
+        let s = self.state;
+        Checkpoint {
+            version: self.version,
+            observer: self.observer,
+            scene: self.scene,
+            state: State {
+                step: s.step,
+                time: s.time,
+                dt: s.dt,
+                max_signal: s.max_signal,
+                external_work: s.external_work,
+                abs_work: s.abs_work,
+                initial_energy: s.initial_energy,
+                contact_steps: s.contact_steps,
+                snapshot_index: s.snapshot_index,
+                times: s.times,
+                clock: s.clock,
+                parts: Cow::Owned(s.parts.into_owned()),
+                bins_order: Cow::Owned(s.bins_order.into_owned()),
+                phase: s.phase,
+                damage: s.damage,
+                dfg: s.dfg,
+            },
+        }
+    }
+
     /// The step it was written at.
     pub fn step(&self) -> u64 {
         self.state.step
@@ -117,7 +149,7 @@ impl Checkpoint {
     }
 
     /// Reads a checkpoint written by [`Checkpoint::write_to`].
-    pub fn read_from(r: &mut impl Read) -> Result<Checkpoint, CheckpointError> {
+    pub fn read_from(r: &mut impl Read) -> Result<Checkpoint<'static>, CheckpointError> {
         let mut bytes = Vec::new();
         r.read_to_end(&mut bytes)?;
         let body = bytes.strip_prefix(MAGIC.as_slice()).ok_or(CheckpointError::NotACheckpoint)?;
@@ -125,7 +157,7 @@ impl Checkpoint {
     }
 
     /// Reads the checkpoint at `path`.
-    pub fn load(path: &std::path::Path) -> Result<Checkpoint, CheckpointError> {
+    pub fn load(path: &std::path::Path) -> Result<Checkpoint<'static>, CheckpointError> {
         let mut f = std::io::BufReader::new(std::fs::File::open(path)?);
         Checkpoint::read_from(&mut f)
     }
@@ -226,7 +258,7 @@ fn other_layout(a: &Particles, b: &Particles) -> Option<&'static str> {
 impl Simulation {
     /// The state at the end of the present step, with the run loop at
     /// `clock`.
-    pub(super) fn checkpoint_at(&self, clock: RunClock) -> Checkpoint {
+    pub(super) fn checkpoint_at(&self, clock: RunClock) -> Checkpoint<'_> {
         Checkpoint {
             version: crate::VERSION.to_string(),
             observer: Vec::new(),
@@ -243,8 +275,8 @@ impl Simulation {
                 snapshot_index: self.snapshot_index,
                 times: self.times.clone(),
                 clock,
-                parts: self.parts.clone(),
-                bins_order: self.bins.order.clone(),
+                parts: Cow::Borrowed(&self.parts),
+                bins_order: Cow::Borrowed(&self.bins.order),
                 phase: self.phase.as_ref().map(|p| p.state()),
                 damage: self.damage.as_ref().map(|d| d.saved()),
                 dfg: self.dfg.as_ref().map(|d| d.neighbour_state()),
@@ -256,7 +288,7 @@ impl Simulation {
     /// then goes on from its step, writing the rows and snapshots that
     /// follow (not the series' header nor the rows before). The scene must
     /// be the one the checkpoint was written for.
-    pub fn resume(scene: &Scene, cp: Checkpoint) -> Result<Simulation, CheckpointError> {
+    pub fn resume(scene: &Scene, cp: Checkpoint<'_>) -> Result<Simulation, CheckpointError> {
         let now = serde_json::to_value(&scene.file).unwrap_or_default();
         let then: serde_json::Value =
             serde_json::from_str(&cp.scene).map_err(|e| CheckpointError::Decode(format!("its scene: {e}")))?;
@@ -279,9 +311,9 @@ impl Simulation {
         if s.phase.is_some() != sim.phase.is_some() || s.damage.is_some() != sim.damage.is_some() || s.dfg.is_some() != sim.dfg.is_some() {
             return Err(bad("its stages are not the scene's".into()));
         }
-        sim.parts = s.parts;
+        sim.parts = s.parts.into_owned();
         sim.group_of = sim.parts.group.clone();
-        sim.bins.restore(&sim.geom, &sim.parts.x, s.bins_order).map_err(bad)?;
+        sim.bins.restore(&sim.geom, &sim.parts.x, s.bins_order.into_owned()).map_err(bad)?;
         if let (Some(pf), Some(st)) = (sim.phase.as_mut(), s.phase) {
             pf.restore(st, sim.geom.node_count()).map_err(bad)?;
         }

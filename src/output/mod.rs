@@ -75,7 +75,7 @@ pub(crate) fn flushed_len(series: &mut BufWriter<File>, path: &Path) -> Result<u
 
 /// Writes a checkpoint to `path` atomically ([`write_atomic`]): a crash
 /// while writing leaves the previous checkpoint in place.
-pub fn save_checkpoint(path: &Path, cp: &Checkpoint) -> Result<(), OutputError> {
+pub fn save_checkpoint(path: &Path, cp: &Checkpoint<'_>) -> Result<(), OutputError> {
     write_atomic(path, |w| {
         cp.write_to(w).map_err(|e| match e {
             CheckpointError::Io(e) => e,
@@ -156,7 +156,7 @@ impl OutputWriter {
     /// Resuming: [`Simulation::resume`](crate::mpm::Simulation::resume)
     /// with it (which checks it against the scene), then
     /// [`OutputWriter::resume`] with its `observer` bytes.
-    pub fn load_checkpoint(dir: &Path) -> Result<Checkpoint, OutputError> {
+    pub fn load_checkpoint(dir: &Path) -> Result<Checkpoint<'static>, OutputError> {
         let path = Self::checkpoint_path(dir);
         Checkpoint::load(&path).map_err(|e| match e {
             CheckpointError::Io(e) => OutputError::new(&path, e),
@@ -236,7 +236,7 @@ impl Observer for OutputWriter {
     /// Saves the checkpoint, with this writer's state, in the output
     /// directory ([`OutputWriter::checkpoint_path`]), atomically: the
     /// previous one stays until the new one is whole.
-    fn checkpoint(&mut self, mut cp: Checkpoint) -> Result<(), String> {
+    fn checkpoint(&mut self, mut cp: Checkpoint<'_>) -> Result<(), String> {
         cp.observer = self.checkpoint_state().map_err(|e| e.to_string())?;
         save_checkpoint(&Self::checkpoint_path(&self.dir), &cp).map_err(|e| e.to_string())
     }
