@@ -189,6 +189,25 @@ enum Command {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Measure a run's series.csv as `cleave study` measures its runs:
+    /// each --metric's value and, with --reference analytic:VALUE, its
+    /// relative difference from VALUE (signed). Works on a series still
+    /// being written (the rows so far).
+    Metric {
+        series: PathBuf,
+        /// As `cleave study --metric` (COLUMN, final:, max:, min:,
+        /// arrival:COLUMN=VALUE, crack_angle:X0,Y0,
+        /// propagation_energy[:ENERGY[,LENGTH]], energy_loss); repeat
+        /// for more.
+        #[arg(long, required = true)]
+        metric: Vec<String>,
+        /// analytic:VALUE to compare with.
+        #[arg(long)]
+        reference: Option<String>,
+        /// Print one JSON object.
+        #[arg(long)]
+        json: bool,
+    },
     /// Check a scene without running it; prints its plan.
     Validate {
         scene: PathBuf,
@@ -280,6 +299,7 @@ fn main() -> ExitCode {
         Command::Study { scene, vary, metric, reference, out, json, resume, checkpoint_every } => {
             study::main_local(study::Options { scene, vary, metric, reference, out, json, resume, checkpoint_every })
         }
+        Command::Metric { series, metric, reference, json } => measure(&series, &metric, reference.as_deref(), json),
         Command::Plot { series, out } => match plot(&series, out.as_deref()) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -327,6 +347,67 @@ fn main() -> ExitCode {
 }
 
 /// `cleave plot`: the run's plots from its series.
+/// `cleave metric`: exit 2 for a bad metric or reference, 1 if a metric
+/// cannot be taken from the series (its column is missing, no crack ran).
+fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool) -> ExitCode {
+    let invalid = |msg: String| {
+        if json {
+            println!("{}", json!({"status": "invalid", "error": msg}));
+        }
+        eprintln!("error: {msg}");
+        ExitCode::from(EXIT_INVALID)
+    };
+    let metrics = match specs.iter().map(|m| cleave::study::Metric::parse(m)).collect::<Result<Vec<_>, _>>() {
+        Ok(m) => m,
+        Err(e) => return invalid(e),
+    };
+    let reference = match reference.map(cleave::study::Reference::parse) {
+        None => None,
+        Some(Ok(cleave::study::Reference::Analytic(v))) => Some(v),
+        Some(Ok(_)) => return invalid("--reference: only analytic:VALUE has a meaning for one series".into()),
+        Some(Err(e)) => return invalid(e),
+    };
+    let text = match std::fs::read_to_string(series) {
+        Ok(t) => t,
+        Err(e) => return invalid(format!("{}: {e}", series.display())),
+    };
+    let (columns, rows) = match cleave::output::parse_series(&text) {
+        Ok(s) => s,
+        Err(e) => return invalid(format!("{}: {e}", series.display())),
+    };
+    let mut failed = false;
+    let mut out = Vec::new();
+    for (spec, m) in specs.iter().zip(&metrics) {
+        match m.eval(&columns, &rows) {
+            Ok(v) => {
+                let diff = reference.map(|r| if r == 0.0 { v } else { (v - r) / r.abs() });
+                if !json {
+                    match diff {
+                        Some(d) => println!("{spec} = {v:.6e} ({:+.2} % against {:e})", 100.0 * d, reference.unwrap_or_default()),
+                        None => println!("{spec} = {v:.6e}"),
+                    }
+                }
+                out.push(json!({"metric": spec, "value": v, "difference": diff}));
+            }
+            Err(e) => {
+                failed = true;
+                if !json {
+                    eprintln!("{spec}: {e}");
+                }
+                out.push(json!({"metric": spec, "error": e}));
+            }
+        }
+    }
+    if json {
+        println!("{}", json!({"series": series, "rows": rows.len(), "reference": reference, "metrics": out}));
+    }
+    if failed {
+        ExitCode::from(EXIT_FAILED)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
 fn plot(series: &Path, out: Option<&Path>) -> anyhow::Result<()> {
     let text = std::fs::read_to_string(series).with_context(|| series.display().to_string())?;
     let (columns, rows) = cleave::output::parse_series(&text).map_err(|e| anyhow::anyhow!("{}: {e}", series.display()))?;
@@ -561,7 +642,7 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
         | Command::Get { json, .. }
         | Command::Cancel { json, .. }
         | Command::Study { json, .. } => *json,
-        Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } => false,
+        Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } | Command::Metric { .. } => false,
     };
     let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
         Ok(r) => r,
@@ -659,7 +740,7 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
                     remote::print_job(&remote::cancel(&mut client, &job).await?, json);
                     Ok(ExitCode::SUCCESS)
                 }
-                Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } => {
+                Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } | Command::Metric { .. } => {
                     eprintln!("error: this command runs in this process; drop --server");
                     Ok(ExitCode::from(EXIT_INVALID))
                 }

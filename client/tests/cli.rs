@@ -410,3 +410,38 @@ series_rows = 200
     let (a, b) = (std::fs::read(run1.join("series.csv")).unwrap(), std::fs::read(alone.join("series.csv")).unwrap());
     assert!(a == b, "the resumed run's series differs from the straight run's");
 }
+
+/// `cleave metric` measures a series as `cleave study` does: the value
+/// of each metric (here the last kinetic energy, read back from the
+/// file), its signed difference from a reference; exit 1 when a metric
+/// cannot be taken, 2 for a bad one.
+#[test]
+fn metric_measures_a_series_as_a_study_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "good.toml", GOOD.replace("[[bodies]]", "[[bodies]]\nvelocity = [1.0, 0.0]").as_bytes());
+    let out = dir.path().join("out");
+    let o = cleave().args(["run", "--quiet", path.to_str().unwrap(), "--out", out.to_str().unwrap()]).output().unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let series = out.join("series.csv");
+    let text = std::fs::read_to_string(&series).unwrap();
+    let last: f64 = text.lines().last().unwrap().split(',').nth(2).unwrap().parse().unwrap();
+    assert!(last > 0.0);
+    let o = cleave()
+        .args(["metric", series.to_str().unwrap(), "--metric", "final:kinetic_energy", "--metric", "max:kinetic_energy"])
+        .args(["--reference", &format!("analytic:{}", 2.0 * last), "--json"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let m = v["metrics"].as_array().unwrap();
+    assert_eq!(m[0]["value"].as_f64(), Some(last));
+    assert!((m[0]["difference"].as_f64().unwrap() + 0.5).abs() < 1e-12, "{v}");
+    assert!(m[1]["value"].as_f64().unwrap() >= last);
+    // no crack column in this series: exit 1, and says why
+    let o = cleave().args(["metric", series.to_str().unwrap(), "--metric", "propagation_energy"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("propagation_energy"), "{}", stderr(&o));
+    let o = cleave().args(["metric", series.to_str().unwrap(), "--metric", "bogus:x"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("unknown kind \"bogus\""), "{}", stderr(&o));
+}
