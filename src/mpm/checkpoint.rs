@@ -102,34 +102,6 @@ pub(super) struct State<'a> {
 }
 
 impl Checkpoint<'_> {
-    /// A checkpoint that owns all it holds (copies what it borrowed).
-    pub fn into_owned(self) -> Checkpoint<'static> {
-        let s = self.state;
-        Checkpoint {
-            version: self.version,
-            observer: self.observer,
-            scene: self.scene,
-            state: State {
-                step: s.step,
-                time: s.time,
-                dt: s.dt,
-                max_signal: s.max_signal,
-                external_work: s.external_work,
-                abs_work: s.abs_work,
-                initial_energy: s.initial_energy,
-                contact_steps: s.contact_steps,
-                snapshot_index: s.snapshot_index,
-                times: s.times,
-                clock: s.clock,
-                parts: Cow::Owned(s.parts.into_owned()),
-                bins_order: Cow::Owned(s.bins_order.into_owned()),
-                phase: s.phase,
-                damage: s.damage,
-                dfg: s.dfg,
-            },
-        }
-    }
-
     /// The step it was written at.
     pub fn step(&self) -> u64 {
         self.state.step
@@ -165,8 +137,8 @@ impl Checkpoint<'_> {
 
 /// When an observer asks for its next checkpoint: every `every` of wall
 /// time, never at the last step (the run's results are complete then and
-/// its checkpoint is removed). The one rule of the CLI's writer and the
-/// server's jobs.
+/// its checkpoint is removed). The one rule of the CLI's writer, the
+/// server's jobs and `cleave study`'s runs.
 #[derive(Debug, Clone)]
 pub struct CheckpointTimer {
     every: Option<std::time::Duration>,
