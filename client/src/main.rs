@@ -346,7 +346,6 @@ fn main() -> ExitCode {
     }
 }
 
-/// `cleave plot`: the run's plots from its series.
 /// `cleave metric`: exit 2 for a bad metric or reference, 1 if a metric
 /// cannot be taken from the series (its column is missing, no crack ran).
 fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool) -> ExitCode {
@@ -367,13 +366,9 @@ fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool)
         Some(Ok(_)) => return invalid("--reference: only analytic:VALUE has a meaning for one series".into()),
         Some(Err(e)) => return invalid(e),
     };
-    let text = match std::fs::read_to_string(series) {
-        Ok(t) => t,
-        Err(e) => return invalid(format!("{}: {e}", series.display())),
-    };
-    let (columns, rows) = match cleave::output::parse_series(&text) {
+    let (columns, rows) = match cleave::output::read_series(series) {
         Ok(s) => s,
-        Err(e) => return invalid(format!("{}: {e}", series.display())),
+        Err(e) => return invalid(e.to_string()),
     };
     let mut failed = false;
     let mut out = Vec::new();
@@ -408,9 +403,9 @@ fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool)
     }
 }
 
+/// `cleave plot`: the run's plots from its series.
 fn plot(series: &Path, out: Option<&Path>) -> anyhow::Result<()> {
-    let text = std::fs::read_to_string(series).with_context(|| series.display().to_string())?;
-    let (columns, rows) = cleave::output::parse_series(&text).map_err(|e| anyhow::anyhow!("{}: {e}", series.display()))?;
+    let (columns, rows) = cleave::output::read_series(series)?;
     let dir = out.or(series.parent()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
     for (name, drawn) in [
@@ -531,11 +526,7 @@ fn run(path: &Path, out: &Path, json: bool, quiet: bool, ck: Checkpointing) -> E
 }
 
 fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool, ck: Checkpointing) -> anyhow::Result<ExitCode> {
-    let checkpoint_every = match ck.every {
-        Some(s) if !(s.is_finite() && s >= 0.0) => anyhow::bail!("--checkpoint-every: must be a number of seconds >= 0, got {s}"),
-        Some(s) => Some(std::time::Duration::from_secs_f64(s)),
-        None => None,
-    };
+    let checkpoint_every = ck.every.map(cleave::mpm::CheckpointTimer::interval).transpose().map_err(anyhow::Error::msg)?;
     if !json {
         eprintln!(
             "{}: {} particles, {} x {} cells; plan: {}",

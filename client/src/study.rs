@@ -103,12 +103,11 @@ fn load_outcome(dir: &Path) -> Result<Option<Outcome>, String> {
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
     let number = |key: &str| v.get(key).and_then(|x| x.as_f64()).ok_or_else(|| bad(format!("no number {key:?}")));
     let failure = v.get("failure").and_then(|f| f.as_str()).map(str::to_string);
-    let series = dir.join("series.csv");
-    let (columns, rows) = match std::fs::read_to_string(&series) {
-        Ok(t) => cleave::output::parse_series(&t).map_err(|e| format!("{}: {e}", series.display()))?,
+    let (columns, rows) = match cleave::output::read_series(&dir.join("series.csv")) {
+        Ok(s) => s,
         // a run that failed before its first row has no series
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound && failure.is_some() => (Vec::new(), Vec::new()),
-        Err(e) => return Err(format!("{}: {e}", series.display())),
+        Err(e) if e.source.kind() == std::io::ErrorKind::NotFound && failure.is_some() => (Vec::new(), Vec::new()),
+        Err(e) => return Err(e.to_string()),
     };
     Ok(Some(Outcome {
         failure,
@@ -134,8 +133,8 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
     if opts.vary.is_empty() {
         return Err(usage("give at least one --vary KEY=V1,V2,…".into()));
     }
-    if let Some(s) = opts.checkpoint_every.filter(|s| !(s.is_finite() && *s >= 0.0)) {
-        return Err(usage(format!("--checkpoint-every: must be a number of seconds >= 0, got {s}")));
+    if let Some(s) = opts.checkpoint_every {
+        CheckpointTimer::interval(s).map_err(usage)?;
     }
     let axes = opts.vary.iter().map(|s| Axis::parse(s)).collect::<Result<Vec<_>, _>>().map_err(usage)?;
     let metric = Metric::parse(&opts.metric).map_err(usage)?;
@@ -266,8 +265,7 @@ fn resume_run(v: &Variant, dir: &Path, obs: &mut StudyObserver) -> Result<Option
     let cp = cleave::output::OutputWriter::load_checkpoint(dir).map_err(|e| e.to_string())?;
     let saved: SavedRun = serde_json::from_slice(&cp.observer).map_err(|e| format!("its study state: {e}"))?;
     let series = dir.join("series.csv");
-    let text = std::fs::read_to_string(&series).map_err(|e| format!("{}: {e}", series.display()))?;
-    let (columns, mut rows) = cleave::output::parse_series(&text).map_err(|e| format!("{}: {e}", series.display()))?;
+    let (columns, mut rows) = cleave::output::read_series(&series).map_err(|e| e.to_string())?;
     if rows.len() < saved.rows {
         return Err(format!("{} has {} rows, the checkpoint {}", series.display(), rows.len(), saved.rows));
     }

@@ -64,10 +64,9 @@ fn main() -> anyhow::Result<()> {
             threads_per_job: threads.max(1),
             max_particles: a.max_particles,
             max_queued: a.max_queued_jobs,
-            checkpoint_every: match a.checkpoint_every {
-                s if !(s.is_finite() && s >= 0.0) => anyhow::bail!("--checkpoint-every: must be a number of seconds >= 0, got {s}"),
-                0.0 => None,
-                s => Some(std::time::Duration::from_secs_f64(s)),
+            checkpoint_every: match cleave::mpm::CheckpointTimer::interval(a.checkpoint_every).map_err(anyhow::Error::msg)? {
+                std::time::Duration::ZERO => None,
+                every => Some(every),
             },
         },
         token: a.token.filter(|t| !t.is_empty()),

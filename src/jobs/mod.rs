@@ -376,14 +376,15 @@ impl JobManager {
     pub fn series(&self, id: &str) -> Result<(Vec<String>, Vec<SeriesRow>), JobError> {
         let record = self.inner.store.get(id)?;
         let path = self.inner.store.job_dir(id).join("series.csv");
-        let text = match std::fs::read_to_string(&path) {
-            Ok(t) => t,
-            Err(_) if !record.state.is_final() || record.state == JobState::Cancelled => {
-                return Err(JobError::Precondition(format!("{id} has no time series yet")));
+        match crate::output::read_series(&path) {
+            Ok(s) => Ok(s),
+            Err(e) if e.source.kind() != std::io::ErrorKind::InvalidData
+                && (!record.state.is_final() || record.state == JobState::Cancelled) =>
+            {
+                Err(JobError::Precondition(format!("{id} has no time series yet")))
             }
-            Err(e) => return Err(JobError::Store(format!("{}: {e}", path.display()))),
-        };
-        crate::output::parse_series(&text).map_err(|e| JobError::Store(format!("{}: {e}", path.display())))
+            Err(e) => Err(JobError::Store(e.to_string())),
+        }
     }
 }
 

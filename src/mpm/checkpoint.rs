@@ -151,6 +151,16 @@ impl CheckpointTimer {
         CheckpointTimer { every, last: std::time::Instant::now() }
     }
 
+    /// The interval a command line's `--checkpoint-every SECONDS` asks
+    /// for, or why it is not one.
+    pub fn interval(seconds: f64) -> Result<std::time::Duration, String> {
+        if seconds.is_finite() && seconds >= 0.0 {
+            Ok(std::time::Duration::from_secs_f64(seconds))
+        } else {
+            Err(format!("--checkpoint-every: must be a number of seconds >= 0, got {seconds}"))
+        }
+    }
+
     /// Whether checkpoints are asked for at all.
     pub fn enabled(&self) -> bool {
         self.every.is_some()

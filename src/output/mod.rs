@@ -307,6 +307,13 @@ pub fn write_series_csv(path: &Path, columns: &[String], rows: &[SeriesRow]) -> 
     })
 }
 
+/// Reads the `series.csv` at `path` ([`parse_series`]); a file that is not
+/// a series is an `InvalidData` error naming the path.
+pub fn read_series(path: &Path) -> Result<(Vec<String>, Vec<SeriesRow>), OutputError> {
+    let text = std::fs::read_to_string(path).map_err(|e| OutputError::new(path, e))?;
+    parse_series(&text).map_err(|m| OutputError::new(path, std::io::Error::new(std::io::ErrorKind::InvalidData, m)))
+}
+
 /// Reads a `series.csv` back: its columns (the core ones of
 /// [`SeriesRow::COLUMNS`] first, then the scene's) and rows. A file without
 /// a header yet (a job that failed before its first row) has the core
