@@ -77,6 +77,12 @@ fn outcome(dir: &Path, sim: &Simulation) -> Outcome {
 /// `at`, the process lost `lost` steps later, and a resume in the same
 /// directory; returns both outcomes.
 fn straight_and_resumed(text: &str, at: u64, lost: u64) -> (Outcome, Outcome) {
+    straight_and_resumed_as(text, text, at, lost)
+}
+
+/// [`straight_and_resumed`], resumed with the scene `resumed` (which may
+/// differ in its `[phase_field_solver]`).
+fn straight_and_resumed_as(text: &str, resumed: &str, at: u64, lost: u64) -> (Outcome, Outcome) {
     let scene = Scene::from_text(text, None).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let (a, b) = (tmp.path().join("straight"), tmp.path().join("resumed"));
@@ -101,7 +107,7 @@ fn straight_and_resumed(text: &str, at: u64, lost: u64) -> (Outcome, Outcome) {
     let mut cp = OutputWriter::load_checkpoint(&b).unwrap();
     assert_eq!(cp.step(), at);
     let state = std::mem::take(&mut cp.observer);
-    let mut sim = Simulation::resume(&scene, cp).unwrap();
+    let mut sim = Simulation::resume(&Scene::from_text(resumed, None).unwrap(), cp).unwrap();
     let mut w = OutputWriter::resume(&b, &state).unwrap();
     let s = sim.run(&mut w).unwrap();
     assert!(!s.cancelled);
@@ -161,6 +167,12 @@ fn with_pcg_a_resumed_run_agrees_to_the_solver_tolerance() {
         + "\n[phase_field_solver]\nmethod = \"pcg\"\ntolerance = 1e-10\n\n[dfg]\n";
     let (a, b) = straight_and_resumed(&text, 40, 15);
     assert_eq!(a.steps, b.steps);
+    assert_within(&a, &b, 1e-6, "resuming with PCG");
+}
+
+/// The particles' c, v and H agree within `tol`, relative to each field's
+/// largest magnitude.
+fn assert_within(a: &Outcome, b: &Outcome, tol: f64, what: &str) {
     let worst = |f: fn(&Particles) -> Vec<f64>| {
         let (x, y) = (f(&a.parts), f(&b.parts));
         let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -169,9 +181,20 @@ fn with_pcg_a_resumed_run_agrees_to_the_solver_tolerance() {
     let dc = worst(|p| p.phase.clone());
     let dv = worst(|p| p.v.iter().flatten().copied().collect());
     let dh = worst(|p| p.history.clone());
-    println!("relative differences after resuming with PCG: c {dc:.2e}, v {dv:.2e}, H {dh:.2e}");
-    assert!(dc < 1e-6 && dv < 1e-6 && dh < 1e-6, "c {dc:e}, v {dv:e}, H {dh:e}");
+    println!("relative differences after {what}: c {dc:.2e}, v {dv:.2e}, H {dh:.2e}");
+    assert!(dc < tol && dv < tol && dh < tol, "{what}: c {dc:e}, v {dv:e}, H {dh:e}");
     assert!(a.parts.phase.iter().any(|&c| c < 0.5), "no damage: the test would not exercise c");
+}
+
+#[test]
+fn a_run_resumes_with_another_phase_field_solver_and_agrees_to_its_tolerance() {
+    // the direct solve, resumed with the multigrid-preconditioned CG: the
+    // solver is not part of what the checkpoint must match
+    let text = scene_text("p1_plate_coarse.toml", &[("end = 8.0e-5", "end = 1.0e-5"), ("snapshots = 9", "snapshots = 2")]);
+    let resumed = format!("{text}\n[phase_field_solver]\nmethod = \"multigrid\"\ntolerance = 1e-10\n");
+    let (a, b) = straight_and_resumed_as(&text, &resumed, 40, 15);
+    assert_eq!(a.steps, b.steps);
+    assert_within(&a, &b, 1e-6, "resuming with the multigrid");
 }
 
 #[test]

@@ -546,3 +546,111 @@ fn the_history_never_decreases() {
     assert!(grown > n, "the loading grows the history: {grown} particle-steps");
     assert!(unloaded > n, "the waves unload particles below half their history: {unloaded} particle-steps");
 }
+
+/// A disk of particles with a crack band of high history across part of
+/// it: the multigrid-preconditioned CG reaches the direct solution, with
+/// several levels, no symbolic analysis, and a bounded number of
+/// iterations, for every kernel and for the 4th-order system; then, with
+/// the history grown, from the old hierarchy.
+#[test]
+fn multigrid_pcg_agrees_with_the_direct_solve() {
+    fn check<K: Kernel>(gamma: Gamma, name: &str, max_iterations: u64) {
+        let (geom, x0, vol0) = block(0.0625, 4.0, 2);
+        // a disk of radius 3.7, off the grid's centre
+        let keep: Vec<usize> = (0..x0.len()).filter(|&p| (x0[p][0] - 0.1).hypot(x0[p][1] + 0.05) < 3.7).collect();
+        let x: Vec<[f64; 2]> = keep.iter().map(|&p| x0[p]).collect();
+        let vol: Vec<f64> = keep.iter().map(|&p| vol0[p]).collect();
+        let params = PhaseFieldParams { gc_bar: 1.0, l0: 0.25, k_f: 0.0, gamma: gamma.rotated(0.3) };
+        let band = |tip: f64| -> Vec<f64> { x.iter().map(|p| if p[1].abs() < 0.05 && p[0] < tip { 1e3 } else { 0.5 }).collect() };
+        let method = SolveMethod::Multigrid { tolerance: 1e-10, max_iterations: 500, rebuild_after: 1000 };
+        let mut sys = PhaseFieldSystem::new();
+        let mut direct = PhaseFieldSystem::new();
+        let mut before = SolveStats::default();
+        for (solve, tip) in [-1.0, 0.5].into_iter().enumerate() {
+            let h = band(tip);
+            let parts = FieldParticles::all(&x, &vol, &h);
+            sys.assemble::<K>(&geom, &parts, &params);
+            let c = sys.solve_with(geom.node_count(), method).unwrap();
+            direct.assemble::<K>(&geom, &parts, &params);
+            let want = direct.solve(geom.node_count()).unwrap();
+            // at the particles (a node at the fringe of the supports, held
+            // by the pivot floor, takes almost no weight there)
+            let at = |c: &[f64]| x.iter().map(|&p| cleave::fracture::phase_field::system::value_at::<K>(&geom, c, p)).collect::<Vec<_>>();
+            let worst = at(&c).iter().zip(at(&want)).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let s = sys.stats;
+            let iterations = s.pcg_iterations - before.pcg_iterations;
+            println!("{name}, solve {solve}: {} unknowns, {iterations} iterations, |c - c_direct| ≤ {worst:.1e}", sys.len());
+            assert!(worst < 1e-7, "{name}: multigrid and direct differ by {worst}");
+            // the second solve starts from the old hierarchy, built before
+            // the band grew by 1.5 l0 with a reaction term 16 times the
+            // diffusion's: it only has to converge
+            assert!(solve == 1 || iterations <= max_iterations, "{name}: {iterations} iterations");
+            assert_eq!((s.analyses, s.factorizations), (0, 1), "{name}: one hierarchy, no analysis, no fallback");
+            assert!(c.iter().any(|&v| v < 0.2), "{name}: the band should crack");
+            before = s;
+        }
+    }
+    check::<QuadraticBspline>(Gamma::default(), "quadratic", 15);
+    check::<CubicBspline>(Gamma::default(), "cubic", 45);
+    check::<Linear>(Gamma::default(), "linear", 15);
+    check::<Gimp>(Gamma::default(), "GIMP", 15);
+    check::<QuadraticBspline>(Gamma { g1111: 1.0, g2222: 80.0, g1212: 74.0, ..Default::default() }, "quadratic, 4th order", 100);
+}
+
+/// After the node set changes (a row of particles joins the body), PCG
+/// starts from the c the caller kept, not from zero; and a multigrid whose
+/// fresh hierarchy takes more than `rebuild_after` iterations from a warm
+/// start hands the system over to the factor for good.
+#[test]
+fn a_new_node_set_starts_from_the_kept_c_and_a_poor_multigrid_hands_over() {
+    let (geom, x0, vol0) = block(0.0625, 4.0, 2);
+    let params = PhaseFieldParams { gc_bar: 1.0, l0: 0.25, k_f: 0.0, gamma: Gamma::default() };
+    let body = |top: f64| -> (Vec<[f64; 2]>, Vec<f64>, Vec<f64>) {
+        let keep: Vec<usize> = (0..x0.len()).filter(|&p| x0[p][0].abs() < 3.0 && x0[p][1] > -3.0 && x0[p][1] < top).collect();
+        let x: Vec<[f64; 2]> = keep.iter().map(|&p| x0[p]).collect();
+        let h = x.iter().map(|p| if p[1].abs() < 0.05 && p[0] < 0.5 { 1e3 } else { 0.5 }).collect();
+        (x, keep.iter().map(|&p| vol0[p]).collect(), h)
+    };
+    // solves on the body, then on the body one particle row taller;
+    // returns the second solve's iterations, the stats and c
+    let two = |method: SolveMethod, keep_c: bool| {
+        let mut sys = PhaseFieldSystem::new();
+        let mut c = Vec::new();
+        let (x, vol, h) = body(3.0);
+        sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
+        sys.solve_into(geom.node_count(), method, &mut c).unwrap();
+        let first = sys.stats;
+        if !keep_c {
+            c.clear();
+        }
+        let (x, vol, h) = body(3.0 + 0.0625);
+        sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
+        sys.solve_into(geom.node_count(), method, &mut c).unwrap();
+        let mut direct = PhaseFieldSystem::new();
+        direct.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
+        let want = direct.solve(geom.node_count()).unwrap();
+        let worst = c.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(worst < 1e-6, "{method:?}: {worst}");
+        (sys.stats.pcg_iterations - first.pcg_iterations, sys.stats, sys, c, x, vol, h)
+    };
+    for method in [
+        SolveMethod::Pcg { tolerance: 1e-10, max_iterations: 500, refactor_after: 1000 },
+        SolveMethod::Multigrid { tolerance: 1e-10, max_iterations: 500, rebuild_after: 1000 },
+    ] {
+        let (warm, ..) = two(method, true);
+        let (cold, ..) = two(method, false);
+        println!("{method:?}: {warm} iterations from the kept c, {cold} from zero");
+        // a fresh (f32) factor needs 2 from anywhere (13 against 15 for
+        // the multigrid: the taller body's new top rows start at c = 1,
+        // the old top edge's c moves)
+        let multigrid = matches!(method, SolveMethod::Multigrid { .. });
+        assert!(warm <= cold && (!multigrid || warm < cold), "{method:?}: {warm} iterations from the kept c against {cold} from zero");
+    }
+    // rebuild_after = 1: any warm solve with a fresh hierarchy costs more
+    let method = SolveMethod::Multigrid { tolerance: 1e-10, max_iterations: 500, rebuild_after: 1 };
+    let (_, stats, mut sys, mut c, x, vol, h) = two(method, true);
+    assert_eq!(stats.analyses, 0, "the multigrid needs no analysis");
+    sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
+    sys.solve_into(geom.node_count(), method, &mut c).unwrap();
+    assert_eq!(sys.stats.analyses, 1, "the system should have gone on with the factor");
+}

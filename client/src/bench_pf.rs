@@ -1,12 +1,13 @@
 //! `cleave bench-phase-field`: where the time of a phase-field step goes,
 //! for a scene (by default P1 at the paper's resolution), with the direct
-//! solve (the baseline) and the warm-started PCG in the same run. Prints
+//! solve (the baseline) and the two warm-started PCGs (the last factor, the
+//! multigrid) in the same run, from t = 0 or from a checkpoint. Prints
 //! the table and writes it to a Markdown file, above the file's
 //! `KEEP_BELOW` line: what a person wrote under that line survives a
 //! re-run.
 
 use anyhow::Context;
-use cleave::mpm::Simulation;
+use cleave::mpm::{Checkpoint, Simulation};
 use cleave::scene::{PhaseFieldMethod, Scene};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -31,11 +32,17 @@ struct Split {
     pcg_iterations: f64,
 }
 
-fn measure(scene: &Scene, method: PhaseFieldMethod, warmup: usize, steps: usize) -> anyhow::Result<Split> {
+fn measure(scene: &Scene, method: PhaseFieldMethod, from: Option<&Path>, warmup: usize, steps: usize) -> anyhow::Result<Split> {
     let mut scene = scene.clone();
     scene.file.phase_field_solver.method = method;
     let t = Instant::now();
-    let mut sim = Simulation::new(&scene);
+    let mut sim = match from {
+        Some(path) => {
+            let cp = Checkpoint::load(path).with_context(|| path.display().to_string())?;
+            Simulation::resume(&scene, cp).with_context(|| format!("cannot start from {}", path.display()))?
+        }
+        None => Simulation::new(&scene),
+    };
     eprintln!("{method:?}: {} particles set up in {:.1} s", sim.particles().len(), t.elapsed().as_secs_f64());
     for _ in 0..warmup {
         sim.step()?;
@@ -58,6 +65,7 @@ fn measure(scene: &Scene, method: PhaseFieldMethod, warmup: usize, steps: usize)
         method: match method {
             PhaseFieldMethod::Direct => "direct (Cholesky every step)",
             PhaseFieldMethod::Pcg => "PCG (warm start, last factor)",
+            PhaseFieldMethod::Multigrid => "PCG (warm start, multigrid V-cycle)",
         },
         mpm,
         assembly,
@@ -71,29 +79,34 @@ fn measure(scene: &Scene, method: PhaseFieldMethod, warmup: usize, steps: usize)
     })
 }
 
-pub fn run(scene_path: &Path, out: &Path, warmup: usize, steps: usize) -> anyhow::Result<()> {
+pub fn run(scene_path: &Path, out: &Path, warmup: usize, from: Option<&Path>, steps: usize) -> anyhow::Result<()> {
     let scene = Scene::from_path(scene_path).map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?;
     let dt = scene.file.time.dt.context("the benchmark needs a scene with a fixed time.dt (to extrapolate to time.end)")?;
     let total_steps = (scene.file.time.end / dt).round();
     let threads = rayon::current_num_threads();
     let mut rows = Vec::new();
-    for method in [PhaseFieldMethod::Direct, PhaseFieldMethod::Pcg] {
-        rows.push(measure(&scene, method, warmup, steps)?);
+    for method in [PhaseFieldMethod::Direct, PhaseFieldMethod::Pcg, PhaseFieldMethod::Multigrid] {
+        rows.push(measure(&scene, method, from, warmup, steps)?);
     }
     let mut md = String::new();
     writeln!(md, "# Phase-field step: where the time goes\n")?;
     writeln!(
         md,
-        "`cargo run --release -p cleave-client -- bench-phase-field --scene {} --warmup {warmup} --steps {steps}` \
+        "`cargo run --release -p cleave-client -- bench-phase-field --scene {}{} --warmup {warmup} --steps {steps}` \
          on this machine ({threads} threads). The scene has {} particles on {} × {} cells. \
          Seconds per step over {steps} steps after {warmup} warm-up steps (the warm-up includes the \
-         symbolic analysis); both methods in the same run, the direct solve is the baseline. \
+         symbolic analysis), {}; all methods in the same run, the direct solve is the baseline. \
          *Full run* extrapolates the wall time per step to the scene's {total_steps} steps \
          (series rows and snapshots not included).\n",
         scene_path.display(),
+        from.map(|p| format!(" --from {}", p.display())).unwrap_or_default(),
         scene.particle_counts.iter().sum::<usize>(),
         scene.cells[0],
         scene.cells[1],
+        match from {
+            Some(_) => "each method resumed from the checkpoint".to_string(),
+            None => "from t = 0".to_string(),
+        },
     )?;
     writeln!(md, "| method | MPM | assembly | factorization | solve | other phase field | wall per step | full run | factorizations | PCG iterations per solve |")?;
     writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")?;
@@ -114,8 +127,13 @@ pub fn run(scene_path: &Path, out: &Path, warmup: usize, steps: usize) -> anyhow
             if r.method.starts_with("PCG") { format!("{:.2}", r.pcg_iterations) } else { "–".into() },
         )?;
     }
-    let (d, p) = (&rows[0], &rows[1]);
-    writeln!(md, "\nPCG against the direct solve: {:.2}× the wall time per step.", p.wall / d.wall)?;
+    let (d, p, m) = (&rows[0], &rows[1], &rows[2]);
+    writeln!(
+        md,
+        "\nAgainst the direct solve, the wall time per step: PCG with the last factor {:.2}×, with the multigrid {:.2}×.",
+        p.wall / d.wall,
+        m.wall / d.wall
+    )?;
     print!("{md}");
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;

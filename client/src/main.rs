@@ -90,8 +90,9 @@ enum Command {
         repeats: usize,
     },
     /// Where the time of a phase-field step goes (MPM, assembly,
-    /// factorization, solve), direct against PCG, for a scene with a fixed
-    /// dt (default: P1 at the paper's resolution).
+    /// factorization, solve): the direct solve, PCG with the last factor
+    /// and PCG with the multigrid, for a scene with a fixed dt (default: P1
+    /// at the paper's resolution).
     BenchPhaseField {
         #[arg(long, default_value = "scenes/p1_plate.toml")]
         scene: PathBuf,
@@ -100,6 +101,11 @@ enum Command {
         /// Untimed steps first (they include the symbolic analysis).
         #[arg(long, default_value_t = 5)]
         warmup: usize,
+        /// Start every method from this checkpoint of a run of the scene
+        /// (`cleave run --checkpoint-every`'s OUT/checkpoint.bin) instead of
+        /// t = 0: a late instant without running up to it three times.
+        #[arg(long)]
+        from: Option<PathBuf>,
         /// Timed steps per method.
         #[arg(long, default_value_t = 40)]
         steps: usize,
@@ -314,7 +320,7 @@ fn main() -> ExitCode {
                 ExitCode::from(EXIT_FAILED)
             }
         },
-        Command::BenchPhaseField { scene, out, warmup, steps } => match bench_pf::run(&scene, &out, warmup, steps.max(1)) {
+        Command::BenchPhaseField { scene, out, warmup, from, steps } => match bench_pf::run(&scene, &out, warmup, from.as_deref(), steps.max(1)) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");

@@ -53,6 +53,12 @@ pub trait Kernel: Copy + Send + Sync + 'static {
     /// APIC inertia scaling D⁻¹·h² if it is constant for the kernel
     /// (B-splines); None means use the velocity gradient as the affine matrix.
     const APIC_DINV_H2: Option<f64>;
+    /// The two-scale mask: a function of this kernel on a grid of spacing
+    /// 2h is `Σ_k REFINE[k]·N_{2I+k−(len−1)}` of spacing h. For B-splines of
+    /// degree p it is exact, binom(p+1, k)/2^p (de Boor, *A Practical Guide
+    /// to Splines*, the knot-insertion relation); the hat and GIMP take linear
+    /// interpolation. The phase field's multigrid prolongs with it.
+    const REFINE: &'static [f64];
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -67,6 +73,7 @@ pub struct CubicBspline;
 impl Kernel for Linear {
     const N: usize = 2;
     const APIC_DINV_H2: Option<f64> = None;
+    const REFINE: &'static [f64] = &[0.5, 1.0, 0.5];
     #[inline(always)]
     fn eval(xi: f64, _lp: f64) -> Weights1 {
         let b = floor(xi);
@@ -96,6 +103,7 @@ fn gimp_1d(d: f64, lp: f64) -> (f64, f64) {
 impl Kernel for Gimp {
     const N: usize = 3;
     const APIC_DINV_H2: Option<f64> = None;
+    const REFINE: &'static [f64] = &[0.5, 1.0, 0.5];
     #[inline(always)]
     fn eval(xi: f64, lp: f64) -> Weights1 {
         let base = floor(xi + 0.5) - 1.0;
@@ -112,6 +120,7 @@ impl Kernel for Gimp {
 impl Kernel for QuadraticBspline {
     const N: usize = 3;
     const APIC_DINV_H2: Option<f64> = Some(4.0);
+    const REFINE: &'static [f64] = &[0.25, 0.75, 0.75, 0.25];
     #[inline(always)]
     fn eval(xi: f64, _lp: f64) -> Weights1 {
         let base = floor(xi - 0.5);
@@ -146,6 +155,7 @@ fn cubic_1d(d: f64) -> (f64, f64, f64) {
 impl Kernel for CubicBspline {
     const N: usize = 4;
     const APIC_DINV_H2: Option<f64> = Some(3.0);
+    const REFINE: &'static [f64] = &[0.125, 0.5, 0.75, 0.5, 0.125];
     #[inline(always)]
     fn eval(xi: f64, _lp: f64) -> Weights1 {
         let base = floor(xi) - 1.0;

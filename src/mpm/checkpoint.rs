@@ -185,6 +185,9 @@ fn scene_json(scene: &Scene) -> String {
 
 /// The first place where two JSON values differ, as a field path and the
 /// two values (None if they are equal).
+/// The scene's table that a resume may change ([`Simulation::resume`]).
+const SOLVER_KEY: &str = "phase_field_solver";
+
 fn first_difference(path: &str, a: &serde_json::Value, b: &serde_json::Value) -> Option<(String, String, String)> {
     use serde_json::Value;
     let join = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };
@@ -269,11 +272,22 @@ impl Simulation {
     /// The simulation of `scene` at the checkpoint: [`Simulation::run`]
     /// then goes on from its step, writing the rows and snapshots that
     /// follow (not the series' header nor the rows before). The scene must
-    /// be the one the checkpoint was written for.
+    /// be the one the checkpoint was written for, but for its
+    /// `[phase_field_solver]` (then the results agree with the straight
+    /// run's to the solvers' tolerance, not bit for bit).
     pub fn resume(scene: &Scene, cp: Checkpoint<'_>) -> Result<Simulation, CheckpointError> {
-        let now = serde_json::to_value(&scene.file).unwrap_or_default();
-        let then: serde_json::Value =
+        let mut now = serde_json::to_value(&scene.file).unwrap_or_default();
+        let mut then: serde_json::Value =
             serde_json::from_str(&cp.scene).map_err(|e| CheckpointError::Decode(format!("its scene: {e}")))?;
+        // The phase-field solver may change: it decides how c is solved
+        // for, to its tolerance, not what is simulated (a long run can go on
+        // with a faster method).
+        let solver = |v: &mut serde_json::Value| v.as_object_mut().and_then(|o| o.remove(SOLVER_KEY));
+        if let (Some(a), Some(b)) = (solver(&mut then), solver(&mut now)) {
+            if a != b {
+                tracing::info!(checkpoint = %a, scene = %b, "resuming with another phase-field solver");
+            }
+        }
         if let Some((path, checkpoint, scene)) = first_difference("", &then, &now) {
             return Err(CheckpointError::SceneMismatch { path, scene, checkpoint });
         }

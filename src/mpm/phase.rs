@@ -199,6 +199,11 @@ impl PhaseFields {
                 max_iterations: o.max_iterations as usize,
                 refactor_after: o.refactor_after as usize,
             },
+            PhaseFieldMethod::Multigrid => SolveMethod::Multigrid {
+                tolerance: o.tolerance,
+                max_iterations: o.max_iterations as usize,
+                rebuild_after: o.refactor_after as usize,
+            },
         };
         let n = parts.len();
         Some(PhaseFields {

@@ -107,6 +107,12 @@ pub enum PhaseFieldMethod {
     /// preconditioned by the last factorization, made in f32 (the residual
     /// is still taken to `tolerance` in f64).
     Pcg,
+    /// Conjugate gradients warm-started from the last solution and
+    /// preconditioned by one V-cycle of geometric multigrid (B-spline
+    /// two-scale prolongation, Galerkin coarse levels, Chebyshev smoothing):
+    /// no symbolic analysis when the active nodes change, and a cheap
+    /// rebuild when the history has grown (`refactor_after` is its cost).
+    Multigrid,
 }
 
 /// Options of the phase-field solve.

@@ -7,6 +7,7 @@
 //! step (staggered loop, history, degradation) is `mpm::phase`.
 
 pub mod anisotropy;
+pub mod multigrid;
 pub mod system;
 pub mod trisolve;
 

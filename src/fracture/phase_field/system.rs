@@ -21,6 +21,7 @@ use crate::grid::{Bins, GridGeom, SyncPtr};
 use rayon::prelude::*;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use super::multigrid::Multigrid;
 use super::trisolve::{SolveScratch, SupernodalSolve};
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering};
 use faer::sparse::linalg::SupernodalThreshold;
@@ -63,10 +64,12 @@ pub struct SolveStats {
     pub factorization: f64,
     pub solve: f64,
     /// Symbolic analyses (the active-node set changed) and numeric
-    /// factorizations done.
+    /// factorizations done (method "multigrid": builds of the hierarchy,
+    /// whose time is in `factorization`).
     pub analyses: u64,
     pub factorizations: u64,
-    /// Preconditioned CG solves and their iterations (method "pcg").
+    /// Preconditioned CG solves and their iterations (methods "pcg" and
+    /// "multigrid").
     pub pcg_solves: u64,
     pub pcg_iterations: u64,
 }
@@ -83,6 +86,13 @@ pub enum SolveMethod {
     /// iterations, and falls back to a direct solve after `max_iterations`.
     /// Converged when ‖F − Kc‖ ≤ tolerance·‖F‖.
     Pcg { tolerance: f64, max_iterations: usize, refactor_after: usize },
+    /// Conjugate gradients from the last solution, preconditioned by one
+    /// V-cycle of geometric multigrid ([`super::multigrid`]); the hierarchy
+    /// is rebuilt by the same rule as `Pcg`'s factor (a build counts as
+    /// `rebuild_after` iterations) and whenever the active nodes change,
+    /// with no symbolic analysis. Falls back to a direct solve after
+    /// `max_iterations`.
+    Multigrid { tolerance: f64, max_iterations: usize, rebuild_after: usize },
 }
 
 /// The particles of one discrete field, as the assembly reads them.
@@ -350,6 +360,17 @@ pub struct PhaseFieldSystem {
     cycle_solves: u32,
     refactor_next: bool,
     mem: MemBuffer,
+    /// The multigrid hierarchy (method "multigrid"), for today's node set,
+    /// and whether PCG is preconditioned by it rather than by the factor.
+    multigrid: Option<Multigrid>,
+    use_multigrid: bool,
+    /// The multigrid did poorly on this system with a fresh hierarchy (a
+    /// grown, opened crack); PCG goes on with the factor.
+    multigrid_declined: bool,
+    /// The kernel's two-scale mask and the grid's nodes per axis, for the
+    /// multigrid's levels.
+    refine: &'static [f64],
+    grid_nodes: [usize; 2],
     /// Nodal scratch of [`PhaseFieldSystem::history_residual`] (all grid
     /// nodes, zero between calls).
     scratch: Vec<f64>,
@@ -390,6 +411,11 @@ impl PhaseFieldSystem {
             cycle_solves: 0,
             refactor_next: false,
             mem: MemBuffer::new(faer::dyn_stack::StackReq::empty()),
+            multigrid: None,
+            use_multigrid: false,
+            multigrid_declined: false,
+            refine: &[],
+            grid_nodes: [0; 2],
             scratch: Vec::new(),
             stats: SolveStats::default(),
         }
@@ -538,12 +564,15 @@ impl PhaseFieldSystem {
         self.symbolic = None;
         self.trisolve = None;
         self.factored = false;
+        self.multigrid = None;
         self.last.clear();
     }
 
     /// Assembles K and F (eq. 57) from the particles.
     pub fn assemble<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, p: &PhaseFieldParams) {
         let t0 = Instant::now();
+        self.refine = K::REFINE;
+        self.grid_nodes = geom.nodes;
         if self.update_keys::<K>(geom, parts, !p.gamma.is_zero()) {
             self.set_active::<K>(geom);
         }
@@ -685,14 +714,32 @@ impl PhaseFieldSystem {
 
     /// [`Self::solve_with`] into `c` (resized to `nodes`), which a caller
     /// keeps between steps.
+    /// When the node set has changed since the last solve, PCG starts from
+    /// the `c` the caller kept (last step's, at every grid node) rather than
+    /// from zero.
     pub fn solve_into(&mut self, nodes: usize, method: SolveMethod, c: &mut Vec<f64>) -> Result<(), PhaseFieldError> {
         let n = self.dofs.len();
+        if self.last.len() != n && c.len() == nodes && n > 0 {
+            // A body whose edges cross the grid changes its node set every
+            // few steps (P3 at h = l0/4: every other step); its c has
+            // barely changed.
+            self.last.clear();
+            self.last.extend(self.dofs.iter().map(|&d| c[d as usize]));
+        }
         c.clear();
         c.resize(nodes, 1.0);
         if n == 0 {
             return Ok(());
         }
+        let method = match method {
+            SolveMethod::Multigrid { tolerance, max_iterations, rebuild_after } if self.multigrid_declined => {
+                SolveMethod::Pcg { tolerance, max_iterations, refactor_after: rebuild_after }
+            }
+            m => m,
+        };
+        self.use_multigrid = matches!(method, SolveMethod::Multigrid { .. });
         match method {
+            SolveMethod::Multigrid { tolerance, max_iterations, rebuild_after } => self.multigrid_solve(tolerance, max_iterations, rebuild_after)?,
             SolveMethod::Pcg { tolerance, max_iterations, refactor_after } if self.factored && self.last.len() == n && !self.refactor_next => {
                 // With the old factor PCG may spend up to two
                 // factorizations' worth of iterations before a fresh
@@ -705,9 +752,7 @@ impl PhaseFieldSystem {
                 // the last factorization (which counts as `refactor_after`
                 // iterations): that keeps the average near its minimum.
                 // Counted in iterations, not seconds, so runs repeat exactly.
-                self.cycle_cost += iterations as f64;
-                self.cycle_solves += 1;
-                self.refactor_next = iterations as f64 > self.cycle_cost / self.cycle_solves as f64;
+                self.count_cycle(iterations);
                 // A converged solve is kept however many iterations it
                 // took: they are spent, and the rule above renews the factor
                 // for the next step. (Redoing every solve over
@@ -746,6 +791,80 @@ impl PhaseFieldSystem {
         if converged {
             Ok(())
         } else {
+            self.direct()
+        }
+    }
+
+    /// The renewal rule's bookkeeping after a solve with an old
+    /// preconditioner: renew for the next step when this solve cost more
+    /// than the average since the last renewal (which counts as its cost
+    /// in iterations). Counted in iterations, not seconds, so runs repeat
+    /// exactly.
+    fn count_cycle(&mut self, iterations: usize) {
+        self.cycle_cost += iterations as f64;
+        self.cycle_solves += 1;
+        self.refactor_next = iterations as f64 > self.cycle_cost / self.cycle_solves as f64;
+    }
+
+    /// Method "multigrid": PCG with the hierarchy, refreshed with today's
+    /// matrix, or built anew (new nodes, the renewal rule, or a solve that
+    /// did not converge within `2·rebuild_after` iterations); a direct
+    /// solve if even a fresh hierarchy does not converge within
+    /// `max_iterations`. The solution is left in `x`.
+    ///
+    /// A fresh hierarchy that needs more than `rebuild_after` iterations
+    /// from a warm start is not worth its build, and this system goes on
+    /// with PCG and the factor for good. That happens once a crack has
+    /// opened: in the gap and at its faces few particles remain under many
+    /// nodes, and the reaction term 4l₀H/Ḡc, orders of magnitude above the
+    /// diffusion there, leaves oscillating modes that neither the smoother
+    /// nor the coarse levels reach (P1 at 42 µs: 16.7 iterations per solve
+    /// with a fresh hierarchy every step, Gauss-Seidel smoothing no better;
+    /// `docs/phase-field-performance.md`, "Multigrid").
+    fn multigrid_solve(&mut self, tolerance: f64, max_iterations: usize, rebuild_after: usize) -> Result<(), PhaseFieldError> {
+        let n = self.dofs.len();
+        if let Some(mg) = self.multigrid.as_mut().filter(|_| self.last.len() == n && !self.refactor_next) {
+            let t0 = Instant::now();
+            let refreshed = mg.refresh(&self.values);
+            self.stats.solve += t0.elapsed().as_secs_f64();
+            if refreshed.is_ok() {
+                let (converged, iterations) = self.timed_pcg(tolerance, max_iterations.min(2 * rebuild_after.max(1)));
+                self.count_cycle(iterations);
+                if converged {
+                    return Ok(());
+                }
+            }
+        }
+        let warm = self.last.len() == n;
+        let t0 = Instant::now();
+        let built = Multigrid::build(self.refine, self.grid_nodes, &self.dofs, &self.col_ptr, &self.row_idx, &self.values);
+        self.stats.factorization += t0.elapsed().as_secs_f64();
+        self.stats.factorizations += 1;
+        self.refactor_next = false;
+        let (converged, iterations) = match built {
+            Ok(mg) => {
+                self.multigrid = Some(mg);
+                self.timed_pcg(tolerance, max_iterations)
+            }
+            Err(e) => {
+                tracing::warn!(reason = %e, "phase-field multigrid: no hierarchy; solving directly");
+                self.multigrid = None;
+                (false, 0)
+            }
+        };
+        self.cycle_cost = (rebuild_after + iterations.max(1)) as f64;
+        self.cycle_solves = 1;
+        if warm && iterations > rebuild_after {
+            tracing::info!(unknowns = n, iterations, "phase-field multigrid: a fresh hierarchy took more iterations than it costs; PCG goes on with the factor");
+            self.multigrid_declined = true;
+            self.multigrid = None;
+            self.refactor_next = true;
+        }
+        if converged {
+            Ok(())
+        } else {
+            tracing::debug!(unknowns = n, iterations, "phase-field multigrid: PCG did not converge with a fresh hierarchy; solving directly");
+            self.use_multigrid = false;
             self.direct()
         }
     }
@@ -813,8 +932,14 @@ impl PhaseFieldSystem {
         Ok(())
     }
 
-    /// x ← (L Lᵀ)⁻¹ x with the stored factor.
+    /// x ← (L Lᵀ)⁻¹ x with the stored factor, or one V-cycle.
     fn apply_inverse(&mut self, x: &mut [f64]) {
+        if self.use_multigrid {
+            if let Some(mg) = self.multigrid.as_mut() {
+                mg.apply(x);
+                return;
+            }
+        }
         let Some(tri) = self.trisolve.as_ref() else { return };
         if self.single {
             tri.solve(&self.l_single, x, &mut self.scratch_single);
@@ -823,8 +948,15 @@ impl PhaseFieldSystem {
         }
     }
 
-    /// y = K x with the stored lower triangle.
+    /// y = K x with the stored lower triangle (with the multigrid: its
+    /// finest level, the same matrix by rows).
     fn multiply(&self, x: &[f64], y: &mut [f64]) {
+        if self.use_multigrid {
+            if let Some(mg) = self.multigrid.as_ref() {
+                mg.multiply(x, y);
+                return;
+            }
+        }
         y.fill(0.0);
         for col in 0..x.len() {
             for k in self.col_ptr[col]..self.col_ptr[col + 1] {
@@ -875,6 +1007,9 @@ impl PhaseFieldSystem {
         self.apply_inverse(z);
         p.copy_from_slice(z);
         let mut rz = dot(r, z);
+        if !(rz > 0.0) {
+            return (false, 0);
+        }
         for it in 1..=max_iterations {
             self.multiply(p, ap);
             let pap = dot(p, ap);
@@ -892,6 +1027,12 @@ impl PhaseFieldSystem {
             z.copy_from_slice(r);
             self.apply_inverse(z);
             let rz_new = dot(r, z);
+            if !(rz_new > 0.0) {
+                tracing::debug!(iteration = it, rz = rz_new, "PCG: the preconditioner is not positive definite");
+                // a preconditioner that is no longer positive definite
+                // (a multigrid smoother past its eigenvalue estimate)
+                return (false, it);
+            }
             let beta = rz_new / rz;
             rz = rz_new;
             for i in 0..n {
