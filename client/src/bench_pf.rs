@@ -43,6 +43,9 @@ fn measure(scene: &Scene, method: PhaseFieldMethod, from: Option<&Path>, warmup:
         }
         None => Simulation::new(&scene),
     };
+    if from.is_some() {
+        eprintln!("{method:?}: resumed at step {}, t = {:e} s", sim.steps(), sim.time());
+    }
     eprintln!("{method:?}: {} particles set up in {:.1} s", sim.particles().len(), t.elapsed().as_secs_f64());
     for _ in 0..warmup {
         sim.step()?;

@@ -171,6 +171,8 @@ struct Level {
     a: Csr,
     diag: Vec<usize>,
     inv_diag: Vec<f64>,
+    /// √(1/a_ii), for the bound.
+    sqrt_inv_diag: Vec<f64>,
     /// Upper end of the Chebyshev interval, ≥ λmax(D⁻¹A) ([`Level::bound`]).
     lambda: f64,
     /// Prolongation from the next coarser level to this one (rows: this
@@ -196,12 +198,14 @@ impl Level {
 
     fn refresh_diagonal(&mut self) -> Result<(), String> {
         self.inv_diag.clear();
+        self.sqrt_inv_diag.clear();
         for (i, &k) in self.diag.iter().enumerate() {
             let d = if k == usize::MAX { 0.0 } else { self.a.val[k] };
             if !(d > 0.0 && d.is_finite()) {
                 return Err(format!("multigrid: diagonal entry {i} is {d}, not positive"));
             }
             self.inv_diag.push(1.0 / d);
+            self.sqrt_inv_diag.push(1.0 / d.sqrt());
         }
         Ok(())
     }
@@ -216,11 +220,11 @@ impl Level {
     /// method's estimate, 1.4× below this one, missed the top of the
     /// spectrum on a disk's fringe and left the V-cycle indefinite.)
     fn bound(&mut self) {
-        let (a, d) = (&self.a, &self.inv_diag);
+        let (a, d) = (&self.a, &self.sqrt_inv_diag);
         self.lambda = (0..a.rows())
             .map(|i| {
                 let (c, v) = a.row(i);
-                c.iter().zip(v).fold(0.0, |s, (&j, x)| s + x.abs() * d[j as usize].sqrt()) * d[i].sqrt()
+                c.iter().zip(v).fold(0.0, |s, (&j, x)| s + x.abs() * d[j as usize]) * d[i]
             })
             .fold(0.0, f64::max);
     }
@@ -342,6 +346,9 @@ impl Multigrid {
     /// the lower triangle `col_ptr`/`row_idx`/`values` (compressed columns),
     /// with the kernel's two-scale `mask` ([`Kernel::REFINE`]).
     pub fn build(mask: &[f64], nodes: [usize; 2], dofs: &[u32], col_ptr: &[usize], row_idx: &[usize], values: &[f64]) -> Result<Multigrid, String> {
+        if mask.len() < 2 {
+            return Err(format!("multigrid: a two-scale mask of {} weights", mask.len()));
+        }
         let n = dofs.len();
         // the finest level's rows from the lower triangle
         let mut count = vec![0usize; n + 1];
@@ -408,9 +415,7 @@ impl Multigrid {
             return Err(format!("multigrid: coarsening stopped at {} unknowns", a.rows()));
         }
         let coarsest = Dense::factor(&a)?;
-        let mut last = Level::new(a).unwrap_or_default();
-        last.lambda = 1.0;
-        levels.push(last);
+        levels.push(Level::new(a)?);
         Ok(Multigrid { levels, coarsest, map })
     }
 

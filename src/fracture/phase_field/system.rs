@@ -714,6 +714,7 @@ impl PhaseFieldSystem {
 
     /// [`Self::solve_with`] into `c` (resized to `nodes`), which a caller
     /// keeps between steps.
+    ///
     /// When the node set has changed since the last solve, PCG starts from
     /// the `c` the caller kept (last step's, at every grid node) rather than
     /// from zero.
@@ -847,7 +848,10 @@ impl PhaseFieldSystem {
                 self.timed_pcg(tolerance, max_iterations)
             }
             Err(e) => {
-                tracing::warn!(reason = %e, "phase-field multigrid: no hierarchy; solving directly");
+                // e.g. a body one or two nodes thick, whose levels stop
+                // shrinking: the factor for good
+                tracing::warn!(reason = %e, "phase-field multigrid: no hierarchy; PCG goes on with the factor");
+                self.multigrid_declined = true;
                 self.multigrid = None;
                 (false, 0)
             }
@@ -1028,9 +1032,9 @@ impl PhaseFieldSystem {
             self.apply_inverse(z);
             let rz_new = dot(r, z);
             if !(rz_new > 0.0) {
-                tracing::debug!(iteration = it, rz = rz_new, "PCG: the preconditioner is not positive definite");
-                // a preconditioner that is no longer positive definite
-                // (a multigrid smoother past its eigenvalue estimate)
+                // Both preconditioners are positive definite; this is
+                // round-off on a residual near zero, or a NaN.
+                tracing::debug!(iteration = it, rz = rz_new, "PCG: rᵀz is not positive");
                 return (false, it);
             }
             let beta = rz_new / rz;
