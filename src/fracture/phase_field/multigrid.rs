@@ -29,6 +29,12 @@
 //! which only makes the preconditioner older, not wrong: CG still takes the
 //! residual of the current system to its tolerance.
 //!
+//! Where it does poorly: once a crack has opened, the particle quadrature
+//! in the gap leaves near-null modes that no point smoother damps and no
+//! coarse level holds; the system then hands over to the factor
+//! (`PhaseFieldSystem`'s multigrid solve; `docs/phase-field-performance.md`,
+//! "Multigrid").
+//!
 //! Everything is summed in a fixed order, so a run repeats bit for bit with
 //! any number of threads.
 
