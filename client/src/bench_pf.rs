@@ -39,13 +39,12 @@ fn measure(scene: &Scene, method: PhaseFieldMethod, from: Option<&Path>, warmup:
     let mut sim = match from {
         Some(path) => {
             let cp = Checkpoint::load(path).with_context(|| path.display().to_string())?;
-            Simulation::resume(&scene, cp).with_context(|| format!("cannot start from {}", path.display()))?
+            let sim = Simulation::resume(&scene, cp).with_context(|| format!("cannot start from {}", path.display()))?;
+            eprintln!("{method:?}: resumed at step {}, t = {:e} s", sim.steps(), sim.time());
+            sim
         }
         None => Simulation::new(&scene),
     };
-    if from.is_some() {
-        eprintln!("{method:?}: resumed at step {}, t = {:e} s", sim.steps(), sim.time());
-    }
     eprintln!("{method:?}: {} particles set up in {:.1} s", sim.particles().len(), t.elapsed().as_secs_f64());
     for _ in 0..warmup {
         sim.step()?;
@@ -106,10 +105,7 @@ pub fn run(scene_path: &Path, out: &Path, warmup: usize, from: Option<&Path>, st
         scene.particle_counts.iter().sum::<usize>(),
         scene.cells[0],
         scene.cells[1],
-        match from {
-            Some(_) => "each method resumed from the checkpoint".to_string(),
-            None => "from t = 0".to_string(),
-        },
+        if from.is_some() { "each method resumed from the checkpoint" } else { "from t = 0" },
     )?;
     writeln!(md, "| method | MPM | assembly | factorization | solve | other phase field | wall per step | full run | factorizations | PCG iterations per solve |")?;
     writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")?;

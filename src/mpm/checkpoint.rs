@@ -183,11 +183,11 @@ fn scene_json(scene: &Scene) -> String {
     serde_json::to_string(&scene.file).unwrap_or_default()
 }
 
-/// The first place where two JSON values differ, as a field path and the
-/// two values (None if they are equal).
 /// The scene's table that a resume may change ([`Simulation::resume`]).
 const SOLVER_KEY: &str = "phase_field_solver";
 
+/// The first place where two JSON values differ, as a field path and the
+/// two values (None if they are equal).
 fn first_difference(path: &str, a: &serde_json::Value, b: &serde_json::Value) -> Option<(String, String, String)> {
     use serde_json::Value;
     let join = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };

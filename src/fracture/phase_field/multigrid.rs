@@ -80,22 +80,28 @@ impl Csr {
         c.iter().zip(v).fold(0.0, |s, (&j, &a)| s + a * x[j as usize])
     }
 
-    /// y = A x, row by row (in parallel for large matrices; the same sums).
-    fn mul(&self, x: &[f64], y: &mut [f64]) {
+    /// y = A x, or y += A x with `add`, row by row (in parallel for large
+    /// matrices; the same sums).
+    fn product(&self, x: &[f64], y: &mut [f64], add: bool) {
+        let row = |(i, yi): (usize, &mut f64)| {
+            let v = self.row_dot(i, x);
+            *yi = if add { *yi + v } else { v };
+        };
         if y.len() >= PAR_ROWS {
-            y.par_iter_mut().enumerate().with_min_len(2048).for_each(|(i, yi)| *yi = self.row_dot(i, x));
+            y.par_iter_mut().enumerate().with_min_len(2048).for_each(row);
         } else {
-            y.iter_mut().enumerate().for_each(|(i, yi)| *yi = self.row_dot(i, x));
+            y.iter_mut().enumerate().for_each(row);
         }
+    }
+
+    /// y = A x.
+    fn mul(&self, x: &[f64], y: &mut [f64]) {
+        self.product(x, y, false);
     }
 
     /// y += A x.
     fn mul_add(&self, x: &[f64], y: &mut [f64]) {
-        if y.len() >= PAR_ROWS {
-            y.par_iter_mut().enumerate().with_min_len(2048).for_each(|(i, yi)| *yi += self.row_dot(i, x));
-        } else {
-            y.iter_mut().enumerate().for_each(|(i, yi)| *yi += self.row_dot(i, x));
-        }
+        self.product(x, y, true);
     }
 
     fn transpose(&self) -> Csr {
@@ -177,7 +183,7 @@ struct Level {
     a: Csr,
     diag: Vec<usize>,
     inv_diag: Vec<f64>,
-    /// √(1/a_ii), for the bound.
+    /// √(1/a_ii), for the bound ([`Level::refresh`] computes both).
     sqrt_inv_diag: Vec<f64>,
     /// Upper end of the Chebyshev interval, ≥ λmax(D⁻¹A) ([`Level::bound`]).
     lambda: f64,
@@ -197,12 +203,13 @@ impl Level {
         let n = a.rows();
         let diag = a.diagonal_positions();
         let mut lv = Level { a, diag, b: vec![0.0; n], x: vec![0.0; n], res: vec![0.0; n], d: vec![0.0; n], ..Default::default() };
-        lv.refresh_diagonal()?;
-        lv.bound();
+        lv.refresh()?;
         Ok(lv)
     }
 
-    fn refresh_diagonal(&mut self) -> Result<(), String> {
+    /// The diagonal's inverse and the smoother's bound, from the present
+    /// values of `a`.
+    fn refresh(&mut self) -> Result<(), String> {
         self.inv_diag.clear();
         self.sqrt_inv_diag.clear();
         for (i, &k) in self.diag.iter().enumerate() {
@@ -213,6 +220,7 @@ impl Level {
             self.inv_diag.push(1.0 / d);
             self.sqrt_inv_diag.push(1.0 / d.sqrt());
         }
+        self.bound();
         Ok(())
     }
 
@@ -438,8 +446,7 @@ impl Multigrid {
             fine.a.val[a as usize] = v;
             fine.a.val[b as usize] = v;
         }
-        fine.refresh_diagonal()?;
-        fine.bound();
+        fine.refresh()?;
         Ok(())
     }
 
