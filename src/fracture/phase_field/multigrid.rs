@@ -29,11 +29,15 @@
 //! which only makes the preconditioner older, not wrong: CG still takes the
 //! residual of the current system to its tolerance.
 //!
-//! Where it does poorly: once a crack has opened, the particle quadrature
-//! in the gap leaves near-null modes that no point smoother damps and no
-//! coarse level holds; the system then hands over to the factor
-//! (`PhaseFieldSystem`'s multigrid solve; `docs/phase-field-performance.md`,
-//! "Multigrid").
+//! Where it does poorly: broken material. Where the reaction term of eq. 57
+//! outweighs the diffusion (2Hl₀/Ḡc ≫ (l₀/h)²), K is a B-spline mass matrix
+//! row for row. Scaled by its diagonal, that matrix's smallest eigenvalues
+//! (1/56 of its largest for quadratic B-splines in 2D) belong to the highest
+//! frequencies. No coarse level holds them and the smoother's interval does
+//! not reach them, so CG needs three times the iterations. The system then
+//! hands over to the factor (`PhaseFieldSystem`'s multigrid solve;
+//! `docs/phase-field-performance.md`, "Multigrid", with a model in
+//! `docs/scripts/mg_reaction_model.py`).
 //!
 //! Everything is summed in a fixed order, so a run repeats bit for bit with
 //! any number of threads.
