@@ -290,6 +290,12 @@ impl Metric {
     /// Its value for a run's series; an error says why there is none (no
     /// such column, no rows, never arrived).
     pub fn eval(&self, columns: &[String], rows: &[SeriesRow]) -> Result<f64, String> {
+        self.measure(columns, rows).map(|(v, _)| v)
+    }
+
+    /// Its value and, for `propagation_energy`, the rows it spans, so a
+    /// reader can see what was measured.
+    pub fn measure(&self, columns: &[String], rows: &[SeriesRow]) -> Result<(f64, Option<Window>), String> {
         // (time, value) of the column's finite values
         let series = |name: &str| -> Result<Vec<(f64, f64)>, String> {
             if !columns.iter().any(|c| c == name) {
@@ -302,7 +308,7 @@ impl Metric {
             }
             Ok(v)
         };
-        match self {
+        let value = match self {
             Metric::Final(c) => Ok(series(c)?.last().map_or(f64::NAN, |v| v.1)),
             Metric::Max(c) => Ok(series(c)?.iter().map(|v| v.1).fold(f64::NEG_INFINITY, f64::max)),
             Metric::Min(c) => Ok(series(c)?.iter().map(|v| v.1).fold(f64::INFINITY, f64::min)),
@@ -341,25 +347,36 @@ impl Metric {
                         .map(|v| v.1)
                         .ok_or_else(|| format!("{energy} has no value at t = {t:e} s"))
                 };
-                Ok(at(t1)? - at(t0)?)
+                let window = Window { from: len[start], to: len[through] };
+                return Ok((at(t1)? - at(t0)?, Some(window)));
             }
             Metric::Arrival(c, target) => {
                 let vals = series(c)?;
                 let above = vals[0].1 >= *target;
                 if vals[0].1 == *target {
-                    return Ok(vals[0].0);
+                    Ok(vals[0].0)
+                } else {
+                    vals.windows(2)
+                        .find(|w| (w[1].1 >= *target) != above || w[1].1 == *target)
+                        .map(|w| {
+                            let ((t0, a), (t1, b)) = (w[0], w[1]);
+                            let s = if b == a { 1.0 } else { (target - a) / (b - a) };
+                            t0 + s.clamp(0.0, 1.0) * (t1 - t0)
+                        })
+                        .ok_or_else(|| format!("{c} never reached {target}"))
                 }
-                for w in vals.windows(2) {
-                    let ((t0, a), (t1, b)) = (w[0], w[1]);
-                    if (b >= *target) != above || b == *target {
-                        let s = if b == a { 1.0 } else { (target - a) / (b - a) };
-                        return Ok(t0 + s.clamp(0.0, 1.0) * (t1 - t0));
-                    }
-                }
-                Err(format!("{c} never reached {target}"))
             }
-        }
+        };
+        value.map(|v| (v, None))
     }
+}
+
+/// The rows a `propagation_energy` spans: (time in s, crack length in the
+/// length column's unit) where it starts and where it ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    pub from: (f64, f64),
+    pub to: (f64, f64),
 }
 
 /// What a run's metric is compared with.
@@ -532,6 +549,8 @@ material = "m"
         assert_eq!(m, Metric::PropagationEnergy { energy: "fracture_energy_b0".into(), length: "crack_length".into() });
         // from row 1 (the last under 10 % of the longest) to row 3 (99 %)
         assert_eq!(m.eval(&pc, &crack_rows).unwrap(), 3.0);
+        assert_eq!(m.measure(&pc, &crack_rows).unwrap(), (3.0, Some(Window { from: (0.1, 0.0), to: (3.0 * 0.1, 0.995) })));
+        assert_eq!(Metric::parse(&c).unwrap().measure(&cols, &rows).unwrap(), (1.0, None));
         let none: Vec<SeriesRow> = crack_rows
             .iter()
             .map(|r| {

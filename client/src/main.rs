@@ -197,7 +197,8 @@ enum Command {
     },
     /// Measure a run's series.csv as `cleave study` measures its runs:
     /// each --metric's value and, with --reference analytic:VALUE, its
-    /// relative difference from VALUE (signed). Works on a series still
+    /// relative difference from VALUE (signed), and for
+    /// propagation_energy the rows it spans. Works on a series still
     /// being written (the rows so far).
     Metric {
         series: PathBuf,
@@ -379,16 +380,25 @@ fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool)
     let mut failed = false;
     let mut out = Vec::new();
     for (spec, m) in specs.iter().zip(&metrics) {
-        match m.eval(&columns, &rows) {
-            Ok(v) => {
+        match m.measure(&columns, &rows) {
+            Ok((v, window)) => {
                 let diff = reference.map(|r| if r == 0.0 { v } else { (v - r) / r.abs() });
                 if !json {
                     match diff {
                         Some(d) => println!("{spec} = {v:.6e} ({:+.2} % against {:e})", 100.0 * d, reference.unwrap_or_default()),
                         None => println!("{spec} = {v:.6e}"),
                     }
+                    if let Some(w) = window {
+                        println!(
+                            "  from t = {:.4e} s (crack length {:.4e}) to t = {:.4e} s ({:.4e})",
+                            w.from.0, w.from.1, w.to.0, w.to.1
+                        );
+                    }
                 }
-                out.push(json!({"metric": spec, "value": v, "difference": diff}));
+                let window = window.map(|w| {
+                    json!({"from": {"time": w.from.0, "length": w.from.1}, "to": {"time": w.to.0, "length": w.to.1}})
+                });
+                out.push(json!({"metric": spec, "value": v, "difference": diff, "window": window}));
             }
             Err(e) => {
                 failed = true;

@@ -441,6 +441,29 @@ fn metric_measures_a_series_as_a_study_does() {
     let o = cleave().args(["metric", series.to_str().unwrap(), "--metric", "propagation_energy"]).output().unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("propagation_energy"), "{}", stderr(&o));
+    // the same series with a crack that starts at row 2 and is through at
+    // row 4: the window names those rows
+    let cracked = dir.path().join("cracked.csv");
+    let mut lines = text.lines();
+    let mut csv = format!("{},fracture_energy_b0,crack_length\n", lines.next().unwrap());
+    let times: Vec<f64> = text.lines().skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect();
+    assert!(times.len() > 5);
+    for (i, l) in lines.enumerate() {
+        let length = [0.0, 0.0, 0.05, 0.5, 1.0].get(i).copied().unwrap_or(1.0);
+        csv.push_str(&format!("{l},{},{length}\n", i as f64));
+    }
+    std::fs::write(&cracked, csv).unwrap();
+    let o = cleave()
+        .args(["metric", cracked.to_str().unwrap(), "--metric", "propagation_energy:fracture_energy_b0", "--json"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let m = &v["metrics"][0];
+    assert_eq!(m["value"].as_f64(), Some(2.0), "{v}");
+    assert_eq!(m["window"]["from"]["time"].as_f64(), Some(times[2]), "{v}");
+    assert_eq!(m["window"]["to"]["time"].as_f64(), Some(times[4]), "{v}");
+    assert_eq!(m["window"]["to"]["length"].as_f64(), Some(1.0), "{v}");
     let o = cleave().args(["metric", series.to_str().unwrap(), "--metric", "bogus:x"]).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("unknown kind \"bogus\""), "{}", stderr(&o));
