@@ -339,8 +339,9 @@ fn keep(p: &Prepared, k: usize, o: &Outcome) {
         }
         Err(e) => eprintln!("warning: cannot write {}: {e}", path.display()),
     }
-    let metric = match metric_of(p, o) {
-        Ok(v) => format!("metric {v:.6e}"),
+    let metric = match measure(p, o) {
+        Ok((v, None)) => format!("metric {v:.6e}"),
+        Ok((v, Some(w))) => format!("metric {v:.6e} (from t = {:.4e} s to {:.4e} s)", w.from.0, w.to.0),
         Err(e) => format!("no metric: {e}"),
     };
     eprintln!("      {} steps in {:.1} s, {metric}", o.steps, o.wall_seconds);
@@ -349,9 +350,14 @@ fn keep(p: &Prepared, k: usize, o: &Outcome) {
 /// A run's metric, or why it has none (the run failed, or the metric
 /// cannot be taken from its series).
 fn metric_of(p: &Prepared, o: &Outcome) -> Result<f64, String> {
+    measure(p, o).map(|(v, _)| v)
+}
+
+/// A run's metric with the rows it spans (`Metric::measure`).
+fn measure(p: &Prepared, o: &Outcome) -> Result<(f64, Option<cleave::study::Window>), String> {
     match &o.failure {
         Some(f) => Err(format!("failed: {f}")),
-        None => p.metric.eval(&o.columns, &o.rows),
+        None => p.metric.measure(&o.columns, &o.rows),
     }
 }
 
