@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Why the phase-field multigrid (src/fracture/phase_field/multigrid.rs)
 slows down where the material is broken: a model of its V-cycle in numpy and
-scipy, on eq. 57's operator K = sum_p V_p [a_p N N^T + Gc l0 grad N grad N^T]
-with quadratic B-splines on the unit square, 2 x 2 particles per cell,
-h = l0/4, and a_p = (Gc/l0)(1 + 2 H_p l0/Gc) set per case. The V-cycle is
+scipy, on eq. 57's operator as src/fracture/phase_field/system.rs
+assembles it, K = sum_p V_p [(1 + 4 l0 H_p/Gc) N N^T + 4 l0^2 grad N grad N^T]
+(k_f = 0), with quadratic B-splines on the unit square, 2 x 2 particles per
+cell, h = l0/4, and 4 l0 H_p/Gc set per case. The V-cycle is
 the module's: Galerkin coarse levels from the two-scale mask [1,3,3,1]/4,
 Chebyshev smoothing in D^-1 K on [lo*lambda, lambda] of degree d before and
 after, lambda the Gershgorin bound of D^-1/2 K D^-1/2, the coarsest level
@@ -12,7 +13,7 @@ residual of 1e-8 from zero, against Jacobi-preconditioned CG.
 
   python3 docs/scripts/mg_reaction_model.py [CELLS]     # default 64
 
-Where 2 H l0/Gc >> (l0/h)^2 the reaction term dominates the diffusion and
+Where 4 l0 H/Gc >> 4 (l0/h)^2 the reaction term dominates the diffusion and
 K is, row for row, a B-spline mass matrix: its Jacobi-scaled spectrum is
 [0.059, 3.31] in 2D for quadratic B-splines (1D stencil [1,26,66,26,1]/120:
 16/66 at the highest frequency, 120/66 at the lowest), and its small
@@ -35,7 +36,8 @@ def m3(t):
 
 def assemble(n, a_of, b):
     """K on n x n cells; a_of(x, y) gives each particle's reaction
-    coefficient, NaN for no particle there (an opened gap)."""
+    coefficient 1 + 4 l0 H/Gc, NaN for no particle there (an opened gap);
+    b is the diffusion coefficient 4 l0^2."""
     h = 1.0 / n
     q = (np.arange(2) + 0.5) / 2
     xs = (np.arange(n)[:, None] + q[None, :]).ravel() * h
@@ -139,20 +141,20 @@ def cg(a, b, precondition, tol=1e-8, cap=500):
 
 def main():
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 64
-    gc, l0 = 1.0, 4.0 / n
+    l0 = 4.0 / n
     band = lambda x: np.abs(x - 0.5) < 2 * l0
     cases = [
-        ('intact (2Hl0/Gc = 0)', lambda x, y: gc / l0 + 0 * x),
-        ('a damaged disk, 2Hl0/Gc = 100', lambda x, y: gc / l0 * (1 + 99 * ((x - .5) ** 2 + (y - .5) ** 2 < .04))),
-        ('all at 2Hl0/Gc = 100', lambda x, y: gc / l0 * 100 + 0 * x),
-        ('all at 2Hl0/Gc = 1e4', lambda x, y: gc / l0 * (1 + 1e4) + 0 * x),
-        ('a crack band, 2Hl0/Gc = 1e4 within 2 l0', lambda x, y: gc / l0 * (1 + 1e4 * band(x))),
-        ('the band opened: no particles within h', lambda x, y: np.where(np.abs(x - .5) < 1.0 / n, np.nan, gc / l0 * (1 + 1e4 * band(x)))),
+        ('intact (4l0H/Gc = 0)', lambda x, y: 1 + 0 * x),
+        ('a damaged disk, 4l0H/Gc = 100', lambda x, y: 1 + 100 * ((x - .5) ** 2 + (y - .5) ** 2 < .04)),
+        ('all at 4l0H/Gc = 100', lambda x, y: 101 + 0 * x),
+        ('all at 4l0H/Gc = 1e4', lambda x, y: 1 + 1e4 + 0 * x),
+        ('a crack band, 4l0H/Gc = 1e4 within 2 l0', lambda x, y: 1 + 1e4 * band(x)),
+        ('the band opened: no particles within h', lambda x, y: np.where(np.abs(x - .5) < 1.0 / n, np.nan, 1 + 1e4 * band(x))),
     ]
     smoothers = [(3, 0.05), (3, 0.01), (5, 0.01), (8, 0.01)]
     print('case | unknowns | ' + ' | '.join(f'degree {d} on [{lo}, 1] lambda' for d, lo in smoothers) + ' | Jacobi')
     for name, a_of in cases:
-        k, nf, active = assemble(n, a_of, gc * l0)
+        k, nf, active = assemble(n, a_of, 4 * l0 * l0)
         b = np.random.default_rng(0).standard_normal(k.shape[0])
         its = []
         for degree, lower in smoothers:

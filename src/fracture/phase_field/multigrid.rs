@@ -30,7 +30,7 @@
 //! residual of the current system to its tolerance.
 //!
 //! Where it does poorly: broken material. Where the reaction term of eq. 57
-//! outweighs the diffusion (2Hl₀/Ḡc ≫ (l₀/h)²), K is a B-spline mass matrix
+//! outweighs the diffusion (4l₀H/Ḡc ≫ 4(l₀/h)²), K is a B-spline mass matrix
 //! row for row. Scaled by its diagonal, that matrix's smallest eigenvalues
 //! (1/56 of its largest for quadratic B-splines in 2D) belong to the highest
 //! frequencies. No coarse level holds them and the smoother's interval does

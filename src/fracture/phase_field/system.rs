@@ -827,12 +827,13 @@ impl PhaseFieldSystem {
     /// P3 at h = l₀/4 handed over at 36.5 µs on a single one, and ran the
     /// next 10 steps from its checkpoint with 4.35 iterations per solve).
     /// Poor builds in a row happen once a crack has
-    /// opened: in the gap and at its faces few particles remain under many
-    /// nodes, and the reaction term 4l₀H/Ḡc, orders of magnitude above the
-    /// diffusion there, leaves oscillating modes that neither the smoother
-    /// nor the coarse levels reach (P1 at 42 µs: 16.7 iterations per solve
-    /// with a fresh hierarchy every step, Gauss-Seidel smoothing no better;
-    /// `docs/phase-field-performance.md`, "Multigrid").
+    /// opened: its stretched particles push the reaction term 4l₀H/Ḡc orders
+    /// of magnitude above the diffusion, K is a mass matrix there, and its
+    /// high-frequency modes are the ones neither the smoother nor the coarse
+    /// levels reach (P1 at 42 µs: 16.7 iterations per solve with a fresh
+    /// hierarchy every step, Gauss-Seidel smoothing no better; the module
+    /// doc of [`super::multigrid`] and `docs/phase-field-performance.md`,
+    /// "Multigrid").
     fn multigrid_solve(&mut self, tolerance: f64, max_iterations: usize, rebuild_after: usize) -> Result<(), PhaseFieldError> {
         let n = self.dofs.len();
         if let Some(mg) = self.multigrid.as_mut().filter(|_| self.last.len() == n && !self.refactor_next) {
