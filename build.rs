@@ -8,7 +8,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::path::PathBuf::from(std::env::var("OUT_DIR")?);
     tonic_prost_build::configure()
         .file_descriptor_set_path(out.join("cleave_descriptor.bin"))
-        .compile_with_config(config, &[std::path::Path::new("proto/cleave.proto")], &[std::path::Path::new("proto"), include.as_path()])?;
+        .compile_with_config(
+            config,
+            &[std::path::Path::new("proto/cleave.proto")],
+            &[std::path::Path::new("proto"), include.as_path()],
+        )?;
     println!("cargo:rerun-if-changed=proto/cleave.proto");
     Ok(())
 }

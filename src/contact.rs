@@ -90,7 +90,11 @@ pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min:
             for r in 0..k {
                 group[r] = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                slot[r] = if r == 0 { n } else { nodes + multi.offset[n] as usize + r - 1 };
+                slot[r] = if r == 0 {
+                    n
+                } else {
+                    nodes + multi.offset[n] as usize + r - 1
+                };
             }
             // SAFETY: the slots of node n belong to n alone; nodes are distinct.
             let v = |s: usize| unsafe { *vel.at(s) };
@@ -138,7 +142,11 @@ pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min:
                 // body's end and the body "plows" into a flat surface.
                 let own_norm = (own[0] * own[0] + own[1] * own[1]).sqrt();
                 let rest_norm = (rx * rx + ry * ry).sqrt();
-                let inward = if own_norm >= rest_norm { [-own[0], -own[1]] } else { [rx, ry] };
+                let inward = if own_norm >= rest_norm {
+                    [-own[0], -own[1]]
+                } else {
+                    [rx, ry]
+                };
                 let Some(nrm) = unit(inward) else { continue };
                 let vs = v(s);
                 let d = [vcm[0] - vs[0], vcm[1] - vs[1]];

@@ -24,9 +24,9 @@ pub struct Axis {
 impl Axis {
     /// Parses `KEY=V1,V2,…`.
     pub fn parse(spec: &str) -> Result<Axis, String> {
-        let (key, text) = spec
-            .split_once('=')
-            .ok_or_else(|| format!("--vary {spec:?}: expected KEY=V1,V2,… (e.g. grid.cell_size=1e-3,5e-4)"))?;
+        let (key, text) = spec.split_once('=').ok_or_else(|| {
+            format!("--vary {spec:?}: expected KEY=V1,V2,… (e.g. grid.cell_size=1e-3,5e-4)")
+        })?;
         let key = key.trim();
         if key.is_empty() {
             return Err(format!("--vary {spec:?}: the key is empty"));
@@ -49,7 +49,10 @@ impl Axis {
         if values.iter().any(String::is_empty) {
             return Err(format!("--vary {spec:?}: an empty value"));
         }
-        Ok(Axis { key: key.to_string(), values })
+        Ok(Axis {
+            key: key.to_string(),
+            values,
+        })
     }
 }
 
@@ -59,8 +62,12 @@ pub fn scene_document(text: &str, format: Format) -> Result<Value, SceneError> {
     // the typed parse first: its errors name the field and the line
     crate::scene::parse(text, format)?;
     match format {
-        Format::Toml => toml::from_str::<Value>(text).map_err(|e| SceneError::single("", e.to_string())),
-        Format::Json => serde_json::from_str::<Value>(text).map_err(|e| SceneError::single("", e.to_string())),
+        Format::Toml => {
+            toml::from_str::<Value>(text).map_err(|e| SceneError::single("", e.to_string()))
+        }
+        Format::Json => {
+            serde_json::from_str::<Value>(text).map_err(|e| SceneError::single("", e.to_string()))
+        }
     }
 }
 
@@ -108,14 +115,18 @@ pub fn set_key(doc: &mut Value, key: &str, raw: &str) -> Result<(), SceneError> 
     let mut at = doc;
     for (k, (name, idx)) in segs.iter().enumerate() {
         let last = k + 1 == segs.len();
-        let obj = at.as_object_mut().ok_or_else(|| bad(format!("{name:?} is inside something that is not a table")))?;
+        let obj = at
+            .as_object_mut()
+            .ok_or_else(|| bad(format!("{name:?} is inside something that is not a table")))?;
         if last && idx.is_empty() {
             match raw {
                 "off" => {
                     obj.remove(name);
                 }
                 "on" => {
-                    let slot = obj.entry(name.clone()).or_insert_with(|| Value::Object(Default::default()));
+                    let slot = obj
+                        .entry(name.clone())
+                        .or_insert_with(|| Value::Object(Default::default()));
                     if !slot.is_object() {
                         return Err(bad("`on`/`off` switch a table; this key is a value (use true/false or a number)".into()));
                     }
@@ -126,11 +137,17 @@ pub fn set_key(doc: &mut Value, key: &str, raw: &str) -> Result<(), SceneError> 
             }
             return Ok(());
         }
-        let mut here = obj.entry(name.clone()).or_insert_with(|| Value::Object(Default::default()));
+        let mut here = obj
+            .entry(name.clone())
+            .or_insert_with(|| Value::Object(Default::default()));
         for (j, &i) in idx.iter().enumerate() {
-            let arr = here.as_array_mut().ok_or_else(|| bad(format!("{name} is not an array")))?;
+            let arr = here
+                .as_array_mut()
+                .ok_or_else(|| bad(format!("{name} is not an array")))?;
             let len = arr.len();
-            let item = arr.get_mut(i).ok_or_else(|| bad(format!("index {i} out of range: {name} has {len} entries")))?;
+            let item = arr
+                .get_mut(i)
+                .ok_or_else(|| bad(format!("index {i} out of range: {name} has {len} entries")))?;
             if last && j + 1 == idx.len() {
                 *item = literal(raw);
                 return Ok(());
@@ -166,18 +183,33 @@ pub fn variants(doc: &Value, axes: &[Axis]) -> Result<Vec<Variant>, SceneError> 
             pick[a] = rest % axis.values.len();
             rest /= axis.values.len();
         }
-        let settings: Vec<(String, String)> =
-            axes.iter().zip(&pick).map(|(a, &k)| (a.key.clone(), a.values[k].clone())).collect();
+        let settings: Vec<(String, String)> = axes
+            .iter()
+            .zip(&pick)
+            .map(|(a, &k)| (a.key.clone(), a.values[k].clone()))
+            .collect();
         let mut d = doc.clone();
         let result = settings
             .iter()
             .try_for_each(|(k, v)| set_key(&mut d, k, v))
-            .and_then(|_| serde_json::to_string_pretty(&d).map_err(|e| SceneError::single("", e.to_string())))
-            .and_then(|text| Scene::from_text(&text, Some(Format::Json)).map(|scene| (text, scene)));
+            .and_then(|_| {
+                serde_json::to_string_pretty(&d).map_err(|e| SceneError::single("", e.to_string()))
+            })
+            .and_then(|text| {
+                Scene::from_text(&text, Some(Format::Json)).map(|scene| (text, scene))
+            });
         match result {
-            Ok((text, scene)) => out.push(Variant { settings, text, scene }),
+            Ok((text, scene)) => out.push(Variant {
+                settings,
+                text,
+                scene,
+            }),
             Err(e) => {
-                let label = settings.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ");
+                let label = settings
+                    .iter()
+                    .map(|(k, v)| format!("{k}={v}"))
+                    .collect::<Vec<_>>()
+                    .join(" ");
                 errors.extend(e.errors.into_iter().map(|mut f| {
                     f.reason = format!("{} (with {label})", f.reason);
                     f
@@ -238,7 +270,9 @@ impl Metric {
                 None => vec![""], // "propagation_energyX": rejected below
             };
             if cols.len() > 2 || cols.iter().any(|c| c.is_empty()) {
-                return Err(format!("--metric {spec:?}: write propagation_energy[:ENERGY_COLUMN[,LENGTH_COLUMN]]"));
+                return Err(format!(
+                    "--metric {spec:?}: write propagation_energy[:ENERGY_COLUMN[,LENGTH_COLUMN]]"
+                ));
             }
             return Ok(Metric::PropagationEnergy {
                 energy: cols.first().unwrap_or(&"fracture_energy").to_string(),
@@ -246,7 +280,10 @@ impl Metric {
             });
         }
         if let Some(at) = spec.strip_prefix("crack_angle:") {
-            let v: Vec<f64> = at.split(',').filter_map(|v| v.trim().parse().ok()).collect();
+            let v: Vec<f64> = at
+                .split(',')
+                .filter_map(|v| v.trim().parse().ok())
+                .collect();
             return match v[..] {
                 [x, y] if x.is_finite() && y.is_finite() => Ok(Metric::CrackAngle([x, y])),
                 _ => Err(format!("--metric {spec:?}: write crack_angle:X0,Y0 (the point the angle is seen from, m)")),
@@ -295,14 +332,24 @@ impl Metric {
 
     /// Its value and, for `propagation_energy`, the rows it spans, so a
     /// reader can see what was measured.
-    pub fn measure(&self, columns: &[String], rows: &[SeriesRow]) -> Result<(f64, Option<Window>), String> {
+    pub fn measure(
+        &self,
+        columns: &[String],
+        rows: &[SeriesRow],
+    ) -> Result<(f64, Option<Window>), String> {
         // (time, value) of the column's finite values
         let series = |name: &str| -> Result<Vec<(f64, f64)>, String> {
             if !columns.iter().any(|c| c == name) {
-                return Err(format!("the series has no column {name:?} (it has: {})", columns.join(", ")));
+                return Err(format!(
+                    "the series has no column {name:?} (it has: {})",
+                    columns.join(", ")
+                ));
             }
-            let v: Vec<(f64, f64)> =
-                rows.iter().filter_map(|r| Some((r.time, r.get(columns, name)?))).filter(|v| v.1.is_finite()).collect();
+            let v: Vec<(f64, f64)> = rows
+                .iter()
+                .filter_map(|r| Some((r.time, r.get(columns, name)?)))
+                .filter(|v| v.1.is_finite())
+                .collect();
             if v.is_empty() {
                 return Err(format!("no finite values of {name:?}"));
             }
@@ -310,7 +357,10 @@ impl Metric {
         };
         let value = match self {
             Metric::Final(c) => Ok(series(c)?.last().map_or(f64::NAN, |v| v.1)),
-            Metric::Max(c) => Ok(series(c)?.iter().map(|v| v.1).fold(f64::NEG_INFINITY, f64::max)),
+            Metric::Max(c) => Ok(series(c)?
+                .iter()
+                .map(|v| v.1)
+                .fold(f64::NEG_INFINITY, f64::max)),
             Metric::Min(c) => Ok(series(c)?.iter().map(|v| v.1).fold(f64::INFINITY, f64::min)),
             Metric::EnergyLoss => {
                 let (Some(a), Some(b)) = (rows.first(), rows.last()) else {
@@ -337,8 +387,14 @@ impl Metric {
                 if longest <= 0.0 {
                     return Err(format!("no crack formed ({length} stays 0)"));
                 }
-                let through = len.iter().position(|v| v.1 >= 0.99 * longest).unwrap_or(len.len() - 1);
-                let start = len[..through].iter().rposition(|v| v.1 <= 0.1 * longest).unwrap_or(0);
+                let through = len
+                    .iter()
+                    .position(|v| v.1 >= 0.99 * longest)
+                    .unwrap_or(len.len() - 1);
+                let start = len[..through]
+                    .iter()
+                    .rposition(|v| v.1 <= 0.1 * longest)
+                    .unwrap_or(0);
                 let (t0, t1) = (len[start].0, len[through].0);
                 let e = series(energy)?;
                 let at = |t: f64| {
@@ -347,7 +403,10 @@ impl Metric {
                         .map(|v| v.1)
                         .ok_or_else(|| format!("{energy} has no value at t = {t:e} s"))
                 };
-                let window = Window { from: len[start], to: len[through] };
+                let window = Window {
+                    from: len[start],
+                    to: len[through],
+                };
                 return Ok((at(t1)? - at(t0)?, Some(window)));
             }
             Metric::Arrival(c, target) => {
@@ -400,7 +459,9 @@ impl Reference {
                 .filter(|v| v.is_finite())
                 .map(Reference::Analytic)
                 .ok_or_else(|| format!("--reference {spec:?}: {v:?} is not a finite number")),
-            _ => Err(format!("--reference {spec:?}: write finest or analytic:VALUE")),
+            _ => Err(format!(
+                "--reference {spec:?}: write finest or analytic:VALUE"
+            )),
         }
     }
 }
@@ -423,7 +484,9 @@ pub fn pareto(points: &[(f64, f64)]) -> Vec<bool> {
         .iter()
         .map(|p| {
             ok(p)
-                && !points.iter().any(|q| ok(q) && q.0 <= p.0 && q.1 <= p.1 && (q.0 < p.0 || q.1 < p.1))
+                && !points
+                    .iter()
+                    .any(|q| ok(q) && q.0 <= p.0 && q.1 <= p.1 && (q.0 < p.0 || q.1 < p.1))
         })
         .collect()
 }
@@ -466,17 +529,27 @@ material = "m"
         assert_eq!(e.errors[0].path, "bodies[3].material");
         assert!(e.errors[0].reason.contains("out of range"), "{e}");
         assert!(set_key(&mut d, "grid.cell_size", "on").is_err());
-        let scene = Scene::from_text(&serde_json::to_string(&d).unwrap(), Some(Format::Json)).unwrap();
+        let scene =
+            Scene::from_text(&serde_json::to_string(&d).unwrap(), Some(Format::Json)).unwrap();
         assert_eq!(scene.file.grid.cell_size, 5e-3);
     }
 
     #[test]
     fn variants_are_the_product_and_bad_ones_name_their_setting() {
         let d = scene_document(SCENE, Format::Toml).unwrap();
-        let axes = [Axis::parse("grid.cell_size=0.01,0.005").unwrap(), Axis::parse("time.cfl=0.2,0.3,0.4").unwrap()];
+        let axes = [
+            Axis::parse("grid.cell_size=0.01,0.005").unwrap(),
+            Axis::parse("time.cfl=0.2,0.3,0.4").unwrap(),
+        ];
         let v = variants(&d, &axes).unwrap();
         assert_eq!(v.len(), 6);
-        assert_eq!(v[1].settings, vec![("grid.cell_size".into(), "0.01".into()), ("time.cfl".into(), "0.3".into())]);
+        assert_eq!(
+            v[1].settings,
+            vec![
+                ("grid.cell_size".into(), "0.01".into()),
+                ("time.cfl".into(), "0.3".into())
+            ]
+        );
         assert_eq!(v[5].scene.file.grid.cell_size, 0.005);
         let bad = [Axis::parse("grid.cell_size=0.01,-1").unwrap()];
         let e = variants(&d, &bad).unwrap_err();
@@ -486,7 +559,10 @@ material = "m"
         assert_eq!(g.values, vec!["[1,1,0,2]", "[1,1,0,74]"]);
         let mut d2 = d.clone();
         set_key(&mut d2, &g.key, &g.values[1]).unwrap();
-        assert_eq!(d2["materials"]["m"]["phase_field"]["gamma"], serde_json::json!([1, 1, 0, 74]));
+        assert_eq!(
+            d2["materials"]["m"]["phase_field"]["gamma"],
+            serde_json::json!([1, 1, 0, 74])
+        );
         assert!(Axis::parse("grid.cell_size").is_err());
         assert!(Axis::parse("a=1,,2").is_err());
     }
@@ -505,18 +581,52 @@ material = "m"
             .collect();
         let c = cols[2].clone();
         assert_eq!(Metric::parse(&c).unwrap().eval(&cols, &rows).unwrap(), 1.0);
-        assert_eq!(Metric::parse(&format!("max:{c}")).unwrap().eval(&cols, &rows).unwrap(), 4.0);
-        assert_eq!(Metric::parse(&format!("min:{c}")).unwrap().eval(&cols, &rows).unwrap(), 0.0);
-        let t = Metric::parse(&format!("arrival:{c}=3")).unwrap().eval(&cols, &rows).unwrap();
+        assert_eq!(
+            Metric::parse(&format!("max:{c}"))
+                .unwrap()
+                .eval(&cols, &rows)
+                .unwrap(),
+            4.0
+        );
+        assert_eq!(
+            Metric::parse(&format!("min:{c}"))
+                .unwrap()
+                .eval(&cols, &rows)
+                .unwrap(),
+            0.0
+        );
+        let t = Metric::parse(&format!("arrival:{c}=3"))
+            .unwrap()
+            .eval(&cols, &rows)
+            .unwrap();
         assert!((t - 0.15).abs() < 1e-12, "{t}");
-        assert!(Metric::parse(&format!("arrival:{c}=9")).unwrap().eval(&cols, &rows).is_err());
-        assert!(Metric::parse("final:nope").unwrap().eval(&cols, &rows).unwrap_err().contains("no column"));
+        assert!(Metric::parse(&format!("arrival:{c}=9"))
+            .unwrap()
+            .eval(&cols, &rows)
+            .is_err());
+        assert!(Metric::parse("final:nope")
+            .unwrap()
+            .eval(&cols, &rows)
+            .unwrap_err()
+            .contains("no column"));
         assert!(Metric::parse("median:x").is_err());
         // kinetic 0 → 1 (rows 0 and 4 have kinetic 0 and 1), no strain, no work
-        assert_eq!(Metric::parse("energy_loss").unwrap().eval(&cols, &rows).unwrap(), -1.0);
-        assert_eq!(Reference::parse("analytic:2.5").unwrap(), Reference::Analytic(2.5));
+        assert_eq!(
+            Metric::parse("energy_loss")
+                .unwrap()
+                .eval(&cols, &rows)
+                .unwrap(),
+            -1.0
+        );
+        assert_eq!(
+            Reference::parse("analytic:2.5").unwrap(),
+            Reference::Analytic(2.5)
+        );
         assert!(Reference::parse("analytic:x").is_err());
-        assert_eq!(Metric::parse("crack_angle:0.05,0.025").unwrap(), Metric::CrackAngle([0.05, 0.025]));
+        assert_eq!(
+            Metric::parse("crack_angle:0.05,0.025").unwrap(),
+            Metric::CrackAngle([0.05, 0.025])
+        );
         assert!(Metric::parse("crack_angle:0.05").is_err());
         let mut tc = cols.clone();
         tc.extend(["crack_tip_x".to_string(), "crack_tip_y".to_string()]);
@@ -546,11 +656,29 @@ material = "m"
             })
             .collect();
         let m = Metric::parse("propagation_energy:fracture_energy_b0").unwrap();
-        assert_eq!(m, Metric::PropagationEnergy { energy: "fracture_energy_b0".into(), length: "crack_length".into() });
+        assert_eq!(
+            m,
+            Metric::PropagationEnergy {
+                energy: "fracture_energy_b0".into(),
+                length: "crack_length".into()
+            }
+        );
         // from row 1 (the last under 10 % of the longest) to row 3 (99 %)
         assert_eq!(m.eval(&pc, &crack_rows).unwrap(), 3.0);
-        assert_eq!(m.measure(&pc, &crack_rows).unwrap(), (3.0, Some(Window { from: (0.1, 0.0), to: (3.0 * 0.1, 0.995) })));
-        assert_eq!(Metric::parse(&c).unwrap().measure(&cols, &rows).unwrap(), (1.0, None));
+        assert_eq!(
+            m.measure(&pc, &crack_rows).unwrap(),
+            (
+                3.0,
+                Some(Window {
+                    from: (0.1, 0.0),
+                    to: (3.0 * 0.1, 0.995)
+                })
+            )
+        );
+        assert_eq!(
+            Metric::parse(&c).unwrap().measure(&cols, &rows).unwrap(),
+            (1.0, None)
+        );
         let none: Vec<SeriesRow> = crack_rows
             .iter()
             .map(|r| {
@@ -567,7 +695,13 @@ material = "m"
 
     #[test]
     fn pareto_keeps_the_undominated() {
-        let p = [(1.0, 0.5), (2.0, 0.1), (3.0, 0.2), (4.0, 0.01), (f64::NAN, 0.0)];
+        let p = [
+            (1.0, 0.5),
+            (2.0, 0.1),
+            (3.0, 0.2),
+            (4.0, 0.01),
+            (f64::NAN, 0.0),
+        ];
         assert_eq!(pareto(&p), vec![true, true, false, true, false]);
         assert_eq!(error(1.1, 1.0), 0.10000000000000009);
         assert_eq!(error(0.5, 0.0), 0.5);

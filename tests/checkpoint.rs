@@ -70,7 +70,13 @@ fn outcome(dir: &Path, sim: &Simulation) -> Outcome {
         .collect();
     vtps.sort();
     let last_vtp = std::fs::read(vtps.last().unwrap()).unwrap();
-    Outcome { series, pvd, last_vtp, parts: sim.particles().clone(), steps: sim.steps() }
+    Outcome {
+        series,
+        pvd,
+        last_vtp,
+        parts: sim.particles().clone(),
+        steps: sim.steps(),
+    }
 }
 
 /// Runs `text` through to the end, and again with a checkpoint at step
@@ -93,9 +99,17 @@ fn straight_and_resumed_as(text: &str, resumed: &str, at: u64, lost: u64) -> (Ou
     assert!(!s.cancelled);
     w.finish().unwrap();
     let straight = outcome(&a, &sim);
-    assert!(straight.steps > at + lost, "the run has {} steps", straight.steps);
+    assert!(
+        straight.steps > at + lost,
+        "the run has {} steps",
+        straight.steps
+    );
 
-    let mut obs = Interrupted { writer: OutputWriter::create(&b).unwrap(), at, lost };
+    let mut obs = Interrupted {
+        writer: OutputWriter::create(&b).unwrap(),
+        at,
+        lost,
+    };
     let mut sim = Simulation::new(&scene);
     let s = sim.run(&mut obs).unwrap();
     assert!(s.cancelled);
@@ -123,14 +137,26 @@ fn without_wall_times(series: &str) -> Vec<Vec<String>> {
     let keep = |k: usize| !(header[k].starts_with("pf_") && header[k].ends_with("_s"));
     std::iter::once(series.lines().next().unwrap())
         .chain(lines)
-        .map(|l| l.split(',').enumerate().filter(|&(k, _)| keep(k)).map(|(_, v)| v.to_string()).collect())
+        .map(|l| {
+            l.split(',')
+                .enumerate()
+                .filter(|&(k, _)| keep(k))
+                .map(|(_, v)| v.to_string())
+                .collect()
+        })
         .collect()
 }
 
 fn assert_same(a: &Outcome, b: &Outcome) {
     assert_eq!(a.steps, b.steps);
     let (sa, sb) = (without_wall_times(&a.series), without_wall_times(&b.series));
-    assert_eq!(sa.len(), sb.len(), "series.csv has {} lines straight, {} resumed", sa.len(), sb.len());
+    assert_eq!(
+        sa.len(),
+        sb.len(),
+        "series.csv has {} lines straight, {} resumed",
+        sa.len(),
+        sb.len()
+    );
     for (k, (x, y)) in sa.iter().zip(&sb).enumerate() {
         assert_eq!(x, y, "series.csv line {k} differs");
     }
@@ -142,7 +168,13 @@ fn assert_same(a: &Outcome, b: &Outcome) {
 #[test]
 fn a_resumed_phase_field_run_repeats_the_straight_one_bit_for_bit() {
     // P1 coarse (one phase field, direct solver, crack tip): 10 us
-    let text = scene_text("p1_plate_coarse.toml", &[("end = 8.0e-5", "end = 1.0e-5"), ("snapshots = 9", "snapshots = 4")]);
+    let text = scene_text(
+        "p1_plate_coarse.toml",
+        &[
+            ("end = 8.0e-5", "end = 1.0e-5"),
+            ("snapshots = 9", "snapshots = 4"),
+        ],
+    );
     let (a, b) = straight_and_resumed(&text, 40, 15);
     assert_same(&a, &b);
 }
@@ -152,10 +184,20 @@ fn a_resumed_damage_run_with_dfg_and_contact_repeats_the_straight_one_bit_for_bi
     // the dynamic Brazilian disk (time-to-failure damage with Weibull
     // strengths, DFG partitioning, platens in contact), to 10 us where
     // the disk has cracked
-    let text = scene_text("d4_brazilian.toml", &[("end = 1.5e-5", "end = 1.0e-5"), ("series_rows = 151", "series_rows = 41"), ("snapshots = 16", "snapshots = 5")]);
+    let text = scene_text(
+        "d4_brazilian.toml",
+        &[
+            ("end = 1.5e-5", "end = 1.0e-5"),
+            ("series_rows = 151", "series_rows = 41"),
+            ("snapshots = 16", "snapshots = 5"),
+        ],
+    );
     let (a, b) = straight_and_resumed(&text, 150, 20);
     let failed = |o: &Outcome| o.parts.damage.iter().filter(|&&d| d >= 1.0).count();
-    assert!(failed(&a) > 0, "no particle failed: the test would not exercise the damage state");
+    assert!(
+        failed(&a) > 0,
+        "no particle failed: the test would not exercise the damage state"
+    );
     assert_same(&a, &b);
 }
 
@@ -163,8 +205,13 @@ fn a_resumed_damage_run_with_dfg_and_contact_repeats_the_straight_one_bit_for_bi
 fn with_pcg_a_resumed_run_agrees_to_the_solver_tolerance() {
     // the PCG's factor is not in the checkpoint: the first solve after the
     // resume refactorizes, so c differs within the tolerance; with [dfg]
-    let text = scene_text("p1_plate_coarse.toml", &[("end = 8.0e-5", "end = 1.0e-5"), ("snapshots = 9", "snapshots = 2")])
-        + "\n[phase_field_solver]\nmethod = \"pcg\"\ntolerance = 1e-10\n\n[dfg]\n";
+    let text = scene_text(
+        "p1_plate_coarse.toml",
+        &[
+            ("end = 8.0e-5", "end = 1.0e-5"),
+            ("snapshots = 9", "snapshots = 2"),
+        ],
+    ) + "\n[phase_field_solver]\nmethod = \"pcg\"\ntolerance = 1e-10\n\n[dfg]\n";
     let (a, b) = straight_and_resumed(&text, 40, 15);
     assert_eq!(a.steps, b.steps);
     assert_within(&a, &b, 1e-6, "resuming with PCG");
@@ -176,22 +223,39 @@ fn assert_within(a: &Outcome, b: &Outcome, tol: f64, what: &str) {
     let worst = |f: fn(&Particles) -> Vec<f64>| {
         let (x, y) = (f(&a.parts), f(&b.parts));
         let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        x.iter().zip(&y).map(|(p, q)| (p - q).abs()).fold(0.0, f64::max) / scale
+        x.iter()
+            .zip(&y)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f64::max)
+            / scale
     };
     let dc = worst(|p| p.phase.clone());
     let dv = worst(|p| p.v.iter().flatten().copied().collect());
     let dh = worst(|p| p.history.clone());
     println!("relative differences after {what}: c {dc:.2e}, v {dv:.2e}, H {dh:.2e}");
-    assert!(dc < tol && dv < tol && dh < tol, "{what}: c {dc:e}, v {dv:e}, H {dh:e}");
-    assert!(a.parts.phase.iter().any(|&c| c < 0.5), "no damage: the test would not exercise c");
+    assert!(
+        dc < tol && dv < tol && dh < tol,
+        "{what}: c {dc:e}, v {dv:e}, H {dh:e}"
+    );
+    assert!(
+        a.parts.phase.iter().any(|&c| c < 0.5),
+        "no damage: the test would not exercise c"
+    );
 }
 
 #[test]
 fn a_run_resumes_with_another_phase_field_solver_and_agrees_to_its_tolerance() {
     // the direct solve, resumed with the multigrid-preconditioned CG: the
     // solver is not part of what the checkpoint must match
-    let text = scene_text("p1_plate_coarse.toml", &[("end = 8.0e-5", "end = 1.0e-5"), ("snapshots = 9", "snapshots = 2")]);
-    let resumed = format!("{text}\n[phase_field_solver]\nmethod = \"multigrid\"\ntolerance = 1e-10\n");
+    let text = scene_text(
+        "p1_plate_coarse.toml",
+        &[
+            ("end = 8.0e-5", "end = 1.0e-5"),
+            ("snapshots = 9", "snapshots = 2"),
+        ],
+    );
+    let resumed =
+        format!("{text}\n[phase_field_solver]\nmethod = \"multigrid\"\ntolerance = 1e-10\n");
     let (a, b) = straight_and_resumed_as(&text, &resumed, 40, 15);
     assert_eq!(a.steps, b.steps);
     assert_within(&a, &b, 1e-6, "resuming with the multigrid");
@@ -202,20 +266,30 @@ fn resuming_refuses_another_scene_and_names_the_field() {
     let text = scene_text("two_disks.toml", &[("end = 3.0", "end = 0.05")]);
     let scene = Scene::from_text(&text, None).unwrap();
     let tmp = tempfile::tempdir().unwrap();
-    let mut obs = Interrupted { writer: OutputWriter::create(tmp.path()).unwrap(), at: 3, lost: 1 };
+    let mut obs = Interrupted {
+        writer: OutputWriter::create(tmp.path()).unwrap(),
+        at: 3,
+        lost: 1,
+    };
     Simulation::new(&scene).run(&mut obs).unwrap();
     let cp = OutputWriter::load_checkpoint(tmp.path()).unwrap();
     let other = Scene::from_text(&text.replace("end = 0.05", "end = 0.06"), None).unwrap();
     let e = Simulation::resume(&other, cp.clone()).err().unwrap();
     assert!(matches!(e, CheckpointError::SceneMismatch { .. }), "{e}");
     let msg = e.to_string();
-    assert!(msg.contains("time.end") && msg.contains("0.06") && msg.contains("0.05"), "{msg}");
+    assert!(
+        msg.contains("time.end") && msg.contains("0.06") && msg.contains("0.05"),
+        "{msg}"
+    );
     // the same scene resumes
     assert!(Simulation::resume(&scene, cp).is_ok());
     // a damaged file is refused with the reason, not a panic
     let path = OutputWriter::checkpoint_path(tmp.path());
     let bytes = std::fs::read(&path).unwrap();
     std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
-    let e = OutputWriter::load_checkpoint(tmp.path()).err().unwrap().to_string();
+    let e = OutputWriter::load_checkpoint(tmp.path())
+        .err()
+        .unwrap()
+        .to_string();
     assert!(e.contains("checkpoint.bin") && e.contains("damaged"), "{e}");
 }

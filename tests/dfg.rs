@@ -273,7 +273,8 @@ fn self_contact_slides_like_two_fields_with_friction() {
         let scene = parse(text);
         let mut sim = Simulation::new(&scene);
         let x0 = mean_x(&sim, 1);
-        sim.run(&mut Recorder::default()).unwrap_or_else(|e| panic!("{e}"));
+        sim.run(&mut Recorder::default())
+            .unwrap_or_else(|e| panic!("{e}"));
         mean_x(&sim, 1) - x0
     };
     let two = slide(&base);
@@ -292,8 +293,14 @@ fn self_contact_slides_like_two_fields_with_friction() {
         one * 1e3,
         analytic * 1e3
     );
-    assert!((two / analytic - 1.0).abs() < 0.05, "two fields {two} m vs {analytic} m");
-    assert!((one / two - 1.0).abs() < 0.05, "self-contact {one} m vs two fields {two} m");
+    assert!(
+        (two / analytic - 1.0).abs() < 0.05,
+        "two fields {two} m vs {analytic} m"
+    );
+    assert!(
+        (one / two - 1.0).abs() < 0.05,
+        "self-contact {one} m vs two fields {two} m"
+    );
 }
 
 /// A small dynamic Brazilian disk (the D4 layout at a third of the size,
@@ -353,7 +360,9 @@ grid_fields = false
 fn fragment_files(scene: &Scene) -> (tempfile::TempDir, Vec<Vec<u8>>) {
     let dir = tempfile::tempdir().unwrap();
     let mut out = cleave::output::OutputWriter::create(dir.path()).unwrap();
-    Simulation::new(scene).run(&mut out).unwrap_or_else(|e| panic!("{e}"));
+    Simulation::new(scene)
+        .run(&mut out)
+        .unwrap_or_else(|e| panic!("{e}"));
     out.finish().unwrap();
     let files = (0..4)
         .map(|k| std::fs::read(dir.path().join(format!("fragments_{k:04}.csv"))).unwrap())
@@ -367,16 +376,25 @@ fn fragment_files(scene: &Scene) -> (tempfile::TempDir, Vec<Vec<u8>>) {
 fn the_same_seed_gives_byte_identical_fragments() {
     let scene = parse(MINI_BRAZILIAN);
     let (_a, fa) = fragment_files(&scene);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
     let (_b, fb) = pool.install(|| fragment_files(&scene));
-    assert_eq!(fa, fb, "fragment tables differ between runs with the same seed");
+    assert_eq!(
+        fa, fb,
+        "fragment tables differ between runs with the same seed"
+    );
     let last = String::from_utf8(fa[3].clone()).unwrap();
     let rows: Vec<&str> = last.lines().skip(1).collect();
     println!("mini Brazilian at 6 us:\n{last}");
     // at t = 0 the disk is one fragment (and each platen is no fragment:
     // it has no damage model)
     assert_eq!(String::from_utf8(fa[0].clone()).unwrap().lines().count(), 2);
-    let big = rows.iter().filter(|r| r.split(',').nth(1).unwrap().parse::<u32>().unwrap() >= 10).count();
+    let big = rows
+        .iter()
+        .filter(|r| r.split(',').nth(1).unwrap().parse::<u32>().unwrap() >= 10)
+        .count();
     assert!(big >= 2, "the disk did not break: {last}");
     let (_c, fc) = fragment_files(&parse(&MINI_BRAZILIAN.replace("seed = 1", "seed = 2")));
     assert_ne!(fa[3], fc[3]);
@@ -391,9 +409,13 @@ fn billet_run(text: &str) -> (f64, f64, Vec<f64>) {
     let mut sim = Simulation::new(&scene);
     let x0: std::collections::BTreeMap<u32, [f64; 2]> = {
         let p = sim.particles();
-        (0..p.len()).filter(|&k| p.body[k] == 0).map(|k| (p.id[k], p.x[k])).collect()
+        (0..p.len())
+            .filter(|&k| p.body[k] == 0)
+            .map(|k| (p.id[k], p.x[k]))
+            .collect()
     };
-    sim.run(&mut Recorder::default()).unwrap_or_else(|e| panic!("{e}"));
+    sim.run(&mut Recorder::default())
+        .unwrap_or_else(|e| panic!("{e}"));
     let p = sim.particles();
     let (mut top, mut bottom) = ((0.0, 0), (0.0, 0));
     let mut vx = vec![0.0; x0.len()];
@@ -420,15 +442,22 @@ fn billet_run(text: &str) -> (f64, f64, Vec<f64>) {
 /// two-field one, where the single field is far from it.
 #[test]
 fn billet_self_contact_expands_like_two_fields() {
-    let two = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/d1_billet.toml"))
-        .expect("scenes/d1_billet.toml");
-    let one_group = two.replace("contact_group = 1", "contact_group = 0").replace("[contact]\nfriction = 0.04\n", "");
+    let two = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/d1_billet.toml"
+    ))
+    .expect("scenes/d1_billet.toml");
+    let one_group = two
+        .replace("contact_group = 1", "contact_group = 0")
+        .replace("[contact]\nfriction = 0.04\n", "");
     assert_ne!(one_group, two, "the scene's keys changed");
     let self_contact = format!("{one_group}\n[dfg]\nself_contact = true\nfriction = 0.04\n");
     let (t2, b2, v2) = billet_run(&two);
     let (t1, b1, v1) = billet_run(&one_group);
     let (ts, bs, vs) = billet_run(&self_contact);
-    let rms = |a: &[f64], b: &[f64]| (a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / a.len() as f64).sqrt();
+    let rms = |a: &[f64], b: &[f64]| {
+        (a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / a.len() as f64).sqrt()
+    };
     let norm = rms(&v2, &vec![0.0; v2.len()]);
     let (e1, es) = (rms(&v1, &v2) / norm, rms(&vs, &v2) / norm);
     println!(
@@ -439,10 +468,22 @@ fn billet_self_contact_expands_like_two_fields() {
     // No slip changes the flow (the platen, softer and with the larger
     // Poisson's ratio, drags the billet's top outward with it and the
     // billet's bottom expands more), friction lets them slide.
-    assert!(e1 > 0.3 && (b1 / b2 - 1.0).abs() > 0.15, "single field is too close to two fields to tell them apart");
-    assert!((ts / t2 - 1.0).abs() < 0.1, "self-contact top {ts} m vs two fields {t2} m");
-    assert!((bs / b2 - 1.0).abs() < 0.1, "self-contact bottom {bs} m vs two fields {b2} m");
-    assert!(es < 0.1, "self-contact v_x differs by {es} of the two-field RMS");
+    assert!(
+        e1 > 0.3 && (b1 / b2 - 1.0).abs() > 0.15,
+        "single field is too close to two fields to tell them apart"
+    );
+    assert!(
+        (ts / t2 - 1.0).abs() < 0.1,
+        "self-contact top {ts} m vs two fields {t2} m"
+    );
+    assert!(
+        (bs / b2 - 1.0).abs() < 0.1,
+        "self-contact bottom {bs} m vs two fields {b2} m"
+    );
+    assert!(
+        es < 0.1,
+        "self-contact v_x differs by {es} of the two-field RMS"
+    );
 }
 
 /// The crack tip of a damage body is the end of the crack that grows from
@@ -451,22 +492,38 @@ fn billet_self_contact_expands_like_two_fields() {
 /// far edge.
 #[test]
 fn the_crack_tip_follows_the_crack_from_its_origin() {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/d2_kalthoff.toml"))
-        .expect("scenes/d2_kalthoff.toml")
-        .replace("end = 9.0e-5", "end = 3.5e-5");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/d2_kalthoff.toml"
+    ))
+    .expect("scenes/d2_kalthoff.toml")
+    .replace("end = 9.0e-5", "end = 3.5e-5");
     let scene = parse(&text);
     let (sim, rec) = run(&scene);
     let cols = sim.series_columns();
-    let col = |name: &str| rec.rows.iter().map(|r| r.get(&cols, name).unwrap()).collect::<Vec<f64>>();
+    let col = |name: &str| {
+        rec.rows
+            .iter()
+            .map(|r| r.get(&cols, name).unwrap())
+            .collect::<Vec<f64>>()
+    };
     let (x, y, len) = (col("crack_tip_x"), col("crack_tip_y"), col("crack_length"));
     // no crack at first: the notch itself is not one
     assert_eq!(len[0], 0.0);
     assert!(x[0].is_nan());
     let k = rec.rows.len() - 1;
     let angle = (y[k] - 0.025).atan2(x[k] - 0.05).to_degrees();
-    println!("D2 at 35 us: tip ({:.1}, {:.1}) mm, length {:.1} mm, angle {angle:.1}", x[k] * 1e3, y[k] * 1e3, len[k] * 1e3);
+    println!(
+        "D2 at 35 us: tip ({:.1}, {:.1}) mm, length {:.1} mm, angle {angle:.1}",
+        x[k] * 1e3,
+        y[k] * 1e3,
+        len[k] * 1e3
+    );
     assert!(len[k] > 0.01, "the crack is {} m long", len[k]);
-    assert!((30.0..60.0).contains(&angle), "the tip is at {angle}° from the notch");
+    assert!(
+        (30.0..60.0).contains(&angle),
+        "the tip is at {angle}° from the notch"
+    );
     // the tip moves away from the origin monotonically (within a particle)
     assert!(len.windows(2).all(|w| w[1] >= w[0] - 0.5e-3), "{len:?}");
 }

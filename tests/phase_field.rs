@@ -3,7 +3,9 @@
 //! Gc(θ) of eq. 8, the history, the solver and the coupled runs.
 
 use cleave::fracture::phase_field::anisotropy::{surface_energy, Gamma};
-use cleave::fracture::phase_field::system::{fracture_energy, FieldParticles, PhaseFieldParams, PhaseFieldSystem, SolveMethod, SolveStats};
+use cleave::fracture::phase_field::system::{
+    fracture_energy, FieldParticles, PhaseFieldParams, PhaseFieldSystem, SolveMethod, SolveStats,
+};
 use cleave::grid::shape::{CubicBspline, Gimp, Kernel, Linear, QuadraticBspline};
 use cleave::grid::GridGeom;
 
@@ -15,7 +17,10 @@ fn block(h: f64, half: f64, per_dir: usize) -> (GridGeom, Vec<[f64; 2]>, Vec<f64
     let mut x = Vec::new();
     for j in 0..cells * per_dir {
         for i in 0..cells * per_dir {
-            x.push([-half + (i as f64 + 0.5) * sub, -half + (j as f64 + 0.5) * sub]);
+            x.push([
+                -half + (i as f64 + 0.5) * sub,
+                -half + (j as f64 + 0.5) * sub,
+            ]);
         }
     }
     let vol = vec![sub * sub; x.len()];
@@ -42,8 +47,16 @@ fn positive_definite(a: &[Vec<f64>]) -> bool {
 fn check_spd<K: Kernel>(gamma: Gamma) {
     let (geom, x, vol) = block(0.5, 2.0, 2);
     // a history field that varies from particle to particle
-    let history: Vec<f64> = x.iter().map(|p| 10.0 * (p[0] * 3.1).sin().abs() * (p[1] * 1.7).cos().abs()).collect();
-    let params = PhaseFieldParams { gc_bar: 2.0, l0: 0.4, k_f: 1e-3, gamma: gamma.rotated(0.4) };
+    let history: Vec<f64> = x
+        .iter()
+        .map(|p| 10.0 * (p[0] * 3.1).sin().abs() * (p[1] * 1.7).cos().abs())
+        .collect();
+    let params = PhaseFieldParams {
+        gc_bar: 2.0,
+        l0: 0.4,
+        k_f: 1e-3,
+        gamma: gamma.rotated(0.4),
+    };
     let mut sys = PhaseFieldSystem::new();
     sys.assemble::<K>(&geom, &FieldParticles::all(&x, &vol, &history), &params);
     let a = sys.dense();
@@ -51,8 +64,14 @@ fn check_spd<K: Kernel>(gamma: Gamma) {
     assert!(positive_definite(&a), "K is not positive definite");
     // the sparse Cholesky agrees: K c = F has a solution with 0 < c ≤ 1 where
     // material is (a maximum principle of the continuous problem)
-    let c = sys.solve(geom.node_count()).expect("the Cholesky factorization succeeds");
-    let worst = sys.dofs().iter().map(|&n| c[n as usize]).fold(f64::NEG_INFINITY, f64::max);
+    let c = sys
+        .solve(geom.node_count())
+        .expect("the Cholesky factorization succeeds");
+    let worst = sys
+        .dofs()
+        .iter()
+        .map(|&n| c[n as usize])
+        .fold(f64::NEG_INFINITY, f64::max);
     assert!(worst.is_finite());
 }
 
@@ -62,10 +81,20 @@ fn the_matrix_is_positive_definite_for_every_shape_function() {
     check_spd::<Gimp>(Gamma::default());
     check_spd::<QuadraticBspline>(Gamma::default());
     check_spd::<CubicBspline>(Gamma::default());
-    let cubic = Gamma { g1111: 1.0, g2222: 1.0, g1212: 74.0, ..Default::default() };
+    let cubic = Gamma {
+        g1111: 1.0,
+        g2222: 1.0,
+        g1212: 74.0,
+        ..Default::default()
+    };
     check_spd::<QuadraticBspline>(cubic);
     check_spd::<CubicBspline>(cubic);
-    let composite = Gamma { g1111: 1.0, g2222: 2900.0, g1212: 74.0, ..Default::default() };
+    let composite = Gamma {
+        g1111: 1.0,
+        g2222: 2900.0,
+        g1212: 74.0,
+        ..Default::default()
+    };
     check_spd::<QuadraticBspline>(composite);
 }
 
@@ -80,18 +109,36 @@ fn straight_crack(gamma: Gamma, theta_deg: f64) -> (f64, f64) {
     let spacing = h / per_dir as f64;
     let t = theta_deg.to_radians();
     let (tangent, normal) = ([t.cos(), t.sin()], [-t.sin(), t.cos()]);
-    let params = PhaseFieldParams { gc_bar, l0, k_f: 0.0, gamma };
+    let params = PhaseFieldParams {
+        gc_bar,
+        l0,
+        k_f: 0.0,
+        gamma,
+    };
     // Borden's initial crack: H = B Ḡc / (4 l0) on the crack band, B = 1e6
     let big = 1e6 * gc_bar / (4.0 * l0);
     let history: Vec<f64> = x
         .iter()
-        .map(|p| if (p[0] * normal[0] + p[1] * normal[1]).abs() < 0.55 * spacing { big } else { 0.0 })
+        .map(|p| {
+            if (p[0] * normal[0] + p[1] * normal[1]).abs() < 0.55 * spacing {
+                big
+            } else {
+                0.0
+            }
+        })
         .collect();
     let mut sys = PhaseFieldSystem::new();
     let parts = FieldParticles::all(&x, &vol, &history);
     sys.assemble::<QuadraticBspline>(&geom, &parts, &params);
     let c = sys.solve(geom.node_count()).expect("solve");
-    let on_line = x.iter().zip(&history).filter(|(_, &hh)| hh > 0.0).map(|(p, _)| cleave::fracture::phase_field::system::field_at::<QuadraticBspline>(&geom, &c, *p).0).fold(0.0f64, f64::max);
+    let on_line = x
+        .iter()
+        .zip(&history)
+        .filter(|(_, &hh)| hh > 0.0)
+        .map(|(p, _)| {
+            cleave::fracture::phase_field::system::field_at::<QuadraticBspline>(&geom, &c, *p).0
+        })
+        .fold(0.0f64, f64::max);
     println!("  max c on the crack line: {on_line:.4}");
     let window = 12.0 * l0;
     let energy = fracture_energy::<QuadraticBspline>(&geom, &c, &parts, &params, |p| {
@@ -102,8 +149,18 @@ fn straight_crack(gamma: Gamma, theta_deg: f64) -> (f64, f64) {
 
 #[test]
 fn straight_crack_energy_equals_gc_theta() {
-    let iso4 = Gamma { g1111: 1.0, g2222: 1.0, g1212: 2.0, ..Default::default() };
-    let cubic = Gamma { g1111: 1.0, g2222: 1.0, g1212: 74.0, ..Default::default() };
+    let iso4 = Gamma {
+        g1111: 1.0,
+        g2222: 1.0,
+        g1212: 2.0,
+        ..Default::default()
+    };
+    let cubic = Gamma {
+        g1111: 1.0,
+        g2222: 1.0,
+        g1212: 74.0,
+        ..Default::default()
+    };
     for (name, gamma, theta) in [
         ("2nd order, 0°", Gamma::default(), 0.0),
         ("2nd order, 45°", Gamma::default(), 45.0),
@@ -112,7 +169,10 @@ fn straight_crack_energy_equals_gc_theta() {
         ("cubic, 45°", cubic, 45.0),
     ] {
         let (got, want) = straight_crack(gamma, theta);
-        println!("straight crack, {name}: {got:.5} per unit length vs Gc(θ) = {want:.5} ({:+.2} %)", 100.0 * (got / want - 1.0));
+        println!(
+            "straight crack, {name}: {got:.5} per unit length vs Gc(θ) = {want:.5} ({:+.2} %)",
+            100.0 * (got / want - 1.0)
+        );
         assert!((got / want - 1.0).abs() < 0.02, "{name}: {got} vs {want}");
     }
 }
@@ -141,12 +201,22 @@ fn an_undamaged_body_stays_at_c_one_up_to_its_edges() {
         }
         let vol = vec![sub * sub; x.len()];
         let history = vec![0.0; x.len()];
-        let params = PhaseFieldParams { gc_bar: 1.0, l0, k_f: 0.0, gamma };
+        let params = PhaseFieldParams {
+            gc_bar: 1.0,
+            l0,
+            k_f: 0.0,
+            gamma,
+        };
         let parts = FieldParticles::all(&x, &vol, &history);
         let mut sys = PhaseFieldSystem::new();
         sys.assemble::<K>(&geom, &parts, &params);
         let c = sys.solve(geom.node_count()).expect("solve");
-        let worst = x.iter().map(|&p| (cleave::fracture::phase_field::system::field_at::<K>(&geom, &c, p).0 - 1.0).abs()).fold(0.0f64, f64::max);
+        let worst = x
+            .iter()
+            .map(|&p| {
+                (cleave::fracture::phase_field::system::field_at::<K>(&geom, &c, p).0 - 1.0).abs()
+            })
+            .fold(0.0f64, f64::max);
         let energy = fracture_energy::<K>(&geom, &c, &parts, &params, |_| true);
         assert!(worst < 1e-8, "{name}: |c − 1| up to {worst}");
         assert!(energy < 1e-12, "{name}: Ψ_f = {energy}");
@@ -154,8 +224,19 @@ fn an_undamaged_body_stays_at_c_one_up_to_its_edges() {
     check::<Linear>(Gamma::default(), "2nd order, linear");
     check::<QuadraticBspline>(Gamma::default(), "2nd order, quadratic");
     check::<CubicBspline>(Gamma::default(), "2nd order, cubic");
-    let iso4 = Gamma { g1111: 1.0, g2222: 1.0, g1212: 2.0, ..Default::default() };
-    let orth = Gamma { g1111: 80.0, g2222: 1.0, g1212: 74.0, ..Default::default() }.rotated(-45f64.to_radians());
+    let iso4 = Gamma {
+        g1111: 1.0,
+        g2222: 1.0,
+        g1212: 2.0,
+        ..Default::default()
+    };
+    let orth = Gamma {
+        g1111: 80.0,
+        g2222: 1.0,
+        g1212: 74.0,
+        ..Default::default()
+    }
+    .rotated(-45f64.to_radians());
     for (gamma, name) in [(iso4, "isotropic"), (orth, "orthotropic, P3 (iii)")] {
         check::<QuadraticBspline>(gamma, &format!("4th order {name}, quadratic"));
         check::<CubicBspline>(gamma, &format!("4th order {name}, cubic"));
@@ -175,22 +256,33 @@ fn the_plan_runs_only_what_the_scene_asks_for() {
     // no phase field: no assembly, no solve
     let plain = Scene::from_path(&dir.join("two_disks.toml")).unwrap();
     assert!(!plain.plan.has(Stage::PhaseField));
-    let summary = Simulation::new(&plain).run(&mut Recorder::default()).unwrap();
+    let summary = Simulation::new(&plain)
+        .run(&mut Recorder::default())
+        .unwrap();
     assert!(summary.phase_field.is_none());
     assert_eq!(summary.stage_seconds.phase_field, 0.0);
     // a short phase-field run: one analysis (the node set barely changes),
     // one factorization per step, the pre-crack's energy Gc·a from the start
-    let text = std::fs::read_to_string(dir.join("p1_plate_coarse.toml")).unwrap().replace("end = 8.0e-5", "end = 2.0e-6");
+    let text = std::fs::read_to_string(dir.join("p1_plate_coarse.toml"))
+        .unwrap()
+        .replace("end = 8.0e-5", "end = 2.0e-6");
     let short = Scene::from_text(&text, None).unwrap();
     let mut rec = Recorder::default();
     let s = Simulation::new(&short).run(&mut rec).unwrap();
     let stats = s.phase_field.expect("phase-field stats");
     assert_eq!(stats.factorizations, s.steps);
-    assert!(stats.analyses >= 1 && stats.analyses <= 3, "{} analyses", stats.analyses);
+    assert!(
+        stats.analyses >= 1 && stats.analyses <= 3,
+        "{} analyses",
+        stats.analyses
+    );
     let psi = rec.rows.last().unwrap().fracture_energy;
     // 50 mm of pre-crack at Gc = 3 J/m² is 0.15 J/m; the band of the coarse
     // initial crack (l0 = h) adds to it
-    assert!(psi > 0.15 && psi < 0.2, "pre-crack fracture energy {psi} J/m");
+    assert!(
+        psi > 0.15 && psi < 0.2,
+        "pre-crack fracture energy {psi} J/m"
+    );
 }
 
 #[test]
@@ -200,49 +292,122 @@ fn phase_field_scenes_are_validated() {
     let text = std::fs::read_to_string(dir.join("p1_plate_coarse.toml")).unwrap();
     let bad = |from: &str, to: &str, expect: &str| {
         assert!(text.contains(from), "{from}");
-        let e = Scene::from_text(&text.replace(from, to), None).unwrap_err().to_string();
+        let e = Scene::from_text(&text.replace(from, to), None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(expect), "{expect} not in: {e}");
     };
     // a 4th-order tensor with B-splines is fine
-    assert!(Scene::from_text(&text.replace("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 1.0, 0.0, 74.0] }"), None).is_ok());
-    bad("gc = 3.0", "gc = -3.0", "materials.concrete.phase_field.gc: must be > 0");
-    bad("l0 = 5.0e-4", "l0 = 0.0", "materials.concrete.phase_field.l0: must be > 0");
-    bad("k_f = 0.0 }", "k_f = 1.5 }", "materials.concrete.phase_field.k_f: must be in [0, 1)");
-    bad("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 1.0, -5.0, 0.0] }", "materials.concrete.phase_field.gamma");
-    bad("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 2.0] }", "give 4 or 6 numbers");
+    assert!(Scene::from_text(
+        &text.replace("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 1.0, 0.0, 74.0] }"),
+        None
+    )
+    .is_ok());
+    bad(
+        "gc = 3.0",
+        "gc = -3.0",
+        "materials.concrete.phase_field.gc: must be > 0",
+    );
+    bad(
+        "l0 = 5.0e-4",
+        "l0 = 0.0",
+        "materials.concrete.phase_field.l0: must be > 0",
+    );
+    bad(
+        "k_f = 0.0 }",
+        "k_f = 1.5 }",
+        "materials.concrete.phase_field.k_f: must be in [0, 1)",
+    );
+    bad(
+        "k_f = 0.0 }",
+        "k_f = 0.0, gamma = [1.0, 1.0, -5.0, 0.0] }",
+        "materials.concrete.phase_field.gamma",
+    );
+    bad(
+        "k_f = 0.0 }",
+        "k_f = 0.0, gamma = [1.0, 2.0] }",
+        "give 4 or 6 numbers",
+    );
     // the plane-stress split: only in plane stress, and only by name
     let in_plane = "k_f = 0.0, plane_stress_split = \"in_plane\" }";
     bad("k_f = 0.0 }", in_plane, "materials.concrete.phase_field.plane_stress_split: applies to analysis.plane = \"plane_stress\" only");
-    assert!(Scene::from_text(&text.replace("k_f = 0.0 }", in_plane).replace("plane = \"plane_strain\"", "plane = \"plane_stress\""), None).is_ok());
-    bad("k_f = 0.0 }", "k_f = 0.0, plane_stress_split = \"2d\" }", "plane_stress_split");
+    assert!(Scene::from_text(
+        &text
+            .replace("k_f = 0.0 }", in_plane)
+            .replace("plane = \"plane_strain\"", "plane = \"plane_stress\""),
+        None
+    )
+    .is_ok());
+    bad(
+        "k_f = 0.0 }",
+        "k_f = 0.0, plane_stress_split = \"2d\" }",
+        "plane_stress_split",
+    );
     // the 2nd-order model works with any shape function
-    assert!(Scene::from_text(&text.replace("shape_function = \"quadratic_bspline\"", "shape_function = \"gimp\""), None).is_ok());
+    assert!(Scene::from_text(
+        &text.replace(
+            "shape_function = \"quadratic_bspline\"",
+            "shape_function = \"gimp\""
+        ),
+        None
+    )
+    .is_ok());
     let fourth_gimp = text
-        .replace("shape_function = \"quadratic_bspline\"", "shape_function = \"gimp\"")
+        .replace(
+            "shape_function = \"quadratic_bspline\"",
+            "shape_function = \"gimp\"",
+        )
         .replace("k_f = 0.0 }", "k_f = 0.0, gamma = [1.0, 1.0, 0.0, 74.0] }");
-    let e = Scene::from_text(&fourth_gimp, None).unwrap_err().to_string();
-    assert!(e.contains("grid.shape_function") && e.contains("quadratic_bspline or cubic_bspline"), "{e}");
-    let e = Scene::from_text(&text.replace("[[0.0, 0.02], [0.05, 0.02]]", "[[0.0, 0.02]]"), None).unwrap_err().to_string();
-    assert!(e.contains("bodies[0].cracks[0].points: a crack needs at least 2 points"), "{e}");
+    let e = Scene::from_text(&fourth_gimp, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("grid.shape_function") && e.contains("quadratic_bspline or cubic_bspline"),
+        "{e}"
+    );
+    let e = Scene::from_text(
+        &text.replace("[[0.0, 0.02], [0.05, 0.02]]", "[[0.0, 0.02]]"),
+        None,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("bodies[0].cracks[0].points: a crack needs at least 2 points"),
+        "{e}"
+    );
     // Borden's initial-history band is l0 wide: it needs particles at most
     // l0/2 apart (here 0.25 mm apart, l0 = 0.5 mm passes, 0.4 mm does not)
     let borden = "[[0.0, 0.02], [0.05, 0.02]], profile = \"borden\"";
     assert!(Scene::from_text(&text.replace("[[0.0, 0.02], [0.05, 0.02]]", borden), None).is_ok());
     let e = Scene::from_text(
-        &text.replace("[[0.0, 0.02], [0.05, 0.02]]", borden).replace("l0 = 5.0e-4", "l0 = 4.0e-4"),
+        &text
+            .replace("[[0.0, 0.02], [0.05, 0.02]]", borden)
+            .replace("l0 = 5.0e-4", "l0 = 4.0e-4"),
         None,
     )
     .unwrap_err()
     .to_string();
-    assert!(e.contains("bodies[0].cracks[0].profile: the borden profile"), "{e}");
+    assert!(
+        e.contains("bodies[0].cracks[0].profile: the borden profile"),
+        "{e}"
+    );
     // a damage body's initial crack is failed particles, not a history
     let damage = std::fs::read_to_string(dir.join("d2_kalthoff.toml")).unwrap();
     let line = "[[0.05, 0.025], [-0.001, 0.025]] }";
     assert!(damage.contains(line));
-    let e = Scene::from_text(&damage.replace(line, "[[0.05, 0.025], [-0.001, 0.025]], profile = \"borden\" }"), None)
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("cracks[0].profile: the borden profile is an initial history field"), "{e}");
+    let e = Scene::from_text(
+        &damage.replace(
+            line,
+            "[[0.05, 0.025], [-0.001, 0.025]], profile = \"borden\" }",
+        ),
+        None,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("cracks[0].profile: the borden profile is an initial history field"),
+        "{e}"
+    );
 }
 
 /// Two solves with PCG, the second after the history has grown (a crack
@@ -250,9 +415,28 @@ fn phase_field_scenes_are_validated() {
 /// counters after the first and second solves.
 fn two_pcg_solves(refactor_after: usize) -> (Vec<f64>, SolveStats, SolveStats) {
     let (geom, x, vol) = block(0.25, 4.0, 2);
-    let params = PhaseFieldParams { gc_bar: 1.0, l0: 0.5, k_f: 0.0, gamma: Gamma::default() };
-    let band = |tip: f64| -> Vec<f64> { x.iter().map(|p| if p[1].abs() < 0.1 && p[0] < tip { 1e3 } else { 1.0 }).collect() };
-    let method = SolveMethod::Pcg { tolerance: 1e-10, max_iterations: 500, refactor_after };
+    let params = PhaseFieldParams {
+        gc_bar: 1.0,
+        l0: 0.5,
+        k_f: 0.0,
+        gamma: Gamma::default(),
+    };
+    let band = |tip: f64| -> Vec<f64> {
+        x.iter()
+            .map(|p| {
+                if p[1].abs() < 0.1 && p[0] < tip {
+                    1e3
+                } else {
+                    1.0
+                }
+            })
+            .collect()
+    };
+    let method = SolveMethod::Pcg {
+        tolerance: 1e-10,
+        max_iterations: 500,
+        refactor_after,
+    };
     let mut sys = PhaseFieldSystem::new();
     let h1 = band(-1.0);
     sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h1), &params);
@@ -265,7 +449,11 @@ fn two_pcg_solves(refactor_after: usize) -> (Vec<f64>, SolveStats, SolveStats) {
     let mut direct = PhaseFieldSystem::new();
     direct.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h2), &params);
     let want = direct.solve(geom.node_count()).unwrap();
-    let worst = c.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let worst = c
+        .iter()
+        .zip(&want)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
     assert!(worst < 1e-7, "PCG and direct differ by {worst}");
     (c, first, sys.stats)
 }
@@ -278,20 +466,42 @@ fn two_pcg_solves(refactor_after: usize) -> (Vec<f64>, SolveStats, SolveStats) {
 fn pcg_keeps_a_converged_solve_with_the_old_factor() {
     // how many iterations the second solve takes with the old factor
     let (_, a1, a2) = two_pcg_solves(1000);
-    assert_eq!((a1.factorizations, a2.factorizations), (1, 1), "no renewal with a costly factorization");
+    assert_eq!(
+        (a1.factorizations, a2.factorizations),
+        (1, 1),
+        "no renewal with a costly factorization"
+    );
     let k = a2.pcg_iterations - a1.pcg_iterations;
-    assert!(k >= 4, "the grown crack should cost the old factor a few iterations, took {k}");
+    assert!(
+        k >= 4,
+        "the grown crack should cost the old factor a few iterations, took {k}"
+    );
     // a factorization cheaper than those iterations but not under half
     let r = k.div_ceil(2) as usize;
     let (c, b1, b2) = two_pcg_solves(r);
-    assert_eq!(b2.pcg_solves - b1.pcg_solves, 1, "the converged solve was redone");
-    assert_eq!(b2.factorizations, b1.factorizations, "a fresh factor was made for a converged solve");
+    assert_eq!(
+        b2.pcg_solves - b1.pcg_solves,
+        1,
+        "the converged solve was redone"
+    );
+    assert_eq!(
+        b2.factorizations, b1.factorizations,
+        "a fresh factor was made for a converged solve"
+    );
     assert_eq!(b2.pcg_iterations - b1.pcg_iterations, k);
     // a factorization under half the iterations: the old factor gives up
     let (c2, d1, d2) = two_pcg_solves((k as usize - 1) / 2);
-    assert_eq!(d2.factorizations, d1.factorizations + 1, "the old factor should give up after 2·refactor_after");
+    assert_eq!(
+        d2.factorizations,
+        d1.factorizations + 1,
+        "the old factor should give up after 2·refactor_after"
+    );
     assert_eq!(d2.pcg_solves - d1.pcg_solves, 2);
-    let worst = c.iter().zip(&c2).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let worst = c
+        .iter()
+        .zip(&c2)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
     assert!(worst < 1e-7, "{worst}");
     println!("second solve: {k} iterations with the old factor");
 }
@@ -302,7 +512,9 @@ fn warm_started_pcg_agrees_with_the_direct_solve() {
     use cleave::mpm::Simulation;
     use cleave::scene::Scene;
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let base = std::fs::read_to_string(dir.join("p1_plate_coarse.toml")).unwrap().replace("end = 8.0e-5", "end = 1.0e-5");
+    let base = std::fs::read_to_string(dir.join("p1_plate_coarse.toml"))
+        .unwrap()
+        .replace("end = 8.0e-5", "end = 1.0e-5");
     let run = |text: &str| {
         let scene = Scene::from_text(text, None).unwrap();
         let mut rec = Recorder::default();
@@ -318,12 +530,20 @@ fn warm_started_pcg_agrees_with_the_direct_solve() {
         (d.strain_energy, p.strain_energy, "strain energy"),
         (d.kinetic_energy, p.kinetic_energy, "kinetic energy"),
     ] {
-        assert!((a - b).abs() <= 1e-6 * a.abs(), "{what}: direct {a} vs pcg {b}");
+        assert!(
+            (a - b).abs() <= 1e-6 * a.abs(),
+            "{what}: direct {a} vs pcg {b}"
+        );
     }
     let (ds, ps) = (ds.phase_field.unwrap(), ps.phase_field.unwrap());
     assert_eq!(ds.pcg_solves, 0);
     assert!(ps.pcg_solves > 0);
-    assert!(ps.factorizations < ds.factorizations / 4, "pcg still factorized {} of {} times", ps.factorizations, ds.factorizations);
+    assert!(
+        ps.factorizations < ds.factorizations / 4,
+        "pcg still factorized {} of {} times",
+        ps.factorizations,
+        ds.factorizations
+    );
     println!(
         "pcg: {} solves, {:.2} iterations each, {} factorizations (direct: {})",
         ps.pcg_solves,
@@ -343,7 +563,9 @@ fn run_text(text: &str) -> (cleave::diagnostics::Recorder, cleave::mpm::RunSumma
 
 fn p1_coarse(end: &str) -> String {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    std::fs::read_to_string(dir.join("p1_plate_coarse.toml")).unwrap().replace("end = 8.0e-5", &format!("end = {end}"))
+    std::fs::read_to_string(dir.join("p1_plate_coarse.toml"))
+        .unwrap()
+        .replace("end = 8.0e-5", &format!("end = {end}"))
 }
 
 #[test]
@@ -355,27 +577,45 @@ fn staggered_iterations_resolve_the_history_update_at_no_extra_solve() {
     let iters = one.column("pf_stagger_iterations").unwrap();
     let res = one.column("pf_residual").unwrap();
     assert!(iters[1..].iter().all(|&k| k == 1.0), "{iters:?}");
-    assert!(res[1..].iter().all(|r| r.is_finite() && *r >= 0.0), "{res:?}");
+    assert!(
+        res[1..].iter().all(|r| r.is_finite() && *r >= 0.0),
+        "{res:?}"
+    );
     let worst = res[1..].iter().cloned().fold(0.0, f64::max);
     assert!(worst > 1e-6, "loading grows the history: residual {worst}");
     // up to four: every step solves again after its history update, which
     // leaves no history residual, and replaces the next step's first solve
-    let (many, s4) = run_text(&format!("{base}\n[phase_field_solver]\nmax_staggers = 4\nstagger_tolerance = 1e-6\n"));
+    let (many, s4) = run_text(&format!(
+        "{base}\n[phase_field_solver]\nmax_staggers = 4\nstagger_tolerance = 1e-6\n"
+    ));
     let iters = many.column("pf_stagger_iterations").unwrap();
     let res = many.column("pf_residual").unwrap();
     assert!(iters[1..].iter().all(|&k| k == 2.0), "{iters:?}");
     assert!(res[1..].iter().all(|&r| r <= 1e-6), "{res:?}");
-    let (f1, f4) = (s1.phase_field.unwrap().factorizations, s4.phase_field.unwrap().factorizations);
+    let (f1, f4) = (
+        s1.phase_field.unwrap().factorizations,
+        s4.phase_field.unwrap().factorizations,
+    );
     assert_eq!(f1, s1.steps);
-    assert!(f4 <= s4.steps + 1, "{f4} factorizations in {} steps", s4.steps);
+    assert!(
+        f4 <= s4.steps + 1,
+        "{f4} factorizations in {} steps",
+        s4.steps
+    );
     // the per-step solver times are reported
     for name in ["pf_assembly_s", "pf_factorization_s", "pf_solve_s"] {
         let t = one.column(name).unwrap();
         assert!(t[1..].iter().all(|&x| x > 0.0 && x < 10.0), "{name}: {t:?}");
     }
     // the fixed point is close to the lagged one at these small steps
-    let (a, b) = (one.rows.last().unwrap().fracture_energy, many.rows.last().unwrap().fracture_energy);
-    assert!((a - b).abs() < 0.02 * a, "fracture energy {a} (1 iteration) vs {b} (staggered)");
+    let (a, b) = (
+        one.rows.last().unwrap().fracture_energy,
+        many.rows.last().unwrap().fracture_energy,
+    );
+    assert!(
+        (a - b).abs() < 0.02 * a,
+        "fracture energy {a} (1 iteration) vs {b} (staggered)"
+    );
 }
 
 #[test]
@@ -384,19 +624,41 @@ fn the_crack_tip_is_the_cracked_particle_farthest_from_the_origin() {
     let base = p1_coarse("1.0e-7");
     let spacing = 0.5e-3 / 2.0;
     let (rec, _) = run_text(&base);
-    let (x, y, len) = (rec.column("crack_tip_x").unwrap(), rec.column("crack_tip_y").unwrap(), rec.column("crack_length").unwrap());
+    let (x, y, len) = (
+        rec.column("crack_tip_x").unwrap(),
+        rec.column("crack_tip_y").unwrap(),
+        rec.column("crack_length").unwrap(),
+    );
     let k = rec.rows.len() - 1;
-    assert!((x[k] - 0.05).abs() < spacing && (y[k] - 0.02).abs() < spacing, "tip ({}, {})", x[k], y[k]);
+    assert!(
+        (x[k] - 0.05).abs() < spacing && (y[k] - 0.02).abs() < spacing,
+        "tip ({}, {})",
+        x[k],
+        y[k]
+    );
     assert!((len[k] - 0.05).abs() < spacing, "length {}", len[k]);
     // measured from the other end, the crack's far end is its mouth
-    let (rec, _) = run_text(&base.replace("material = \"concrete\"", "material = \"concrete\"\ncrack_origin = [0.1, 0.02]"));
-    let (x, len) = (rec.column("crack_tip_x").unwrap(), rec.column("crack_length").unwrap());
-    assert!(x[k] < spacing && (len[k] - 0.1).abs() < spacing, "tip x {} length {}", x[k], len[k]);
+    let (rec, _) = run_text(&base.replace(
+        "material = \"concrete\"",
+        "material = \"concrete\"\ncrack_origin = [0.1, 0.02]",
+    ));
+    let (x, len) = (
+        rec.column("crack_tip_x").unwrap(),
+        rec.column("crack_length").unwrap(),
+    );
+    assert!(
+        x[k] < spacing && (len[k] - 0.1).abs() < spacing,
+        "tip x {} length {}",
+        x[k],
+        len[k]
+    );
     // a body without a phase field cannot ask for a tip
     let e = cleave::scene::Scene::from_text(
-        &std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/two_disks.toml"))
-            .unwrap()
-            .replacen("[[bodies]]\n", "[[bodies]]\ncrack_origin = [0.0, 0.0]\n", 1),
+        &std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/two_disks.toml"),
+        )
+        .unwrap()
+        .replacen("[[bodies]]\n", "[[bodies]]\ncrack_origin = [0.0, 0.0]\n", 1),
         None,
     )
     .unwrap_err()
@@ -419,18 +681,34 @@ fn two_phase_field_bodies_meet_by_frictional_contact() {
     assert!(scene.plan.has(Stage::PhaseField) && scene.plan.has(Stage::Contact));
     let (rec, s) = run_text(&text);
     assert!(s.contact_steps > 100, "{} contact steps", s.contact_steps);
-    let (beam, disk, total) =
-        (rec.column("fracture_energy_b0").unwrap(), rec.column("fracture_energy_b1").unwrap(), rec.column("fracture_energy").unwrap());
+    let (beam, disk, total) = (
+        rec.column("fracture_energy_b0").unwrap(),
+        rec.column("fracture_energy_b1").unwrap(),
+        rec.column("fracture_energy").unwrap(),
+    );
     for k in 0..rec.rows.len() {
-        assert!((beam[k] + disk[k] - total[k]).abs() <= 1e-12 * total[k].abs().max(1e-30), "row {k}");
+        assert!(
+            (beam[k] + disk[k] - total[k]).abs() <= 1e-12 * total[k].abs().max(1e-30),
+            "row {k}"
+        );
     }
     let k = rec.rows.len() - 1;
     // the impact damages the beam; the disk (100 × Ḡc) stays intact
-    assert!(beam[k] > 1e-3 && disk[k] < 0.02 * beam[k], "beam {} J, disk {} J", beam[k], disk[k]);
+    assert!(
+        beam[k] > 1e-3 && disk[k] < 0.02 * beam[k],
+        "beam {} J, disk {} J",
+        beam[k],
+        disk[k]
+    );
     // the disk has slowed down and pushed the beam: momentum is exchanged,
     // and conserved (no walls)
     let px = rec.column("momentum_x").unwrap();
-    assert!((px[k] - px[0]).abs() < 1e-9 * px[0].abs(), "momentum {} → {}", px[0], px[k]);
+    assert!(
+        (px[k] - px[0]).abs() < 1e-9 * px[0].abs(),
+        "momentum {} → {}",
+        px[0],
+        px[k]
+    );
     // the snapshot's fracture energy density, times the volumes, sums to
     // each body's Ψ_f of the last row (0 before the first solve)
     use cleave::diagnostics::FieldData;
@@ -441,11 +719,19 @@ fn two_phase_field_bodies_meet_by_frictional_contact() {
             Some(FieldData::F64(v)) => v.clone(),
             _ => panic!("no {name}"),
         };
-        let Some(FieldData::U32(body)) = snap.field("body_id") else { panic!("no body_id") };
+        let Some(FieldData::U32(body)) = snap.field("body_id") else {
+            panic!("no body_id")
+        };
         let (density, vol) = (f64s("fracture_energy_density"), f64s("volume"));
         for (b, expected) in [(0, beam[row]), (1, disk[row])] {
-            let sum: f64 = (0..vol.len()).filter(|&p| body[p] == b).map(|p| vol[p] * density[p]).sum();
-            assert!((sum - expected).abs() <= 1e-9 * expected.abs(), "body {b} at row {row}: {sum} J against {expected} J");
+            let sum: f64 = (0..vol.len())
+                .filter(|&p| body[p] == b)
+                .map(|p| vol[p] * density[p])
+                .sum();
+            assert!(
+                (sum - expected).abs() <= 1e-9 * expected.abs(),
+                "body {b} at row {row}: {sum} J against {expected} J"
+            );
         }
     }
 }
@@ -481,7 +767,11 @@ fn with_dfg_partitioning_an_opening_crack_keeps_its_fracture_energy() {
     let base = p1_coarse("1.2e-5").replace("snapshots = 9", "snapshots = 3");
     let with = format!("{base}\n[dfg]\n");
     let scene = cleave::scene::Scene::from_text(&with, None).unwrap();
-    assert!(scene.plan.has(Stage::DamageField) && scene.plan.has(Stage::FieldPartition) && scene.plan.has(Stage::Contact));
+    assert!(
+        scene.plan.has(Stage::DamageField)
+            && scene.plan.has(Stage::FieldPartition)
+            && scene.plan.has(Stage::Contact)
+    );
     let (rec_d, _) = run_text(&with);
     let (rec, _) = run_text(&base);
     let (dfg, single) = (pre_crack_energy(&rec_d), pre_crack_energy(&rec));
@@ -525,7 +815,10 @@ fn the_history_never_decreases() {
         steps += 1;
         let now = by_id(&sim);
         for (id, (&a, &b)) in last.iter().zip(&now).enumerate() {
-            assert!(b >= a, "step {steps}: particle {id}'s history fell from {a} to {b}");
+            assert!(
+                b >= a,
+                "step {steps}: particle {id}'s history fell from {a} to {b}"
+            );
             if b > a {
                 grown += 1;
             }
@@ -543,8 +836,14 @@ fn the_history_never_decreases() {
         last = now;
     }
     assert!(steps > 50, "{steps} steps");
-    assert!(grown > n, "the loading grows the history: {grown} particle-steps");
-    assert!(unloaded > n, "the waves unload particles below half their history: {unloaded} particle-steps");
+    assert!(
+        grown > n,
+        "the loading grows the history: {grown} particle-steps"
+    );
+    assert!(
+        unloaded > n,
+        "the waves unload particles below half their history: {unloaded} particle-steps"
+    );
 }
 
 /// A disk of particles with a crack band of high history across part of
@@ -557,12 +856,33 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
     fn check<K: Kernel>(gamma: Gamma, name: &str, max_iterations: u64) {
         let (geom, x0, vol0) = block(0.0625, 4.0, 2);
         // a disk of radius 3.7, off the grid's centre
-        let keep: Vec<usize> = (0..x0.len()).filter(|&p| (x0[p][0] - 0.1).hypot(x0[p][1] + 0.05) < 3.7).collect();
+        let keep: Vec<usize> = (0..x0.len())
+            .filter(|&p| (x0[p][0] - 0.1).hypot(x0[p][1] + 0.05) < 3.7)
+            .collect();
         let x: Vec<[f64; 2]> = keep.iter().map(|&p| x0[p]).collect();
         let vol: Vec<f64> = keep.iter().map(|&p| vol0[p]).collect();
-        let params = PhaseFieldParams { gc_bar: 1.0, l0: 0.25, k_f: 0.0, gamma: gamma.rotated(0.3) };
-        let band = |tip: f64| -> Vec<f64> { x.iter().map(|p| if p[1].abs() < 0.05 && p[0] < tip { 1e3 } else { 0.5 }).collect() };
-        let method = SolveMethod::Multigrid { tolerance: 1e-10, max_iterations: 500, rebuild_after: 1000 };
+        let params = PhaseFieldParams {
+            gc_bar: 1.0,
+            l0: 0.25,
+            k_f: 0.0,
+            gamma: gamma.rotated(0.3),
+        };
+        let band = |tip: f64| -> Vec<f64> {
+            x.iter()
+                .map(|p| {
+                    if p[1].abs() < 0.05 && p[0] < tip {
+                        1e3
+                    } else {
+                        0.5
+                    }
+                })
+                .collect()
+        };
+        let method = SolveMethod::Multigrid {
+            tolerance: 1e-10,
+            max_iterations: 500,
+            rebuild_after: 1000,
+        };
         let mut sys = PhaseFieldSystem::new();
         let mut direct = PhaseFieldSystem::new();
         let mut before = SolveStats::default();
@@ -575,17 +895,35 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
             let want = direct.solve(geom.node_count()).unwrap();
             // at the particles (a node at the fringe of the supports, held
             // by the pivot floor, takes almost no weight there)
-            let at = |c: &[f64]| x.iter().map(|&p| cleave::fracture::phase_field::system::value_at::<K>(&geom, c, p)).collect::<Vec<_>>();
-            let worst = at(&c).iter().zip(at(&want)).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let at = |c: &[f64]| {
+                x.iter()
+                    .map(|&p| cleave::fracture::phase_field::system::value_at::<K>(&geom, c, p))
+                    .collect::<Vec<_>>()
+            };
+            let worst = at(&c)
+                .iter()
+                .zip(at(&want))
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
             let s = sys.stats;
             let iterations = s.pcg_iterations - before.pcg_iterations;
             println!("{name}, solve {solve}: {} unknowns, {iterations} iterations, |c - c_direct| ≤ {worst:.1e}", sys.len());
-            assert!(worst < 1e-7, "{name}: multigrid and direct differ by {worst}");
+            assert!(
+                worst < 1e-7,
+                "{name}: multigrid and direct differ by {worst}"
+            );
             // the second solve starts from the old hierarchy, built before
             // the band grew by 1.5 l0 with a reaction term 16 times the
             // diffusion's: it only has to converge
-            assert!(solve == 1 || iterations <= max_iterations, "{name}: {iterations} iterations");
-            assert_eq!((s.analyses, s.factorizations), (0, 1), "{name}: one hierarchy, no analysis, no fallback");
+            assert!(
+                solve == 1 || iterations <= max_iterations,
+                "{name}: {iterations} iterations"
+            );
+            assert_eq!(
+                (s.analyses, s.factorizations),
+                (0, 1),
+                "{name}: one hierarchy, no analysis, no fallback"
+            );
             assert!(c.iter().any(|&v| v < 0.2), "{name}: the band should crack");
             before = s;
         }
@@ -594,7 +932,16 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
     check::<CubicBspline>(Gamma::default(), "cubic", 45);
     check::<Linear>(Gamma::default(), "linear", 15);
     check::<Gimp>(Gamma::default(), "GIMP", 15);
-    check::<QuadraticBspline>(Gamma { g1111: 1.0, g2222: 80.0, g1212: 74.0, ..Default::default() }, "quadratic, 4th order", 100);
+    check::<QuadraticBspline>(
+        Gamma {
+            g1111: 1.0,
+            g2222: 80.0,
+            g1212: 74.0,
+            ..Default::default()
+        },
+        "quadratic, 4th order",
+        100,
+    );
 }
 
 /// After the node set changes (a row of particles joins the body), PCG
@@ -604,11 +951,27 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
 #[test]
 fn a_new_node_set_starts_from_the_kept_c_and_a_poor_multigrid_hands_over() {
     let (geom, x0, vol0) = block(0.0625, 4.0, 2);
-    let params = PhaseFieldParams { gc_bar: 1.0, l0: 0.25, k_f: 0.0, gamma: Gamma::default() };
+    let params = PhaseFieldParams {
+        gc_bar: 1.0,
+        l0: 0.25,
+        k_f: 0.0,
+        gamma: Gamma::default(),
+    };
     let body = |top: f64| -> (Vec<[f64; 2]>, Vec<f64>, Vec<f64>) {
-        let keep: Vec<usize> = (0..x0.len()).filter(|&p| x0[p][0].abs() < 3.0 && x0[p][1] > -3.0 && x0[p][1] < top).collect();
+        let keep: Vec<usize> = (0..x0.len())
+            .filter(|&p| x0[p][0].abs() < 3.0 && x0[p][1] > -3.0 && x0[p][1] < top)
+            .collect();
         let x: Vec<[f64; 2]> = keep.iter().map(|&p| x0[p]).collect();
-        let h = x.iter().map(|p| if p[1].abs() < 0.05 && p[0] < 0.5 { 1e3 } else { 0.5 }).collect();
+        let h = x
+            .iter()
+            .map(|p| {
+                if p[1].abs() < 0.05 && p[0] < 0.5 {
+                    1e3
+                } else {
+                    0.5
+                }
+            })
+            .collect();
         (x, keep.iter().map(|&p| vol0[p]).collect(), h)
     };
     // solves on the body, then on the body one particle row taller;
@@ -629,13 +992,25 @@ fn a_new_node_set_starts_from_the_kept_c_and_a_poor_multigrid_hands_over() {
         let mut direct = PhaseFieldSystem::new();
         direct.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
         let want = direct.solve(geom.node_count()).unwrap();
-        let worst = c.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let worst = c
+            .iter()
+            .zip(&want)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(worst < 1e-6, "{method:?}: {worst}");
         sys.stats.pcg_iterations - first.pcg_iterations
     };
     for method in [
-        SolveMethod::Pcg { tolerance: 1e-10, max_iterations: 500, refactor_after: 1000 },
-        SolveMethod::Multigrid { tolerance: 1e-10, max_iterations: 500, rebuild_after: 1000 },
+        SolveMethod::Pcg {
+            tolerance: 1e-10,
+            max_iterations: 500,
+            refactor_after: 1000,
+        },
+        SolveMethod::Multigrid {
+            tolerance: 1e-10,
+            max_iterations: 500,
+            rebuild_after: 1000,
+        },
     ] {
         let (warm, cold) = (two(method, true), two(method, false));
         println!("{method:?}: {warm} iterations from the kept c, {cold} from zero");
@@ -643,19 +1018,30 @@ fn a_new_node_set_starts_from_the_kept_c_and_a_poor_multigrid_hands_over() {
         // the multigrid: the taller body's new top rows start at c = 1,
         // the old top edge's c moves)
         let multigrid = matches!(method, SolveMethod::Multigrid { .. });
-        assert!(warm <= cold && (!multigrid || warm < cold), "{method:?}: {warm} iterations from the kept c against {cold} from zero");
+        assert!(
+            warm <= cold && (!multigrid || warm < cold),
+            "{method:?}: {warm} iterations from the kept c against {cold} from zero"
+        );
     }
     // rebuild_after = 1: every warm solve with a fresh hierarchy costs
     // more; the body grows by a row each step, so each solve builds anew.
     // Solve 0 starts cold; 1, 2 and 3 are poor builds in a row, and the
     // third hands over: solve 4 is the factor's (one analysis).
-    let method = SolveMethod::Multigrid { tolerance: 1e-10, max_iterations: 500, rebuild_after: 1 };
+    let method = SolveMethod::Multigrid {
+        tolerance: 1e-10,
+        max_iterations: 500,
+        rebuild_after: 1,
+    };
     let mut sys = PhaseFieldSystem::new();
     let mut c = Vec::new();
     for k in 0..5 {
         let (x, vol, h) = body(3.0 + k as f64 * 0.0625);
         sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
         sys.solve_into(geom.node_count(), method, &mut c).unwrap();
-        assert_eq!(sys.stats.analyses, u64::from(k == 4), "solve {k}: the factor's analyses");
+        assert_eq!(
+            sys.stats.analyses,
+            u64::from(k == 4),
+            "solve {k}: the factor's analyses"
+        );
     }
 }

@@ -48,25 +48,42 @@ fn run_checked(name: &str, scene: &Scene, expect: Expect) -> End {
     let first = &rows[0];
     let e0 = first.kinetic_energy + first.strain_energy;
     // the energy the run has had to work with, at most
-    let scale = rows.iter().map(|r| e0 + r.external_work.abs()).fold(f64::MIN_POSITIVE, f64::max);
+    let scale = rows
+        .iter()
+        .map(|r| e0 + r.external_work.abs())
+        .fold(f64::MIN_POSITIVE, f64::max);
     let (mut worst, mut worst_t) = (0.0f64, 0.0);
     let core = cleave::diagnostics::SeriesRow::COLUMNS.len();
     for r in rows {
         // (the model columns may be NaN by design, e.g. no crack tip yet)
-        assert!(r.values()[..core].iter().all(|v| v.is_finite()), "{name}: a non-finite value in the row at t = {}", r.time);
+        assert!(
+            r.values()[..core].iter().all(|v| v.is_finite()),
+            "{name}: a non-finite value in the row at t = {}",
+            r.time
+        );
         let growth = (r.kinetic_energy + r.strain_energy - e0 - r.external_work.abs()) / scale;
         if growth > worst {
             (worst, worst_t) = (growth, r.time);
         }
     }
-    let mass_drift = rows.iter().map(|r| (r.total_mass / first.total_mass - 1.0).abs()).fold(0.0, f64::max);
-    let p_scale = rows.iter().map(|r| r.momentum_x.abs().max(r.momentum_y.abs())).fold(0.0, f64::max).max(
-        // a body at rest: compare with the momentum its energy could carry
-        (2.0 * first.total_mass * e0.max(f64::MIN_POSITIVE)).sqrt(),
-    );
+    let mass_drift = rows
+        .iter()
+        .map(|r| (r.total_mass / first.total_mass - 1.0).abs())
+        .fold(0.0, f64::max);
+    let p_scale = rows
+        .iter()
+        .map(|r| r.momentum_x.abs().max(r.momentum_y.abs()))
+        .fold(0.0, f64::max)
+        .max(
+            // a body at rest: compare with the momentum its energy could carry
+            (2.0 * first.total_mass * e0.max(f64::MIN_POSITIVE)).sqrt(),
+        );
     let p_drift = rows
         .iter()
-        .map(|r| ((r.momentum_x - first.momentum_x).abs()).max((r.momentum_y - first.momentum_y).abs()) / p_scale)
+        .map(|r| {
+            ((r.momentum_x - first.momentum_x).abs()).max((r.momentum_y - first.momentum_y).abs())
+                / p_scale
+        })
         .fold(0.0, f64::max);
     println!(
         "{name}: {} to t = {:.4e} s in {} steps; energy growth {worst:+.2e} (at t = {worst_t:.3e} s), mass drift {mass_drift:.1e}, momentum drift {p_drift:.1e}",
@@ -79,15 +96,24 @@ fn run_checked(name: &str, scene: &Scene, expect: Expect) -> End {
     );
     match result {
         Ok(_) => {
-            assert!(worst <= expect.energy_tolerance, "{name}: energy grew by {worst:.3e} at t = {worst_t:.3e} s");
+            assert!(
+                worst <= expect.energy_tolerance,
+                "{name}: energy grew by {worst:.3e} at t = {worst_t:.3e} s"
+            );
             assert!(mass_drift < 1e-12, "{name}: mass drifted by {mass_drift:e}");
             if expect.free {
-                assert!(p_drift < 1e-9, "{name}: momentum drifted by {p_drift:e} of its scale");
+                assert!(
+                    p_drift < 1e-9,
+                    "{name}: momentum drifted by {p_drift:e} of its scale"
+                );
             }
             End::Completed(sim, rec)
         }
         Err(e) => {
-            assert!(e.to_string().starts_with("step "), "{name}: the diagnosis does not say when: {e}");
+            assert!(
+                e.to_string().starts_with("step "),
+                "{name}: the diagnosis does not say when: {e}"
+            );
             End::Stopped(e, rec)
         }
     }
@@ -106,7 +132,11 @@ fn completed(name: &str, end: End) -> (Simulation, Recorder) {
 /// it stops on an inverted particle.
 #[test]
 fn a_1_km_per_s_impact() {
-    let (h, end) = if long() { (0.5e-3, 20e-6) } else { (1e-3, 10e-6) };
+    let (h, end) = if long() {
+        (0.5e-3, 20e-6)
+    } else {
+        (1e-3, 10e-6)
+    };
     let scene = parse(&format!(
         r#"
 [grid]
@@ -135,13 +165,26 @@ contact_group = 1
 series_rows = 101
 "#
     ));
-    match run_checked("1 km/s impact", &scene, Expect { free: true, energy_tolerance: 1e-3 }) {
+    match run_checked(
+        "1 km/s impact",
+        &scene,
+        Expect {
+            free: true,
+            energy_tolerance: 1e-3,
+        },
+    ) {
         End::Completed(sim, _) => {
             // they did meet: the disks' centres have moved towards each other and bounced
             let p = sim.particles();
-            assert!(p.v.iter().any(|v| v[0].abs() < 400.0), "no particle was slowed: the disks never met");
+            assert!(
+                p.v.iter().any(|v| v[0].abs() < 400.0),
+                "no particle was slowed: the disks never met"
+            );
         }
-        End::Stopped(e, _) => assert!(matches!(e, SimError::VolumeVanished { .. }), "unexpected diagnosis: {e}"),
+        End::Stopped(e, _) => assert!(
+            matches!(e, SimError::VolumeVanished { .. }),
+            "unexpected diagnosis: {e}"
+        ),
     }
 }
 
@@ -168,7 +211,17 @@ velocity_gradient = [[0.0, 0.0], [-10.0, 0.0]]
 series_rows = 101
 "#
     ));
-    let (sim, _) = completed("thin body", run_checked("thin body", &scene, Expect { free: true, energy_tolerance: 1e-3 }));
+    let (sim, _) = completed(
+        "thin body",
+        run_checked(
+            "thin body",
+            &scene,
+            Expect {
+                free: true,
+                energy_tolerance: 1e-3,
+            },
+        ),
+    );
     assert_eq!(sim.particles().len(), 100);
 }
 
@@ -195,16 +248,38 @@ velocity = [200.0, 0.0]
 series_rows = 51
 "#
     ));
-    let (sim, rec) = completed("cell crossing", run_checked("cell crossing", &scene, Expect { free: true, energy_tolerance: 1e-9 }));
+    let (sim, rec) = completed(
+        "cell crossing",
+        run_checked(
+            "cell crossing",
+            &scene,
+            Expect {
+                free: true,
+                energy_tolerance: 1e-9,
+            },
+        ),
+    );
     let dt = rec.column("dt").unwrap();
     // (the first row is t = 0, the last step is cut to land on time.end)
-    let crossing = dt[1..dt.len() - 1].iter().map(|d| 200.0 * d / 0.005).fold(f64::INFINITY, f64::min);
-    assert!(crossing > 0.8, "particles cross only {crossing} cells per step");
+    let crossing = dt[1..dt.len() - 1]
+        .iter()
+        .map(|d| 200.0 * d / 0.005)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        crossing > 0.8,
+        "particles cross only {crossing} cells per step"
+    );
     let p = sim.particles();
     let mean_x = p.x.iter().map(|x| x[0]).sum::<f64>() / p.len() as f64;
-    assert!((mean_x - (0.1 + 200.0 * sim.time())).abs() < 1e-9, "the block drifted: centre at {mean_x} m");
+    assert!(
+        (mean_x - (0.1 + 200.0 * sim.time())).abs() < 1e-9,
+        "the block drifted: centre at {mean_x} m"
+    );
     let ke = rec.column("kinetic_energy").unwrap();
-    assert!((ke[ke.len() - 1] / ke[0] - 1.0).abs() < 1e-9, "kinetic energy changed in a rigid translation");
+    assert!(
+        (ke[ke.len() - 1] / ke[0] - 1.0).abs() < 1e-9,
+        "kinetic energy changed in a rigid translation"
+    );
 }
 
 /// Linear shape functions, one particle per cell and a spinning square:
@@ -234,10 +309,22 @@ velocity_gradient = [[0.0, -8.0], [8.0, 0.0]]
 series_rows = 101
 "#
     ));
-    match run_checked("near-empty nodes", &scene, Expect { free: true, energy_tolerance: 1e-3 }) {
+    match run_checked(
+        "near-empty nodes",
+        &scene,
+        Expect {
+            free: true,
+            energy_tolerance: 1e-3,
+        },
+    ) {
         End::Completed(..) => {}
         End::Stopped(e, _) => assert!(
-            matches!(e, SimError::EnergyRunaway { .. } | SimError::VolumeVanished { .. } | SimError::NonFinite { .. }),
+            matches!(
+                e,
+                SimError::EnergyRunaway { .. }
+                    | SimError::VolumeVanished { .. }
+                    | SimError::NonFinite { .. }
+            ),
             "unexpected diagnosis: {e}"
         ),
     }
@@ -246,7 +333,17 @@ series_rows = 101
     let mut smooth = scene.file.clone();
     smooth.grid.shape_function = cleave::scene::ShapeFunctionKind::QuadraticBspline;
     let smooth = Scene::validate(smooth).unwrap_or_else(|e| panic!("{e}"));
-    completed("near-empty nodes, B-splines", run_checked("near-empty nodes, B-splines", &smooth, Expect { free: true, energy_tolerance: 1e-3 }));
+    completed(
+        "near-empty nodes, B-splines",
+        run_checked(
+            "near-empty nodes, B-splines",
+            &smooth,
+            Expect {
+                free: true,
+                energy_tolerance: 1e-3,
+            },
+        ),
+    );
 }
 
 /// A disk whose Weibull strengths are so low that it shatters into dozens
@@ -286,14 +383,35 @@ friction = 0.3
 series_rows = 61
 "#
     ));
-    let (sim, rec) = completed("fragmented disk", run_checked("fragmented disk", &scene, Expect { free: false, energy_tolerance: 1e-3 }));
+    let (sim, rec) = completed(
+        "fragmented disk",
+        run_checked(
+            "fragmented disk",
+            &scene,
+            Expect {
+                free: false,
+                energy_tolerance: 1e-3,
+            },
+        ),
+    );
     let p = sim.particles();
     let failed = p.damage.iter().filter(|&&d| d >= 1.0).count() as f64 / p.len() as f64;
     let fragments = rec.column("fragments").unwrap();
-    println!("fragmented disk: {:.0} % failed, {} fragments", 100.0 * failed, fragments[fragments.len() - 1]);
+    println!(
+        "fragmented disk: {:.0} % failed, {} fragments",
+        100.0 * failed,
+        fragments[fragments.len() - 1]
+    );
     // (the cracks are one particle wide: the failed fraction halves with h)
-    assert!(failed > 0.15, "only {:.0} % of the disk failed", 100.0 * failed);
-    assert!(fragments[fragments.len() - 1] >= 20.0, "the disk did not shatter");
+    assert!(
+        failed > 0.15,
+        "only {:.0} % of the disk failed",
+        100.0 * failed
+    );
+    assert!(
+        fragments[fragments.len() - 1] >= 20.0,
+        "the disk did not shatter"
+    );
 }
 
 /// The composite anisotropy γ2222 = 2900 (Gc_max/Gc_min ≈ 5): a plate with
@@ -301,7 +419,11 @@ series_rows = 61
 /// but must stay positive definite and the run bounded.
 #[test]
 fn the_composite_anisotropy() {
-    let (h, end) = if long() { (2.5e-4, 3e-5) } else { (5e-4, 1.5e-5) };
+    let (h, end) = if long() {
+        (2.5e-4, 3e-5)
+    } else {
+        (5e-4, 1.5e-5)
+    };
     let scene = parse(&format!(
         r#"
 [grid]
@@ -331,9 +453,24 @@ cracks = [{{ points = [[0.0, 0.01], [0.005, 0.01]] }}]
 series_rows = 31
 "#
     ));
-    let (sim, _) = completed("composite anisotropy", run_checked("composite anisotropy", &scene, Expect { free: false, energy_tolerance: 1e-3 }));
+    let (sim, _) = completed(
+        "composite anisotropy",
+        run_checked(
+            "composite anisotropy",
+            &scene,
+            Expect {
+                free: false,
+                energy_tolerance: 1e-3,
+            },
+        ),
+    );
     let p = sim.particles();
-    assert!(p.phase.iter().all(|c| c.is_finite() && (-1e-9..=1.0 + 1e-9).contains(c)), "c left [0, 1]");
+    assert!(
+        p.phase
+            .iter()
+            .all(|c| c.is_finite() && (-1e-9..=1.0 + 1e-9).contains(c)),
+        "c left [0, 1]"
+    );
 }
 
 /// A neo-Hookean block squeezed to a fifth of its height or less by a heavy platen
@@ -379,7 +516,14 @@ velocity = [0.0, -5.0]
 series_rows = 101
 "#
     ));
-    let end = run_checked("80 % compression", &scene, Expect { free: false, energy_tolerance: 1e-3 });
+    let end = run_checked(
+        "80 % compression",
+        &scene,
+        Expect {
+            free: false,
+            energy_tolerance: 1e-3,
+        },
+    );
     match end {
         End::Completed(sim, _) => {
             let p = sim.particles();
@@ -392,11 +536,20 @@ series_rows = 101
                     f[0] * f[3] - f[1] * f[2]
                 })
                 .fold(f64::INFINITY, f64::min);
-            println!("80 % compression: block top at {:.4} m (was 0.1), min J {jmin:.3}", top);
-            assert!(top < 0.03, "the block was not squeezed to 20 %: its top is at {top} m");
+            println!(
+                "80 % compression: block top at {:.4} m (was 0.1), min J {jmin:.3}",
+                top
+            );
+            assert!(
+                top < 0.03,
+                "the block was not squeezed to 20 %: its top is at {top} m"
+            );
             assert!(jmin > 0.0);
         }
-        End::Stopped(e, _) => assert!(matches!(e, SimError::VolumeVanished { .. }), "unexpected diagnosis: {e}"),
+        End::Stopped(e, _) => assert!(
+            matches!(e, SimError::VolumeVanished { .. }),
+            "unexpected diagnosis: {e}"
+        ),
     }
 }
 
@@ -426,18 +579,41 @@ series_rows = 61
 "#
         ))
     };
-    match run_checked("grid edge, free", &scene("free"), Expect { free: true, energy_tolerance: 1e-3 }) {
+    match run_checked(
+        "grid edge, free",
+        &scene("free"),
+        Expect {
+            free: true,
+            energy_tolerance: 1e-3,
+        },
+    ) {
         End::Stopped(SimError::LeftGrid { x, .. }, rec) => {
             assert!(x >= 0.49, "left at x = {x}");
             assert!(rec.rows.len() > 2, "the rows before the failure are kept");
         }
         End::Stopped(e, _) => panic!("unexpected diagnosis: {e}"),
-        End::Completed(..) => panic!("the block flew 0.3 m at 10 m/s towards an edge 0.2 m away and did not leave"),
+        End::Completed(..) => {
+            panic!("the block flew 0.3 m at 10 m/s towards an edge 0.2 m away and did not leave")
+        }
     }
-    let (sim, _) = completed("grid edge, wall", run_checked("grid edge, wall", &scene("roller"), Expect { free: false, energy_tolerance: 1e-3 }));
+    let (sim, _) = completed(
+        "grid edge, wall",
+        run_checked(
+            "grid edge, wall",
+            &scene("roller"),
+            Expect {
+                free: false,
+                energy_tolerance: 1e-3,
+            },
+        ),
+    );
     let p = sim.particles();
-    let vx = p.v.iter().zip(&p.mass).map(|(v, m)| v[0] * m).sum::<f64>() / p.mass.iter().sum::<f64>();
-    assert!(vx < 0.0, "the block did not bounce off the wall (mean v_x = {vx} m/s)");
+    let vx =
+        p.v.iter().zip(&p.mass).map(|(v, m)| v[0] * m).sum::<f64>() / p.mass.iter().sum::<f64>();
+    assert!(
+        vx < 0.0,
+        "the block did not bounce off the wall (mean v_x = {vx} m/s)"
+    );
 }
 
 /// The CFL factor at the explicit step's limit and beyond: 1.0 either runs
@@ -474,16 +650,41 @@ series_rows = 101
     };
     for scheme in ["pic", "flip", "apic"] {
         let text = bar("cfl = 1.0").replace("scheme = \"flip\"", &format!("scheme = \"{scheme}\""));
-        match run_checked(&format!("CFL 1.0, {scheme}"), &parse(&text), Expect { free: false, energy_tolerance: 1e-3 }) {
+        match run_checked(
+            &format!("CFL 1.0, {scheme}"),
+            &parse(&text),
+            Expect {
+                free: false,
+                energy_tolerance: 1e-3,
+            },
+        ) {
             End::Completed(..) => {}
-            End::Stopped(e, _) => assert!(matches!(e, SimError::EnergyRunaway { .. } | SimError::NonFinite { .. }), "{e}"),
+            End::Stopped(e, _) => assert!(
+                matches!(
+                    e,
+                    SimError::EnergyRunaway { .. } | SimError::NonFinite { .. }
+                ),
+                "{e}"
+            ),
         }
     }
     let e = Scene::from_text(&bar("cfl = 1.2"), None).unwrap_err();
     assert_eq!(e.errors[0].path, "time.cfl");
     // dt = 2 h / c, twice the limit
-    match run_checked("dt beyond CFL", &parse(&bar("dt = 2.0e-6")), Expect { free: false, energy_tolerance: 1e-3 }) {
-        End::Stopped(SimError::CflViolated { step, dt, limit, .. }, _) => {
+    match run_checked(
+        "dt beyond CFL",
+        &parse(&bar("dt = 2.0e-6")),
+        Expect {
+            free: false,
+            energy_tolerance: 1e-3,
+        },
+    ) {
+        End::Stopped(
+            SimError::CflViolated {
+                step, dt, limit, ..
+            },
+            _,
+        ) => {
             assert!(step <= 1 && dt > limit, "step {step}, dt {dt} vs {limit}");
         }
         End::Stopped(e, _) => panic!("unexpected diagnosis: {e}"),

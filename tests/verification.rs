@@ -7,7 +7,9 @@ use cleave::scene::{Scene, Stage};
 use std::path::Path;
 
 fn scene(name: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
     match Scene::from_path(&path) {
         Ok(s) => s,
         Err(e) => panic!("{}: {e}", path.display()),
@@ -30,10 +32,13 @@ fn mean_vx(sim: &Simulation, a: f64, b: f64) -> f64 {
 /// Time at which `f` first crosses `level` upward, linearly interpolated
 /// between steps.
 fn crossing(samples: &[(f64, f64)], level: f64) -> Option<f64> {
-    samples.windows(2).find(|w| w[0].1 < level && w[1].1 >= level).map(|w| {
-        let (t0, v0, t1, v1) = (w[0].0, w[0].1, w[1].0, w[1].1);
-        t0 + (level - v0) / (v1 - v0) * (t1 - t0)
-    })
+    samples
+        .windows(2)
+        .find(|w| w[0].1 < level && w[1].1 >= level)
+        .map(|w| {
+            let (t0, v0, t1, v1) = (w[0].0, w[0].1, w[1].0, w[1].1);
+            t0 + (level - v0) / (v1 - v0) * (t1 - t0)
+        })
 }
 
 #[test]
@@ -56,14 +61,28 @@ fn compressive_wave_travels_at_bar_speed() {
     let t1 = crossing(&at_station[0], 0.5).expect("front reaches x = 0.25");
     let t2 = crossing(&at_station[1], 0.5).expect("front reaches x = 0.75");
     let speed = 0.5 / (t2 - t1);
-    println!("wave: front speed {speed:.1} m/s vs sqrt(E/rho) = {c:.1} m/s ({:+.2} %)", 100.0 * (speed / c - 1.0));
-    assert!((speed / c - 1.0).abs() < 0.02, "front speed {speed} m/s vs sqrt(E/rho) = {c} m/s");
+    println!(
+        "wave: front speed {speed:.1} m/s vs sqrt(E/rho) = {c:.1} m/s ({:+.2} %)",
+        100.0 * (speed / c - 1.0)
+    );
+    assert!(
+        (speed / c - 1.0).abs() < 0.02,
+        "front speed {speed} m/s vs sqrt(E/rho) = {c} m/s"
+    );
     // Far (free) end: the velocity doubles on reflection, 0 -> 2 m/s; the
     // wave arrives when it passes half of that jump.
     let t_end = crossing(&at_end, 1.0).expect("front reaches the far end");
     let arrival = 1.0 / c;
-    println!("wave: arrival at the far end {:.2} us vs L/c = {:.2} us ({:+.2} %)", 1e6 * t_end, 1e6 * arrival, 100.0 * (t_end / arrival - 1.0));
-    assert!((t_end / arrival - 1.0).abs() < 0.02, "arrival {t_end} s vs L/c = {arrival} s");
+    println!(
+        "wave: arrival at the far end {:.2} us vs L/c = {:.2} us ({:+.2} %)",
+        1e6 * t_end,
+        1e6 * arrival,
+        100.0 * (t_end / arrival - 1.0)
+    );
+    assert!(
+        (t_end / arrival - 1.0).abs() < 0.02,
+        "arrival {t_end} s vs L/c = {arrival} s"
+    );
 }
 
 #[test]
@@ -75,17 +94,40 @@ fn free_spinning_disk_conserves_mass_momentum_and_angular_momentum() {
     assert!(summary.steps > 50);
     let (first, last) = (&rec.rows[0], rec.rows.last().unwrap());
     for r in &rec.rows {
-        assert_eq!(r.total_mass.to_bits(), first.total_mass.to_bits(), "mass changes at t = {}", r.time);
+        assert_eq!(
+            r.total_mass.to_bits(),
+            first.total_mass.to_bits(),
+            "mass changes at t = {}",
+            r.time
+        );
         let scale = first.total_mass * 1.0;
-        assert!((r.momentum_x - first.momentum_x).abs() < 1e-12 * scale, "px drifts: {} vs {}", r.momentum_x, first.momentum_x);
-        assert!((r.momentum_y - first.momentum_y).abs() < 1e-12 * scale, "py drifts: {} vs {}", r.momentum_y, first.momentum_y);
+        assert!(
+            (r.momentum_x - first.momentum_x).abs() < 1e-12 * scale,
+            "px drifts: {} vs {}",
+            r.momentum_x,
+            first.momentum_x
+        );
+        assert!(
+            (r.momentum_y - first.momentum_y).abs() < 1e-12 * scale,
+            "py drifts: {} vs {}",
+            r.momentum_y,
+            first.momentum_y
+        );
         let dl = (r.angular_momentum - first.angular_momentum).abs() / first.angular_momentum.abs();
-        assert!(dl < 0.01, "angular momentum drifts by {:.3} % at t = {}", 100.0 * dl, r.time);
+        assert!(
+            dl < 0.01,
+            "angular momentum drifts by {:.3} % at t = {}",
+            100.0 * dl,
+            r.time
+        );
     }
     // It really flew and spun: the centre moved by v t.
     assert!(last.time > 0.199);
     let worst = |f: fn(&cleave::diagnostics::SeriesRow) -> f64| {
-        rec.rows.iter().map(|r| ((f(r) - f(&first)) / f(&first)).abs()).fold(0.0, f64::max)
+        rec.rows
+            .iter()
+            .map(|r| ((f(r) - f(&first)) / f(&first)).abs())
+            .fold(0.0, f64::max)
     };
     println!(
         "spinning disk ({} steps): max relative drift: mass {:.1e}, px {:.1e}, py {:.1e}, angular momentum {:.2e}",
@@ -110,15 +152,32 @@ fn sulsky_disks_conserve_momentum_and_energy() {
     for r in &rec.rows {
         worst_e = worst_e.max(((r.kinetic_energy + r.strain_energy - e0) / e0).abs());
         worst_p = worst_p.max(r.momentum_x.abs().max(r.momentum_y.abs()));
-        assert!(r.momentum_x.abs() < 1e-13 && r.momentum_y.abs() < 1e-13, "momentum {} {}", r.momentum_x, r.momentum_y);
+        assert!(
+            r.momentum_x.abs() < 1e-13 && r.momentum_y.abs() < 1e-13,
+            "momentum {} {}",
+            r.momentum_x,
+            r.momentum_y
+        );
         let e = r.kinetic_energy + r.strain_energy;
-        assert!((e - e0).abs() / e0 < 0.05, "energy drifts by {:.2} % at t = {}", 100.0 * (e - e0) / e0, r.time);
+        assert!(
+            (e - e0).abs() / e0 < 0.05,
+            "energy drifts by {:.2} % at t = {}",
+            100.0 * (e - e0) / e0,
+            r.time
+        );
         min_ke = min_ke.min(r.kinetic_energy);
     }
     // They did collide: kinetic energy went into strain energy and came back.
-    assert!(min_ke < 0.6 * first.kinetic_energy, "no collision: min kinetic {min_ke} of {}", first.kinetic_energy);
+    assert!(
+        min_ke < 0.6 * first.kinetic_energy,
+        "no collision: min kinetic {min_ke} of {}",
+        first.kinetic_energy
+    );
     let last = rec.rows.last().unwrap();
-    assert!(last.kinetic_energy > 0.7 * first.kinetic_energy, "no rebound");
+    assert!(
+        last.kinetic_energy > 0.7 * first.kinetic_energy,
+        "no rebound"
+    );
     println!(
         "Sulsky disks: max |total energy drift| {:.2} %, final {:+.2} %, max |momentum| {worst_p:.1e} kg m/s, min KE/KE0 {:.3}",
         100.0 * worst_e,
@@ -154,16 +213,27 @@ fn block_slides_with_coulomb_friction() {
     let n = fit.len() as f64;
     let (st, sv) = fit.iter().fold((0.0, 0.0), |a, s| (a.0 + s.0, a.1 + s.1));
     let (mt, mv) = (st / n, sv / n);
-    let (num, den) = fit.iter().fold((0.0, 0.0), |a, s| (a.0 + (s.0 - mt) * (s.1 - mv), a.1 + (s.0 - mt).powi(2)));
+    let (num, den) = fit.iter().fold((0.0, 0.0), |a, s| {
+        (a.0 + (s.0 - mt) * (s.1 - mv), a.1 + (s.0 - mt).powi(2))
+    });
     let a = num / den;
-    println!("sliding block: a = {a:.4} m/s^2 vs g(sin t - mu cos t) = {expected:.4} m/s^2 ({:+.2} %)", 100.0 * (a / expected - 1.0));
-    assert!((a / expected - 1.0).abs() < 0.03, "acceleration {a} m/s² vs g(sin θ − μ cos θ) = {expected} m/s²");
+    println!(
+        "sliding block: a = {a:.4} m/s^2 vs g(sin t - mu cos t) = {expected:.4} m/s^2 ({:+.2} %)",
+        100.0 * (a / expected - 1.0)
+    );
+    assert!(
+        (a / expected - 1.0).abs() < 0.03,
+        "acceleration {a} m/s² vs g(sin θ − μ cos θ) = {expected} m/s²"
+    );
 }
 
 #[test]
 fn one_body_without_contact_runs_only_the_core_stages() {
     let scene = scene("wave_bar.toml");
-    assert_eq!(scene.plan.stages, vec![Stage::P2g, Stage::GridUpdate, Stage::G2p]);
+    assert_eq!(
+        scene.plan.stages,
+        vec![Stage::P2g, Stage::GridUpdate, Stage::G2p]
+    );
     let two = scene_two_groups();
     assert!(two.plan.has(Stage::Contact) && two.plan.has(Stage::FieldPartition));
     let mut sim = Simulation::new(&scene);
@@ -209,8 +279,16 @@ series_rows = 41
     for r in rec.rows.iter().skip(1) {
         // impulse of the ramp (0 → 1 MPa over 20 µs) then the constant
         let t = r.time;
-        let impulse = if t <= 2e-5 { 0.5 * 1e6 * t * t / 2e-5 } else { 1e6 * (t - 1e-5) } * area;
-        assert!((r.momentum_x - impulse).abs() < 0.02 * impulse, "t = {t}: p = {} vs σAt = {impulse}", r.momentum_x);
+        let impulse = if t <= 2e-5 {
+            0.5 * 1e6 * t * t / 2e-5
+        } else {
+            1e6 * (t - 1e-5)
+        } * area;
+        assert!(
+            (r.momentum_x - impulse).abs() < 0.02 * impulse,
+            "t = {t}: p = {} vs σAt = {impulse}",
+            r.momentum_x
+        );
         assert!(r.momentum_y.abs() < 1e-9 * impulse);
     }
     let last = rec.rows.last().unwrap();
@@ -221,7 +299,11 @@ series_rows = 41
         1e6 * (last.time - 1e-5) * area,
         last.external_work
     );
-    assert!((e - last.external_work).abs() < 0.02 * last.external_work, "energy {e} vs work {}", last.external_work);
+    assert!(
+        (e - last.external_work).abs() < 0.02 * last.external_work,
+        "energy {e} vs work {}",
+        last.external_work
+    );
 }
 
 #[test]
@@ -250,14 +332,23 @@ snapshots = 2
     sim.run(&mut rec).unwrap();
     let p = sim.particles();
     for k in 0..p.len() {
-        assert!((p.v[k][0] - 15.0).abs() < 1e-12 && p.v[k][1].abs() < 1e-12, "particle {k}: v = {:?}", p.v[k]);
+        assert!(
+            (p.v[k][0] - 15.0).abs() < 1e-12 && p.v[k][1].abs() < 1e-12,
+            "particle {k}: v = {:?}",
+            p.v[k]
+        );
     }
     // 1.5 m travelled: the block crossed 150 cells (about 19 tiles).
     let xmin = p.x.iter().map(|x| x[0]).fold(f64::INFINITY, f64::min);
-    assert!((xmin - (0.1 + 0.0025 + 1.5)).abs() < 1e-9, "leftmost particle at {xmin}");
+    assert!(
+        (xmin - (0.1 + 0.0025 + 1.5)).abs() < 1e-9,
+        "leftmost particle at {xmin}"
+    );
     // The last grid snapshot has mass only near the block's final place.
     let grid = rec.snapshots.last().unwrap().grid.as_ref().unwrap();
-    let cleave::diagnostics::FieldData::F64(mass) = &grid.fields[0].data else { panic!() };
+    let cleave::diagnostics::FieldData::F64(mass) = &grid.fields[0].data else {
+        panic!()
+    };
     for (n, &m) in mass.iter().enumerate() {
         let x = grid.origin[0] + (n % grid.dims[0]) as f64 * grid.spacing;
         if m != 0.0 {

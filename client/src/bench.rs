@@ -58,7 +58,10 @@ struct Measured {
 
 /// Particle-steps per second over `steps` steps (after 3 warm-up steps).
 fn measure(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measured> {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("thread pool")?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("thread pool")?;
     pool.install(|| {
         let mut sim = Simulation::new(scene);
         for _ in 0..3 {
@@ -85,11 +88,17 @@ fn measure(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measur
 }
 
 pub fn run(out: &Path, steps: usize, largest: usize, transfers: &str) -> anyhow::Result<()> {
-    let sizes: Vec<usize> = [128usize, 256, 512].into_iter().filter(|&c| c <= largest).collect();
+    let sizes: Vec<usize> = [128usize, 256, 512]
+        .into_iter()
+        .filter(|&c| c <= largest)
+        .collect();
     let mut table = String::new();
     let _ = writeln!(table, "| transfer | particles | threads | ms / step | M particle-steps / s | speed-up | P2G ms | grid ms | G2P ms |");
     let _ = writeln!(table, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
-    println!("{:>8} {:>10} {:>8} {:>10} {:>12} {:>9}", "transfer", "particles", "threads", "ms/step", "Mp-steps/s", "speed-up");
+    println!(
+        "{:>8} {:>10} {:>8} {:>10} {:>12} {:>9}",
+        "transfer", "particles", "threads", "ms/step", "Mp-steps/s", "speed-up"
+    );
     for transfer in transfers.split(',').map(str::trim) {
         for &cells in &sizes {
             let sc = scene(cells, transfer)?;
@@ -120,7 +129,11 @@ pub fn run(out: &Path, steps: usize, largest: usize, transfers: &str) -> anyhow:
     }
     let machine = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|c| c.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
+        .and_then(|c| {
+            c.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
         .unwrap_or_else(|| "unknown CPU".into());
     let doc = format!(
         "# Performance of the explicit step\n\n\
@@ -187,7 +200,10 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let data = std::env::temp_dir().join(format!("cleave-bench-service-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&data);
-    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
     let listener = rt.block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))?;
     let url = format!("http://{}", listener.local_addr()?);
     let config = cleave::service::ServerConfig {
@@ -237,33 +253,70 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
             let t0 = Instant::now();
             rt.block_on(async {
                 let job = client
-                    .submit_job(proto::SubmitJobRequest { scene: text.clone(), ..Default::default() })
+                    .submit_job(proto::SubmitJobRequest {
+                        scene: text.clone(),
+                        ..Default::default()
+                    })
                     .await?
                     .into_inner();
-                let mut s = client.watch_job(proto::WatchJobRequest { job_id: job.id.clone() }).await?.into_inner();
+                let mut s = client
+                    .watch_job(proto::WatchJobRequest {
+                        job_id: job.id.clone(),
+                    })
+                    .await?
+                    .into_inner();
                 while s.message().await?.is_some() {}
-                let j = client.get_job(proto::GetJobRequest { job_id: job.id }).await?.into_inner();
-                anyhow::ensure!(j.state == proto::JobState::Succeeded as i32, "benchmark job failed: {}", j.error);
+                let j = client
+                    .get_job(proto::GetJobRequest { job_id: job.id })
+                    .await?
+                    .into_inner();
+                anyhow::ensure!(
+                    j.state == proto::JobState::Succeeded as i32,
+                    "benchmark job failed: {}",
+                    j.error
+                );
                 Ok::<_, anyhow::Error>(())
             })?;
             served.push(t0.elapsed().as_secs_f64());
-            println!("run {k}: compute only {:.3} s, embedded {:.3} s, through the server {:.3} s", bare[k], embedded[k], served[k]);
+            println!(
+                "run {k}: compute only {:.3} s, embedded {:.3} s, through the server {:.3} s",
+                bare[k], embedded[k], served[k]
+            );
         }
-        let (e, s, c) = (median(embedded.clone()), median(served.clone()), median(bare.clone()));
+        let (e, s, c) = (
+            median(embedded.clone()),
+            median(served.clone()),
+            median(bare.clone()),
+        );
         let overhead = 100.0 * (s / e - 1.0);
         let over_compute = 100.0 * (s / c - 1.0);
         // 2. FetchFields throughput on the snapshot of a 1 M particle block.
         let big = service_scene(512, 1, 2);
         let (id, bytes, fetch) = rt.block_on(async {
-            let job = client.submit_job(proto::SubmitJobRequest { scene: big, ..Default::default() }).await?.into_inner();
-            let mut st = client.watch_job(proto::WatchJobRequest { job_id: job.id.clone() }).await?.into_inner();
+            let job = client
+                .submit_job(proto::SubmitJobRequest {
+                    scene: big,
+                    ..Default::default()
+                })
+                .await?
+                .into_inner();
+            let mut st = client
+                .watch_job(proto::WatchJobRequest {
+                    job_id: job.id.clone(),
+                })
+                .await?
+                .into_inner();
             while st.message().await?.is_some() {}
             let mut times = Vec::new();
             let mut bytes = 0usize;
             for _ in 0..repeats.max(3) {
                 let t0 = Instant::now();
                 let mut st = client
-                    .fetch_fields(proto::FetchFieldsRequest { job_id: job.id.clone(), snapshot: 0, ..Default::default() })
+                    .fetch_fields(proto::FetchFieldsRequest {
+                        job_id: job.id.clone(),
+                        snapshot: 0,
+                        ..Default::default()
+                    })
                     .await?
                     .into_inner();
                 bytes = 0;
@@ -279,7 +332,10 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
         let rows: String = (0..repeats)
             .map(|k| {
                 let (x, a, b) = (bare[k], embedded[k], served[k]);
-                format!("| {k} | {x:.3} | {a:.3} | {b:.3} | {:+.2} % |\n", 100.0 * (b / a - 1.0))
+                format!(
+                    "| {k} | {x:.3} | {a:.3} | {b:.3} | {:+.2} % |\n",
+                    100.0 * (b / a - 1.0)
+                )
             })
             .collect();
         Ok(format!(

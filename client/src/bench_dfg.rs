@@ -54,7 +54,10 @@ struct Case {
 fn run_case(file: &cleave::scene::SceneFile, instants: &[f64]) -> anyhow::Result<Case> {
     let scene = Scene::validate(file.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut sim = Simulation::new(&scene);
-    let mut keep = Keep { series: Recorder::series_only(), fragments: Vec::new() };
+    let mut keep = Keep {
+        series: Recorder::series_only(),
+        fragments: Vec::new(),
+    };
     let s = sim.run(&mut keep)?;
     let t = &s.stage_seconds;
     let steps = s.steps.max(1);
@@ -67,8 +70,15 @@ fn run_case(file: &cleave::scene::SceneFile, instants: &[f64]) -> anyhow::Result
             .iter()
             .min_by(|a, b| near(a.0).total_cmp(&near(b.0)))
             .context("the run wrote no fragments (does a material have damage?)")?;
-        let row = keep.series.rows.iter().min_by(|a, b| near(a.time).total_cmp(&near(b.time))).context("no series rows")?;
-        let speed = speed_col.and_then(|k| row.values().get(k).copied()).unwrap_or(f64::NAN);
+        let row = keep
+            .series
+            .rows
+            .iter()
+            .min_by(|a, b| near(a.time).total_cmp(&near(b.time)))
+            .context("no series rows")?;
+        let speed = speed_col
+            .and_then(|k| row.values().get(k).copied())
+            .unwrap_or(f64::NAN);
         at.push((frag.0, frag.1.clone(), speed));
     }
     Ok(Case {
@@ -90,7 +100,10 @@ fn diameter(v: f64, t: f64) -> f64 {
 /// Cumulative mass fraction of the fragments with diameter ≤ d, as
 /// (d in mm, fraction) points of a step function.
 fn cumulative(list: &[Fragment], t: f64) -> Vec<(f64, f64)> {
-    let mut d: Vec<(f64, f64)> = list.iter().map(|f| (diameter(f.volume, t), f.mass)).collect();
+    let mut d: Vec<(f64, f64)> = list
+        .iter()
+        .map(|f| (diameter(f.volume, t), f.mass))
+        .collect();
     d.sort_by(|a, b| a.0.total_cmp(&b.0));
     let total: f64 = d.iter().map(|x| x.1).sum();
     let mut acc = 0.0;
@@ -106,15 +119,29 @@ fn cumulative(list: &[Fragment], t: f64) -> Vec<(f64, f64)> {
 
 /// Mass-weighted median diameter d50, mm.
 fn d50(list: &[Fragment], t: f64) -> f64 {
-    cumulative(list, t).into_iter().find(|p| p.1 >= 0.5).map_or(f64::NAN, |p| p.0)
+    cumulative(list, t)
+        .into_iter()
+        .find(|p| p.1 >= 0.5)
+        .map_or(f64::NAN, |p| p.0)
 }
 
-pub fn run(scene_path: &Path, cells: &[f64], instants: [f64; 2], out: &Path, figure: &Path) -> anyhow::Result<()> {
-    let text = std::fs::read_to_string(scene_path).with_context(|| scene_path.display().to_string())?;
+pub fn run(
+    scene_path: &Path,
+    cells: &[f64],
+    instants: [f64; 2],
+    out: &Path,
+    figure: &Path,
+) -> anyhow::Result<()> {
+    let text =
+        std::fs::read_to_string(scene_path).with_context(|| scene_path.display().to_string())?;
     let format = cleave::scene::Format::sniff(&text);
-    let base = cleave::scene::parse(&text, format).map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?;
+    let base = cleave::scene::parse(&text, format)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?;
     let Some(dfg) = base.dfg.clone() else {
-        anyhow::bail!("{}: the scene has no [dfg] table to compare with", scene_path.display());
+        anyhow::bail!(
+            "{}: the scene has no [dfg] table to compare with",
+            scene_path.display()
+        );
     };
     let thickness = base.analysis.thickness;
     let end = instants[0].max(instants[1]);
@@ -133,10 +160,16 @@ pub fn run(scene_path: &Path, cells: &[f64], instants: [f64; 2], out: &Path, fig
         f.dfg = Some(dfg.clone());
         eprintln!("dx = {:.3} mm: single field", h * 1e3);
         let a = run_case(&sf, &instants)?;
-        eprintln!("  {} particles, {} steps, {:.4} s/step", a.particles, a.steps, a.per_step);
+        eprintln!(
+            "  {} particles, {} steps, {:.4} s/step",
+            a.particles, a.steps, a.per_step
+        );
         eprintln!("dx = {:.3} mm: DFG", h * 1e3);
         let b = run_case(&f, &instants)?;
-        eprintln!("  {} particles, {} steps, {:.4} s/step", b.particles, b.steps, b.per_step);
+        eprintln!(
+            "  {} particles, {} steps, {:.4} s/step",
+            b.particles, b.steps, b.per_step
+        );
         results.push((h, a, b));
     }
     let mut md = String::new();
@@ -203,23 +236,46 @@ pub fn run(scene_path: &Path, cells: &[f64], instants: [f64; 2], out: &Path, fig
     // instant and DFG at the earlier one (the paper's Fig. 18), and both
     // models at both instants in the table.
     let (t_dfg, t_sf) = (instants[0], instants[1]);
-    let panel = |name: &str, t: f64, pick: &dyn Fn(&(f64, Case, Case)) -> &Case| -> (String, Vec<(String, Vec<(f64, f64)>)>) {
+    let panel = |name: &str,
+                 t: f64,
+                 pick: &dyn Fn(&(f64, Case, Case)) -> &Case|
+     -> (String, Vec<(String, Vec<(f64, f64)>)>) {
         let lines = results
             .iter()
             .map(|r| {
                 let c = pick(r);
-                let k = (0..c.at.len()).min_by(|&a, &b| (c.at[a].0 - t).abs().total_cmp(&(c.at[b].0 - t).abs())).unwrap_or(0);
-                (format!("dx = {:.3} mm, {:.0} m/s", r.0 * 1e3, c.at[k].2), cumulative(&c.at[k].1, thickness))
+                let k = (0..c.at.len())
+                    .min_by(|&a, &b| (c.at[a].0 - t).abs().total_cmp(&(c.at[b].0 - t).abs()))
+                    .unwrap_or(0);
+                (
+                    format!("dx = {:.3} mm, {:.0} m/s", r.0 * 1e3, c.at[k].2),
+                    cumulative(&c.at[k].1, thickness),
+                )
             })
             .collect();
         (format!("{name} at {:.0} µs", t * 1e6), lines)
     };
-    let panels = vec![panel("single field", t_sf, &|r| &r.1), panel("DFG", t_dfg, &|r| &r.2)];
+    let panels = vec![
+        panel("single field", t_sf, &|r| &r.1),
+        panel("DFG", t_dfg, &|r| &r.2),
+    ];
     if let Some(dir) = figure.parent() {
         std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
     }
-    cleave::output::plot_log_x(figure, "fragment diameter in mm", "cumulative mass fraction", &panels)?;
-    writeln!(md, "\n![cumulative fragment-size distributions]({})", figure.file_name().map_or(String::new(), |n| format!("figures/{}", n.to_string_lossy())))?;
+    cleave::output::plot_log_x(
+        figure,
+        "fragment diameter in mm",
+        "cumulative mass fraction",
+        &panels,
+    )?;
+    writeln!(
+        md,
+        "\n![cumulative fragment-size distributions]({})",
+        figure.file_name().map_or(String::new(), |n| format!(
+            "figures/{}",
+            n.to_string_lossy()
+        ))
+    )?;
     print!("{md}");
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;

@@ -32,34 +32,63 @@ struct Split {
     pcg_iterations: f64,
 }
 
-fn measure(scene: &Scene, method: PhaseFieldMethod, from: Option<&Path>, warmup: usize, steps: usize) -> anyhow::Result<Split> {
+fn measure(
+    scene: &Scene,
+    method: PhaseFieldMethod,
+    from: Option<&Path>,
+    warmup: usize,
+    steps: usize,
+) -> anyhow::Result<Split> {
     let mut scene = scene.clone();
     scene.file.phase_field_solver.method = method;
     let t = Instant::now();
     let mut sim = match from {
         Some(path) => {
             let cp = Checkpoint::load(path).with_context(|| path.display().to_string())?;
-            let sim = Simulation::resume(&scene, cp).with_context(|| format!("cannot start from {}", path.display()))?;
-            eprintln!("{method:?}: resumed at step {}, t = {:e} s", sim.steps(), sim.time());
+            let sim = Simulation::resume(&scene, cp)
+                .with_context(|| format!("cannot start from {}", path.display()))?;
+            eprintln!(
+                "{method:?}: resumed at step {}, t = {:e} s",
+                sim.steps(),
+                sim.time()
+            );
             sim
         }
         None => Simulation::new(&scene),
     };
-    eprintln!("{method:?}: {} particles set up in {:.1} s", sim.particles().len(), t.elapsed().as_secs_f64());
+    eprintln!(
+        "{method:?}: {} particles set up in {:.1} s",
+        sim.particles().len(),
+        t.elapsed().as_secs_f64()
+    );
     for _ in 0..warmup {
         sim.step()?;
     }
-    let (t0, s0) = (sim.stage_times().clone(), sim.phase_field_stats().context("the scene has no phase field")?);
+    let (t0, s0) = (
+        sim.stage_times().clone(),
+        sim.phase_field_stats()
+            .context("the scene has no phase field")?,
+    );
     let wall = Instant::now();
     for _ in 0..steps {
         sim.step()?;
     }
     let wall = wall.elapsed().as_secs_f64();
-    let (t1, s1) = (sim.stage_times(), sim.phase_field_stats().context("the scene has no phase field")?);
+    let (t1, s1) = (
+        sim.stage_times(),
+        sim.phase_field_stats()
+            .context("the scene has no phase field")?,
+    );
     let per = |a: f64, b: f64| (a - b) / steps as f64;
-    let mpm = per(t1.p2g + t1.traction + t1.grid_update + t1.g2p + t1.bins + t1.contact + t1.field_partition, t0.p2g + t0.traction + t0.grid_update + t0.g2p + t0.bins + t0.contact + t0.field_partition);
+    let mpm = per(
+        t1.p2g + t1.traction + t1.grid_update + t1.g2p + t1.bins + t1.contact + t1.field_partition,
+        t0.p2g + t0.traction + t0.grid_update + t0.g2p + t0.bins + t0.contact + t0.field_partition,
+    );
     let assembly = per(s1.assembly, s0.assembly);
-    let factorization = per(s1.analysis + s1.factorization, s0.analysis + s0.factorization);
+    let factorization = per(
+        s1.analysis + s1.factorization,
+        s0.analysis + s0.factorization,
+    );
     let solve = per(s1.solve, s0.solve);
     let pf = per(t1.phase_field, t0.phase_field);
     let solves = (s1.pcg_solves - s0.pcg_solves).max(1) as f64;
@@ -81,13 +110,27 @@ fn measure(scene: &Scene, method: PhaseFieldMethod, from: Option<&Path>, warmup:
     })
 }
 
-pub fn run(scene_path: &Path, out: &Path, warmup: usize, from: Option<&Path>, steps: usize) -> anyhow::Result<()> {
-    let scene = Scene::from_path(scene_path).map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?;
-    let dt = scene.file.time.dt.context("the benchmark needs a scene with a fixed time.dt (to extrapolate to time.end)")?;
+pub fn run(
+    scene_path: &Path,
+    out: &Path,
+    warmup: usize,
+    from: Option<&Path>,
+    steps: usize,
+) -> anyhow::Result<()> {
+    let scene = Scene::from_path(scene_path)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?;
+    let dt =
+        scene.file.time.dt.context(
+            "the benchmark needs a scene with a fixed time.dt (to extrapolate to time.end)",
+        )?;
     let total_steps = (scene.file.time.end / dt).round();
     let threads = rayon::current_num_threads();
     let mut rows = Vec::new();
-    for method in [PhaseFieldMethod::Direct, PhaseFieldMethod::Pcg, PhaseFieldMethod::Multigrid] {
+    for method in [
+        PhaseFieldMethod::Direct,
+        PhaseFieldMethod::Pcg,
+        PhaseFieldMethod::Multigrid,
+    ] {
         rows.push(measure(&scene, method, from, warmup, steps)?);
     }
     let mut md = String::new();
@@ -142,20 +185,27 @@ pub fn run(scene_path: &Path, out: &Path, warmup: usize, from: Option<&Path>, st
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
         Err(e) => return Err(e).with_context(|| out.display().to_string()),
     };
-    std::fs::write(out, with_kept_part(&md, old.as_deref())).with_context(|| out.display().to_string())?;
-    eprintln!("wrote {} (the text below its line \"{KEEP_BELOW}\" is kept)", out.display());
+    std::fs::write(out, with_kept_part(&md, old.as_deref()))
+        .with_context(|| out.display().to_string())?;
+    eprintln!(
+        "wrote {} (the text below its line \"{KEEP_BELOW}\" is kept)",
+        out.display()
+    );
     Ok(())
 }
 
 /// The line under which the benchmark's output file holds hand-written
 /// text that a re-run keeps.
-const KEEP_BELOW: &str = "<!-- bench-phase-field writes what is above this line; what is below it is kept -->";
+const KEEP_BELOW: &str =
+    "<!-- bench-phase-field writes what is above this line; what is below it is kept -->";
 
 /// The new generated text, then the marker and whatever followed the
 /// marker in the old file (nothing if it had no marker: a file without it
 /// was all generated).
 fn with_kept_part(generated: &str, old: Option<&str>) -> String {
-    let kept = old.and_then(|o| o.find(KEEP_BELOW).map(|i| &o[i + KEEP_BELOW.len()..])).unwrap_or("\n");
+    let kept = old
+        .and_then(|o| o.find(KEEP_BELOW).map(|i| &o[i + KEEP_BELOW.len()..]))
+        .unwrap_or("\n");
     format!("{}\n\n{KEEP_BELOW}{kept}", generated.trim_end_matches('\n'))
 }
 
@@ -169,8 +219,14 @@ mod tests {
         assert_eq!(first, format!("# T\n| a |\n\n{KEEP_BELOW}\n"));
         let edited = format!("{first}## Notes\nwritten by hand\n");
         let second = with_kept_part("# T\n| b |\n", Some(&edited));
-        assert_eq!(second, format!("# T\n| b |\n\n{KEEP_BELOW}\n## Notes\nwritten by hand\n"));
+        assert_eq!(
+            second,
+            format!("# T\n| b |\n\n{KEEP_BELOW}\n## Notes\nwritten by hand\n")
+        );
         // Without a marker the old file was all generated: nothing kept.
-        assert_eq!(with_kept_part("x\n", Some("old table\n")), format!("x\n\n{KEEP_BELOW}\n"));
+        assert_eq!(
+            with_kept_part("x\n", Some("old table\n")),
+            format!("x\n\n{KEEP_BELOW}\n")
+        );
     }
 }

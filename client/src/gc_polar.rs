@@ -28,7 +28,9 @@ pub fn run(gamma: &str, gc_bar: f64, step: f64, json_out: bool, out: &Path) -> E
         return invalid(format!("--gc-bar: must be > 0, got {gc_bar}"));
     }
     if !(step.is_finite() && step > 0.0 && step <= 90.0) {
-        return invalid(format!("--angle-step: must be in (0, 90] degrees, got {step}"));
+        return invalid(format!(
+            "--angle-step: must be in (0, 90] degrees, got {step}"
+        ));
     }
     let worst = g.min_along();
     if worst < 0.0 {
@@ -47,9 +49,13 @@ pub fn run(gamma: &str, gc_bar: f64, step: f64, json_out: bool, out: &Path) -> E
         }
     }
     let inv: Vec<(f64, f64)> = table.iter().map(|&(t, v)| (t, 1.0 / v)).collect();
-    let plot = cleave::output::plot_polar(out, &[("Gc(theta)", table.clone()), ("1/Gc(theta)", inv)]);
+    let plot =
+        cleave::output::plot_polar(out, &[("Gc(theta)", table.clone()), ("1/Gc(theta)", inv)]);
     if json_out {
-        let rows: Vec<_> = table.iter().map(|&(t, v)| json!({"theta_deg": t, "gc": v, "inverse": 1.0 / v})).collect();
+        let rows: Vec<_> = table
+            .iter()
+            .map(|&(t, v)| json!({"theta_deg": t, "gc": v, "inverse": 1.0 / v}))
+            .collect();
         println!(
             "{}",
             json!({
@@ -63,7 +69,10 @@ pub fn run(gamma: &str, gc_bar: f64, step: f64, json_out: bool, out: &Path) -> E
         for &(t, v) in &table {
             println!("{t:>9.3} {v:>14.6e} {:>14.6e}", 1.0 / v);
         }
-        println!("Gc_min = {:.6e} at {:.2} deg, Gc_max = {:.6e} at {:.2} deg", lo.1, lo.0, hi.1, hi.0);
+        println!(
+            "Gc_min = {:.6e} at {:.2} deg, Gc_max = {:.6e} at {:.2} deg",
+            lo.1, lo.0, hi.1, hi.0
+        );
     }
     match plot {
         Ok(()) => {

@@ -291,22 +291,75 @@ fn main() -> ExitCode {
         }
     };
     if let Some(server) = cli.server.clone() {
-        return remote_main(&server, cli.token.as_deref(), cli.ca_cert.as_deref(), cli.command);
+        return remote_main(
+            &server,
+            cli.token.as_deref(),
+            cli.ca_cert.as_deref(),
+            cli.command,
+        );
     }
     match cli.command {
-        Command::Run { scene, out, json, quiet, checkpoint_every, resume } => {
-            run(&scene, &out, json, quiet, Checkpointing { every: checkpoint_every, resume })
-        }
+        Command::Run {
+            scene,
+            out,
+            json,
+            quiet,
+            checkpoint_every,
+            resume,
+        } => run(
+            &scene,
+            &out,
+            json,
+            quiet,
+            Checkpointing {
+                every: checkpoint_every,
+                resume,
+            },
+        ),
         Command::Validate { scene, json } => validate(&scene, json),
-        Command::Submit { .. } | Command::Watch { .. } | Command::Fetch { .. } | Command::List { .. } | Command::Get { .. } | Command::Cancel { .. } => {
-            eprintln!("error: this command talks to a server: give --server URL (or set CLEAVE_SERVER)");
+        Command::Submit { .. }
+        | Command::Watch { .. }
+        | Command::Fetch { .. }
+        | Command::List { .. }
+        | Command::Get { .. }
+        | Command::Cancel { .. } => {
+            eprintln!(
+                "error: this command talks to a server: give --server URL (or set CLEAVE_SERVER)"
+            );
             ExitCode::from(EXIT_INVALID)
         }
-        Command::GcPolar { gamma, gc_bar, angle_step, json, out } => gc_polar::run(&gamma, gc_bar, angle_step, json, &out),
-        Command::Study { scene, vary, metric, reference, out, json, resume, checkpoint_every } => {
-            study::main_local(study::Options { scene, vary, metric, reference, out, json, resume, checkpoint_every })
-        }
-        Command::Metric { series, metric, reference, json } => measure(&series, &metric, reference.as_deref(), json),
+        Command::GcPolar {
+            gamma,
+            gc_bar,
+            angle_step,
+            json,
+            out,
+        } => gc_polar::run(&gamma, gc_bar, angle_step, json, &out),
+        Command::Study {
+            scene,
+            vary,
+            metric,
+            reference,
+            out,
+            json,
+            resume,
+            checkpoint_every,
+        } => study::main_local(study::Options {
+            scene,
+            vary,
+            metric,
+            reference,
+            out,
+            json,
+            resume,
+            checkpoint_every,
+        }),
+        Command::Metric {
+            series,
+            metric,
+            reference,
+            json,
+        } => measure(&series, &metric, reference.as_deref(), json),
         Command::Plot { series, out } => match plot(&series, out.as_deref()) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
@@ -321,19 +374,38 @@ fn main() -> ExitCode {
                 ExitCode::from(EXIT_FAILED)
             }
         },
-        Command::BenchPhaseField { scene, out, warmup, from, steps } => match bench_pf::run(&scene, &out, warmup, from.as_deref(), steps.max(1)) {
+        Command::BenchPhaseField {
+            scene,
+            out,
+            warmup,
+            from,
+            steps,
+        } => match bench_pf::run(&scene, &out, warmup, from.as_deref(), steps.max(1)) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");
                 ExitCode::from(EXIT_FAILED)
             }
         },
-        Command::BenchDfg { scene, cells, instants, out, figure } => {
+        Command::BenchDfg {
+            scene,
+            cells,
+            instants,
+            out,
+            figure,
+        } => {
             let result = match instants.as_slice() {
-                &[a, b] if a > 0.0 && b > 0.0 && !cells.is_empty() && cells.iter().all(|h| *h > 0.0) => {
+                &[a, b]
+                    if a > 0.0
+                        && b > 0.0
+                        && !cells.is_empty()
+                        && cells.iter().all(|h| *h > 0.0) =>
+                {
                     bench_dfg::run(&scene, &cells, [a, b], &out, &figure)
                 }
-                _ => Err(anyhow::anyhow!("--instants takes two positive times and --cells positive sizes")),
+                _ => Err(anyhow::anyhow!(
+                    "--instants takes two positive times and --cells positive sizes"
+                )),
             };
             match result {
                 Ok(()) => ExitCode::SUCCESS,
@@ -343,7 +415,12 @@ fn main() -> ExitCode {
                 }
             }
         }
-        Command::Bench { out, steps, largest, transfer } => match bench::run(&out, steps, largest, &transfer) {
+        Command::Bench {
+            out,
+            steps,
+            largest,
+            transfer,
+        } => match bench::run(&out, steps, largest, &transfer) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");
@@ -363,14 +440,20 @@ fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool)
         eprintln!("error: {msg}");
         ExitCode::from(EXIT_INVALID)
     };
-    let metrics = match specs.iter().map(|m| cleave::study::Metric::parse(m)).collect::<Result<Vec<_>, _>>() {
+    let metrics = match specs
+        .iter()
+        .map(|m| cleave::study::Metric::parse(m))
+        .collect::<Result<Vec<_>, _>>()
+    {
         Ok(m) => m,
         Err(e) => return invalid(e),
     };
     let reference = match reference.map(cleave::study::Reference::parse) {
         None => None,
         Some(Ok(cleave::study::Reference::Analytic(v))) => Some(v),
-        Some(Ok(_)) => return invalid("--reference: only analytic:VALUE has a meaning for one series".into()),
+        Some(Ok(_)) => {
+            return invalid("--reference: only analytic:VALUE has a meaning for one series".into())
+        }
         Some(Err(e)) => return invalid(e),
     };
     let (columns, rows) = match cleave::output::read_series(series) {
@@ -385,7 +468,11 @@ fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool)
                 let diff = reference.map(|r| if r == 0.0 { v } else { (v - r) / r.abs() });
                 if !json {
                     match diff {
-                        Some(d) => println!("{spec} = {v:.6e} ({:+.2} % against {:e})", 100.0 * d, reference.unwrap_or_default()),
+                        Some(d) => println!(
+                            "{spec} = {v:.6e} ({:+.2} % against {:e})",
+                            100.0 * d,
+                            reference.unwrap_or_default()
+                        ),
                         None => println!("{spec} = {v:.6e}"),
                     }
                     if let Some(w) = window {
@@ -410,7 +497,10 @@ fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool)
         }
     }
     if json {
-        println!("{}", json!({"series": series, "rows": rows.len(), "reference": reference, "metrics": out}));
+        println!(
+            "{}",
+            json!({"series": series, "rows": rows.len(), "reference": reference, "metrics": out})
+        );
     }
     if failed {
         ExitCode::from(EXIT_FAILED)
@@ -425,8 +515,14 @@ fn plot(series: &Path, out: Option<&Path>) -> anyhow::Result<()> {
     let dir = out.or(series.parent()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;
     for (name, drawn) in [
-        ("energies.png", cleave::output::plot_energies(&dir.join("energies.png"), &rows)?),
-        ("crack.png", cleave::output::plot_crack(&dir.join("crack.png"), &columns, &rows)?),
+        (
+            "energies.png",
+            cleave::output::plot_energies(&dir.join("energies.png"), &rows)?,
+        ),
+        (
+            "crack.png",
+            cleave::output::plot_crack(&dir.join("crack.png"), &columns, &rows)?,
+        ),
     ] {
         if drawn {
             println!("{}", dir.join(name).display());
@@ -437,8 +533,15 @@ fn plot(series: &Path, out: Option<&Path>) -> anyhow::Result<()> {
 
 fn report_invalid(path: &Path, e: &SceneError, json: bool) -> ExitCode {
     if json {
-        let errors: Vec<_> = e.errors.iter().map(|f| json!({"path": f.path, "reason": f.reason})).collect();
-        println!("{}", json!({"status": "invalid", "scene": path, "errors": errors}));
+        let errors: Vec<_> = e
+            .errors
+            .iter()
+            .map(|f| json!({"path": f.path, "reason": f.reason}))
+            .collect();
+        println!(
+            "{}",
+            json!({"status": "invalid", "scene": path, "errors": errors})
+        );
     }
     eprintln!("error: invalid scene {}:", path.display());
     for f in &e.errors {
@@ -519,7 +622,12 @@ impl Observer for RunObserver {
         let (step, time) = (cp.step(), cp.time());
         let t0 = std::time::Instant::now();
         self.writer.checkpoint(cp)?;
-        tracing::info!(step, time, seconds = t0.elapsed().as_secs_f64(), "checkpoint saved");
+        tracing::info!(
+            step,
+            time,
+            seconds = t0.elapsed().as_secs_f64(),
+            "checkpoint saved"
+        );
         Ok(())
     }
 }
@@ -533,7 +641,10 @@ fn run(path: &Path, out: &Path, json: bool, quiet: bool, ck: Checkpointing) -> E
         Ok(code) => code,
         Err(e) => {
             if json {
-                println!("{}", json!({"status": "failed", "scene": path, "error": format!("{e:#}")}));
+                println!(
+                    "{}",
+                    json!({"status": "failed", "scene": path, "error": format!("{e:#}")})
+                );
             }
             eprintln!("error: {e:#}");
             ExitCode::from(EXIT_FAILED)
@@ -541,8 +652,19 @@ fn run(path: &Path, out: &Path, json: bool, quiet: bool, ck: Checkpointing) -> E
     }
 }
 
-fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool, ck: Checkpointing) -> anyhow::Result<ExitCode> {
-    let checkpoint_every = ck.every.map(cleave::mpm::CheckpointTimer::interval).transpose().map_err(anyhow::Error::msg)?;
+fn run_valid(
+    path: &Path,
+    scene: &Scene,
+    out: &Path,
+    json: bool,
+    quiet: bool,
+    ck: Checkpointing,
+) -> anyhow::Result<ExitCode> {
+    let checkpoint_every = ck
+        .every
+        .map(cleave::mpm::CheckpointTimer::interval)
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
     if !json {
         eprintln!(
             "{}: {} particles, {} x {} cells; plan: {}",
@@ -556,27 +678,47 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool, ck
     let (writer, mut sim) = if ck.resume {
         // the scene is checked against the checkpoint before the series is
         // touched: a refused resume leaves the results as they were
-        let mut cp = OutputWriter::load_checkpoint(out).with_context(|| format!("cannot resume the run in {}", out.display()))?;
+        let mut cp = OutputWriter::load_checkpoint(out)
+            .with_context(|| format!("cannot resume the run in {}", out.display()))?;
         if !json {
-            eprintln!("resuming at step {} (t = {:.6e} s) from {}", cp.step(), cp.time(), OutputWriter::checkpoint_path(out).display());
+            eprintln!(
+                "resuming at step {} (t = {:.6e} s) from {}",
+                cp.step(),
+                cp.time(),
+                OutputWriter::checkpoint_path(out).display()
+            );
         }
         let state = std::mem::take(&mut cp.observer);
-        let sim = Simulation::resume(scene, cp).with_context(|| format!("cannot resume {} from {}", path.display(), OutputWriter::checkpoint_path(out).display()))?;
-        let writer = OutputWriter::resume(out, &state).with_context(|| format!("cannot resume the run in {}", out.display()))?;
+        let sim = Simulation::resume(scene, cp).with_context(|| {
+            format!(
+                "cannot resume {} from {}",
+                path.display(),
+                OutputWriter::checkpoint_path(out).display()
+            )
+        })?;
+        let writer = OutputWriter::resume(out, &state)
+            .with_context(|| format!("cannot resume the run in {}", out.display()))?;
         (writer, sim)
     } else {
-        let writer = OutputWriter::create(out).with_context(|| format!("cannot write results to {}", out.display()))?;
+        let writer = OutputWriter::create(out)
+            .with_context(|| format!("cannot write results to {}", out.display()))?;
         (writer, Simulation::new(scene))
     };
     let bar = (!quiet && !json).then(|| {
         let bar = ProgressBar::new(1000);
         bar.set_style(
-            ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         bar
     });
-    let mut obs = RunObserver { writer, bar, checkpoints: cleave::mpm::CheckpointTimer::new(checkpoint_every) };
+    let mut obs = RunObserver {
+        writer,
+        bar,
+        checkpoints: cleave::mpm::CheckpointTimer::new(checkpoint_every),
+    };
     let result = sim.run(&mut obs);
     if let Some(bar) = &obs.bar {
         bar.finish_and_clear();
@@ -638,7 +780,12 @@ fn run_valid(path: &Path, scene: &Scene, out: &Path, json: bool, quiet: bool, ck
 }
 
 /// Every command against a server.
-fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, command: Command) -> ExitCode {
+fn remote_main(
+    server: &str,
+    token: Option<&str>,
+    ca_cert: Option<&Path>,
+    command: Command,
+) -> ExitCode {
     let json = match &command {
         Command::Run { json, .. }
         | Command::Validate { json, .. }
@@ -649,9 +796,18 @@ fn remote_main(server: &str, token: Option<&str>, ca_cert: Option<&Path>, comman
         | Command::Get { json, .. }
         | Command::Cancel { json, .. }
         | Command::Study { json, .. } => *json,
-        Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } | Command::Metric { .. } => false,
+        Command::Bench { .. }
+        | Command::BenchService { .. }
+        | Command::BenchPhaseField { .. }
+        | Command::BenchDfg { .. }
+        | Command::GcPolar { .. }
+        | Command::Plot { .. }
+        | Command::Metric { .. } => false,
     };
-    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+    let runtime = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+    {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: cannot start the async runtime: {e}");

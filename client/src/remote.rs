@@ -25,11 +25,20 @@ pub struct RemoteError {
 impl From<Status> for RemoteError {
     fn from(s: Status) -> Self {
         let code = match s.code() {
-            Code::InvalidArgument | Code::NotFound | Code::FailedPrecondition | Code::OutOfRange => EXIT_INVALID,
-            Code::Unauthenticated | Code::PermissionDenied | Code::Unavailable | Code::DeadlineExceeded => EXIT_UNREACHABLE,
+            Code::InvalidArgument
+            | Code::NotFound
+            | Code::FailedPrecondition
+            | Code::OutOfRange => EXIT_INVALID,
+            Code::Unauthenticated
+            | Code::PermissionDenied
+            | Code::Unavailable
+            | Code::DeadlineExceeded => EXIT_UNREACHABLE,
             _ => EXIT_FAILED,
         };
-        RemoteError { code, message: format!("{}: {}", code_name(s.code()), s.message()) }
+        RemoteError {
+            code,
+            message: format!("{}: {}", code_name(s.code()), s.message()),
+        }
     }
 }
 
@@ -47,13 +56,19 @@ fn code_name(c: Code) -> &'static str {
 
 impl RemoteError {
     pub fn new(code: u8, message: impl Into<String>) -> Self {
-        RemoteError { code, message: message.into() }
+        RemoteError {
+            code,
+            message: message.into(),
+        }
     }
 
     /// Prints the error and returns its exit code.
     pub fn report(self, json: bool) -> ExitCode {
         if json {
-            println!("{}", json!({"status": "error", "error": self.message, "exit_code": self.code}));
+            println!(
+                "{}",
+                json!({"status": "error", "error": self.message, "exit_code": self.code})
+            );
         }
         eprintln!("error: {}", self.message);
         ExitCode::from(self.code)
@@ -78,31 +93,40 @@ pub type Client = CleaveClient<InterceptedService<Channel, Auth>>;
 /// Connects to `url` (http:// or https://). For https, `ca_cert` is a PEM
 /// file of the certificate authority to trust (a self-signed server
 /// certificate itself will do).
-pub async fn connect(url: &str, token: Option<&str>, ca_cert: Option<&Path>) -> Result<Client, RemoteError> {
+pub async fn connect(
+    url: &str,
+    token: Option<&str>,
+    ca_cert: Option<&Path>,
+) -> Result<Client, RemoteError> {
     let endpoint = Channel::from_shared(url.to_string())
         .map_err(|e| RemoteError::new(EXIT_INVALID, format!("--server {url:?}: {e}")))?;
     let endpoint = if url.starts_with("https://") {
         let mut tls = tonic::transport::ClientTlsConfig::new();
         if let Some(ca) = ca_cert {
-            let pem = std::fs::read(ca).map_err(|e| RemoteError::new(EXIT_INVALID, format!("--ca-cert {}: {e}", ca.display())))?;
+            let pem = std::fs::read(ca).map_err(|e| {
+                RemoteError::new(EXIT_INVALID, format!("--ca-cert {}: {e}", ca.display()))
+            })?;
             tls = tls.ca_certificate(tonic::transport::Certificate::from_pem(pem));
         }
-        endpoint.tls_config(tls).map_err(|e| RemoteError::new(EXIT_UNREACHABLE, format!("TLS: {e}")))?
+        endpoint
+            .tls_config(tls)
+            .map_err(|e| RemoteError::new(EXIT_UNREACHABLE, format!("TLS: {e}")))?
     } else {
         endpoint
     };
-    let channel = endpoint
-        .connect()
-        .await
-        .map_err(|e| RemoteError::new(EXIT_UNREACHABLE, format!("cannot reach the server at {url}: {e}")))?;
-    let auth = match token {
-        Some(t) => Some(
-            format!("Bearer {t}")
-                .parse()
-                .map_err(|_| RemoteError::new(EXIT_INVALID, "--token: not a valid header value"))?,
-        ),
-        None => None,
-    };
+    let channel = endpoint.connect().await.map_err(|e| {
+        RemoteError::new(
+            EXIT_UNREACHABLE,
+            format!("cannot reach the server at {url}: {e}"),
+        )
+    })?;
+    let auth =
+        match token {
+            Some(t) => Some(format!("Bearer {t}").parse().map_err(|_| {
+                RemoteError::new(EXIT_INVALID, "--token: not a valid header value")
+            })?),
+            None => None,
+        };
     Ok(CleaveClient::with_interceptor(channel, Auth(auth)).max_decoding_message_size(usize::MAX))
 }
 
@@ -137,9 +161,21 @@ fn summary_json(s: &proto::Summary) -> serde_json::Value {
 
 /// Reads a scene file as text (exit 2 if it cannot be read).
 pub fn read_scene(path: &Path) -> Result<String, RemoteError> {
-    let bytes = std::fs::read(path).map_err(|e| RemoteError::new(EXIT_INVALID, format!("cannot read scene file {}: {e}", path.display())))?;
+    let bytes = std::fs::read(path).map_err(|e| {
+        RemoteError::new(
+            EXIT_INVALID,
+            format!("cannot read scene file {}: {e}", path.display()),
+        )
+    })?;
     String::from_utf8(bytes).map_err(|e| {
-        RemoteError::new(EXIT_INVALID, format!("invalid scene {}: not UTF-8 text (invalid byte at offset {})", path.display(), e.utf8_error().valid_up_to()))
+        RemoteError::new(
+            EXIT_INVALID,
+            format!(
+                "invalid scene {}: not UTF-8 text (invalid byte at offset {})",
+                path.display(),
+                e.utf8_error().valid_up_to()
+            ),
+        )
     })
 }
 
@@ -151,23 +187,42 @@ fn scene_format(path: &Path) -> i32 {
     }
 }
 
-pub async fn submit(client: &mut Client, path: &Path, label: &str) -> Result<proto::Job, RemoteError> {
+pub async fn submit(
+    client: &mut Client,
+    path: &Path,
+    label: &str,
+) -> Result<proto::Job, RemoteError> {
     let scene = read_scene(path)?;
     let job = client
-        .submit_job(proto::SubmitJobRequest { scene, format: scene_format(path), label: label.to_string() })
+        .submit_job(proto::SubmitJobRequest {
+            scene,
+            format: scene_format(path),
+            label: label.to_string(),
+        })
         .await?
         .into_inner();
     Ok(job)
 }
 
-pub async fn validate(client: &mut Client, path: &Path, json_out: bool) -> Result<ExitCode, RemoteError> {
+pub async fn validate(
+    client: &mut Client,
+    path: &Path,
+    json_out: bool,
+) -> Result<ExitCode, RemoteError> {
     let scene = read_scene(path)?;
     let r = client
-        .validate_scene(proto::ValidateSceneRequest { scene, format: scene_format(path) })
+        .validate_scene(proto::ValidateSceneRequest {
+            scene,
+            format: scene_format(path),
+        })
         .await?
         .into_inner();
     if json_out {
-        let errors: Vec<_> = r.errors.iter().map(|e| json!({"path": e.path, "reason": e.reason})).collect();
+        let errors: Vec<_> = r
+            .errors
+            .iter()
+            .map(|e| json!({"path": e.path, "reason": e.reason}))
+            .collect();
         println!(
             "{}",
             json!({"status": if r.valid { "valid" } else { "invalid" }, "scene": path, "particles": r.particles, "cells": [r.cells_x, r.cells_y], "stages": r.stages, "errors": errors})
@@ -175,7 +230,14 @@ pub async fn validate(client: &mut Client, path: &Path, json_out: bool) -> Resul
     }
     if r.valid {
         if !json_out {
-            println!("{}: valid; {} particles, {} x {} cells; plan: {}", path.display(), r.particles, r.cells_x, r.cells_y, r.stages.join(" → "));
+            println!(
+                "{}: valid; {} particles, {} x {} cells; plan: {}",
+                path.display(),
+                r.particles,
+                r.cells_x,
+                r.cells_y,
+                r.stages.join(" → ")
+            );
         }
         Ok(ExitCode::SUCCESS)
     } else {
@@ -193,21 +255,37 @@ pub async fn validate(client: &mut Client, path: &Path, json_out: bool) -> Resul
 
 /// Follows a job to its end: a progress bar, or one JSON object per event
 /// with `json_events`. Returns the final job.
-pub async fn watch(client: &mut Client, id: &str, bar: bool, json_events: bool) -> Result<proto::Job, RemoteError> {
-    let mut stream = client.watch_job(proto::WatchJobRequest { job_id: id.to_string() }).await?.into_inner();
+pub async fn watch(
+    client: &mut Client,
+    id: &str,
+    bar: bool,
+    json_events: bool,
+) -> Result<proto::Job, RemoteError> {
+    let mut stream = client
+        .watch_job(proto::WatchJobRequest {
+            job_id: id.to_string(),
+        })
+        .await?
+        .into_inner();
     let pb = bar.then(|| {
         let pb = ProgressBar::new(1000);
         pb.set_style(
-            ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         pb
     });
     while let Some(ev) = stream.message().await? {
         if json_events {
             let body = match &ev.event {
-                Some(Event::State(s)) => json!({"type": "state", "state": state_name(s.state), "error": s.error}),
-                Some(Event::Progress(p)) => json!({"type": "progress", "step": p.step, "time": p.time, "fraction": p.fraction, "eta_seconds": p.eta_seconds, "kinetic_energy": p.kinetic_energy, "strain_energy": p.strain_energy}),
+                Some(Event::State(s)) => {
+                    json!({"type": "state", "state": state_name(s.state), "error": s.error})
+                }
+                Some(Event::Progress(p)) => {
+                    json!({"type": "progress", "step": p.step, "time": p.time, "fraction": p.fraction, "eta_seconds": p.eta_seconds, "kinetic_energy": p.kinetic_energy, "strain_energy": p.strain_energy})
+                }
                 Some(Event::Summary(s)) => json!({"type": "summary", "summary": summary_json(s)}),
                 None => json!({"type": "unknown"}),
             };
@@ -224,7 +302,12 @@ pub async fn watch(client: &mut Client, id: &str, bar: bool, json_events: bool) 
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    Ok(client.get_job(proto::GetJobRequest { job_id: id.to_string() }).await?.into_inner())
+    Ok(client
+        .get_job(proto::GetJobRequest {
+            job_id: id.to_string(),
+        })
+        .await?
+        .into_inner())
 }
 
 /// Exit code of a finished job.
@@ -236,8 +319,14 @@ pub fn outcome(job: &proto::Job) -> ExitCode {
     }
 }
 
-async fn fetch_snapshot(client: &mut Client, id: &str, index: u32, with_grid: bool) -> Result<Snapshot, RemoteError> {
-    let (info, particle_fields) = fetch_location(client, id, index, proto::Location::Particles).await?;
+async fn fetch_snapshot(
+    client: &mut Client,
+    id: &str,
+    index: u32,
+    with_grid: bool,
+) -> Result<Snapshot, RemoteError> {
+    let (info, particle_fields) =
+        fetch_location(client, id, index, proto::Location::Particles).await?;
     let mut positions = Vec::new();
     let mut fields = Vec::new();
     for f in particle_fields {
@@ -252,11 +341,23 @@ async fn fetch_snapshot(client: &mut Client, id: &str, index: u32, with_grid: bo
     let grid = match (&info.grid, with_grid) {
         (Some(g), true) => {
             let (_, gf) = fetch_location(client, id, index, proto::Location::Grid).await?;
-            Some(GridSnapshot { origin: [g.origin_x, g.origin_y], spacing: g.spacing, dims: [g.nx as usize, g.ny as usize], fields: gf })
+            Some(GridSnapshot {
+                origin: [g.origin_x, g.origin_y],
+                spacing: g.spacing,
+                dims: [g.nx as usize, g.ny as usize],
+                fields: gf,
+            })
         }
         _ => None,
     };
-    Ok(Snapshot { index: info.index, step: info.step, time: info.time, positions, fields, grid })
+    Ok(Snapshot {
+        index: info.index,
+        step: info.step,
+        time: info.time,
+        positions,
+        fields,
+        grid,
+    })
 }
 
 /// All fields of one location of a snapshot, rebuilt from the chunks.
@@ -267,7 +368,12 @@ async fn fetch_location(
     location: proto::Location,
 ) -> Result<(proto::SnapshotInfo, Vec<Field>), RemoteError> {
     let mut stream = client
-        .fetch_fields(proto::FetchFieldsRequest { job_id: id.to_string(), snapshot: index, location: location as i32, fields: vec![] })
+        .fetch_fields(proto::FetchFieldsRequest {
+            job_id: id.to_string(),
+            snapshot: index,
+            location: location as i32,
+            fields: vec![],
+        })
         .await?
         .into_inner();
     let mut info = None;
@@ -278,21 +384,43 @@ async fn fetch_location(
         }
         let same = fields.last().is_some_and(|(f, _)| f.name == c.field);
         if !same {
-            let data = if c.dtype == proto::DataType::Uint32 as i32 { FieldData::U32(Vec::new()) } else { FieldData::F64(Vec::new()) };
-            fields.push((Field { name: c.field.clone(), components: c.components as usize, data }, Vec::new()));
+            let data = if c.dtype == proto::DataType::Uint32 as i32 {
+                FieldData::U32(Vec::new())
+            } else {
+                FieldData::F64(Vec::new())
+            };
+            fields.push((
+                Field {
+                    name: c.field.clone(),
+                    components: c.components as usize,
+                    data,
+                },
+                Vec::new(),
+            ));
         }
         if let Some((_, bytes)) = fields.last_mut() {
             bytes.extend_from_slice(&c.data);
         }
     }
-    let info = info.ok_or_else(|| RemoteError::new(EXIT_FAILED, "the server sent no snapshot header"))?;
+    let info =
+        info.ok_or_else(|| RemoteError::new(EXIT_FAILED, "the server sent no snapshot header"))?;
     let fields = fields
         .into_iter()
         .map(|(mut f, bytes)| {
             f.data = match f.data {
-                FieldData::U32(_) => FieldData::U32(bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()),
+                FieldData::U32(_) => FieldData::U32(
+                    bytes
+                        .chunks_exact(4)
+                        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                        .collect(),
+                ),
                 FieldData::F64(_) => FieldData::F64(
-                    bytes.chunks_exact(8).map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]])).collect(),
+                    bytes
+                        .chunks_exact(8)
+                        .map(|c| {
+                            f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]])
+                        })
+                        .collect(),
                 ),
             };
             f
@@ -302,19 +430,36 @@ async fn fetch_location(
 }
 
 /// A job's series: its column names and rows.
-pub async fn fetch_series(client: &mut Client, id: &str) -> Result<(Vec<String>, Vec<SeriesRow>), RemoteError> {
-    let series = client.fetch_series(proto::FetchSeriesRequest { job_id: id.to_string() }).await?.into_inner();
+pub async fn fetch_series(
+    client: &mut Client,
+    id: &str,
+) -> Result<(Vec<String>, Vec<SeriesRow>), RemoteError> {
+    let series = client
+        .fetch_series(proto::FetchSeriesRequest {
+            job_id: id.to_string(),
+        })
+        .await?
+        .into_inner();
     let cols = series.columns.len();
-    if cols < SeriesRow::COLUMNS.len() || series.columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS {
+    if cols < SeriesRow::COLUMNS.len()
+        || series.columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS
+    {
         return Err(RemoteError::new(
             EXIT_FAILED,
-            format!("the server's series starts with columns {:?}, this client expects {:?}", series.columns, SeriesRow::COLUMNS),
+            format!(
+                "the server's series starts with columns {:?}, this client expects {:?}",
+                series.columns,
+                SeriesRow::COLUMNS
+            ),
         ));
     }
     let rows = series
         .values
         .chunks_exact(cols)
-        .map(|v| SeriesRow::from_values(v).ok_or_else(|| RemoteError::new(EXIT_FAILED, "malformed series row")))
+        .map(|v| {
+            SeriesRow::from_values(v)
+                .ok_or_else(|| RemoteError::new(EXIT_FAILED, "malformed series row"))
+        })
         .collect::<Result<_, _>>()?;
     Ok((series.columns, rows))
 }
@@ -322,8 +467,18 @@ pub async fn fetch_series(client: &mut Client, id: &str) -> Result<(Vec<String>,
 /// Fetches a job's series and snapshots and writes them like `cleave run`.
 pub async fn fetch(client: &mut Client, id: &str, out: &Path) -> Result<OutputPaths, RemoteError> {
     let (columns, rows) = fetch_series(client, id).await?;
-    let snaps = client.list_snapshots(proto::ListSnapshotsRequest { job_id: id.to_string() }).await?.into_inner();
-    let write_err = |e: String| RemoteError::new(EXIT_FAILED, format!("writing results to {}: {e}", out.display()));
+    let snaps = client
+        .list_snapshots(proto::ListSnapshotsRequest {
+            job_id: id.to_string(),
+        })
+        .await?
+        .into_inner();
+    let write_err = |e: String| {
+        RemoteError::new(
+            EXIT_FAILED,
+            format!("writing results to {}: {e}", out.display()),
+        )
+    };
     let mut writer = OutputWriter::create(out).map_err(|e| write_err(e.to_string()))?;
     writer.series_columns(&columns).map_err(write_err)?;
     for row in &rows {
@@ -337,25 +492,48 @@ pub async fn fetch(client: &mut Client, id: &str, out: &Path) -> Result<OutputPa
 }
 
 pub async fn get(client: &mut Client, id: &str) -> Result<proto::Job, RemoteError> {
-    Ok(client.get_job(proto::GetJobRequest { job_id: id.to_string() }).await?.into_inner())
+    Ok(client
+        .get_job(proto::GetJobRequest {
+            job_id: id.to_string(),
+        })
+        .await?
+        .into_inner())
 }
 
 pub async fn cancel(client: &mut Client, id: &str) -> Result<proto::Job, RemoteError> {
-    Ok(client.cancel_job(proto::CancelJobRequest { job_id: id.to_string() }).await?.into_inner())
+    Ok(client
+        .cancel_job(proto::CancelJobRequest {
+            job_id: id.to_string(),
+        })
+        .await?
+        .into_inner())
 }
 
-pub async fn list(client: &mut Client, state: Option<&str>, limit: u32) -> Result<Vec<proto::Job>, RemoteError> {
+pub async fn list(
+    client: &mut Client,
+    state: Option<&str>,
+    limit: u32,
+) -> Result<Vec<proto::Job>, RemoteError> {
     let state = match state {
         None => 0,
-        Some(s) => proto::JobState::from_str_name(&s.to_uppercase())
-            .ok_or_else(|| RemoteError::new(EXIT_INVALID, format!("--state: unknown state {s:?} (queued, running, succeeded, failed, cancelled)")))?
-            as i32,
+        Some(s) => proto::JobState::from_str_name(&s.to_uppercase()).ok_or_else(|| {
+            RemoteError::new(
+                EXIT_INVALID,
+                format!(
+                    "--state: unknown state {s:?} (queued, running, succeeded, failed, cancelled)"
+                ),
+            )
+        })? as i32,
     };
     let mut out = Vec::new();
     let mut token = String::new();
     loop {
         let page = client
-            .list_jobs(proto::ListJobsRequest { page_size: limit.clamp(1, 1000), page_token: token, state })
+            .list_jobs(proto::ListJobsRequest {
+                page_size: limit.clamp(1, 1000),
+                page_token: token,
+                state,
+            })
             .await?
             .into_inner();
         out.extend(page.jobs);
@@ -373,9 +551,22 @@ pub fn print_job(j: &proto::Job, json_out: bool) {
     if json_out {
         println!("{}", job_json(j));
     } else {
-        let extra = if j.error.is_empty() { String::new() } else { format!("  {}", j.error) };
-        let progress = j.progress.as_ref().map_or(String::new(), |p| format!("  {:.0} %", 100.0 * p.fraction));
-        println!("{}  {:<9}  {} particles  {}{progress}{extra}", j.id, state_name(j.state), j.particles, j.label);
+        let extra = if j.error.is_empty() {
+            String::new()
+        } else {
+            format!("  {}", j.error)
+        };
+        let progress = j
+            .progress
+            .as_ref()
+            .map_or(String::new(), |p| format!("  {:.0} %", 100.0 * p.fraction));
+        println!(
+            "{}  {:<9}  {} particles  {}{progress}{extra}",
+            j.id,
+            state_name(j.state),
+            j.particles,
+            j.label
+        );
     }
 }
 

@@ -101,12 +101,21 @@ fn load_outcome(dir: &Path) -> Result<Option<Outcome>, String> {
     };
     let bad = |why: String| format!("{}: {why}", path.display());
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
-    let number = |key: &str| v.get(key).and_then(|x| x.as_f64()).ok_or_else(|| bad(format!("no number {key:?}")));
-    let failure = v.get("failure").and_then(|f| f.as_str()).map(str::to_string);
+    let number = |key: &str| {
+        v.get(key)
+            .and_then(|x| x.as_f64())
+            .ok_or_else(|| bad(format!("no number {key:?}")))
+    };
+    let failure = v
+        .get("failure")
+        .and_then(|f| f.as_str())
+        .map(str::to_string);
     let (columns, rows) = match cleave::output::read_series(&dir.join("series.csv")) {
         Ok(s) => s,
         // a run that failed before its first row has no series
-        Err(e) if e.source.kind() == std::io::ErrorKind::NotFound && failure.is_some() => (Vec::new(), Vec::new()),
+        Err(e) if e.source.kind() == std::io::ErrorKind::NotFound && failure.is_some() => {
+            (Vec::new(), Vec::new())
+        }
         Err(e) => return Err(e.to_string()),
     };
     Ok(Some(Outcome {
@@ -136,12 +145,23 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
     if let Some(s) = opts.checkpoint_every {
         CheckpointTimer::interval(s).map_err(usage)?;
     }
-    let axes = opts.vary.iter().map(|s| Axis::parse(s)).collect::<Result<Vec<_>, _>>().map_err(usage)?;
+    let axes = opts
+        .vary
+        .iter()
+        .map(|s| Axis::parse(s))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(usage)?;
     let metric = Metric::parse(&opts.metric).map_err(usage)?;
     let reference = Reference::parse(&opts.reference).map_err(usage)?;
     let text = match std::fs::read_to_string(&opts.scene) {
         Ok(t) => t,
-        Err(e) => return Err(report_invalid(&opts.scene, &SceneError::single("", format!("cannot read the scene: {e}")), opts.json)),
+        Err(e) => {
+            return Err(report_invalid(
+                &opts.scene,
+                &SceneError::single("", format!("cannot read the scene: {e}")),
+                opts.json,
+            ))
+        }
     };
     let format = match opts.scene.extension().and_then(|e| e.to_str()) {
         Some("json") => Format::Json,
@@ -154,7 +174,10 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
     // the metric's column must exist (the first variant's columns; a
     // setting such as dfg=off can still drop it for others: their rows say so)
     let mut first = local.then(|| Simulation::new(&variants[0].scene));
-    let columns = first.as_ref().map_or_else(|| vec![metric.column().to_string()], Simulation::series_columns);
+    let columns = first.as_ref().map_or_else(
+        || vec![metric.column().to_string()],
+        Simulation::series_columns,
+    );
     if !columns.iter().any(|c| c == metric.column()) {
         return Err(usage(format!(
             "--metric {}: the scene's series has no column {:?} (it has: {})",
@@ -170,7 +193,9 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
         let dir = run_dir(&opts.out, k);
         let scene_path = dir.join("scene.json");
         let earlier = std::fs::read_to_string(&scene_path).ok();
-        let has_results = [OUTCOME_FILE, cleave::output::CHECKPOINT_FILE, JOB_FILE].iter().any(|f| dir.join(f).exists());
+        let has_results = [OUTCOME_FILE, cleave::output::CHECKPOINT_FILE, JOB_FILE]
+            .iter()
+            .any(|f| dir.join(f).exists());
         if !opts.resume {
             if has_results {
                 return Err(usage(format!(
@@ -195,21 +220,40 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
     }
     // the first variant's simulation, built for the column check, is run
     // only if that variant is to run from its start
-    if done[0].is_some() || (opts.resume && run_dir(&opts.out, 0).join(cleave::output::CHECKPOINT_FILE).exists()) {
+    if done[0].is_some()
+        || (opts.resume
+            && run_dir(&opts.out, 0)
+                .join(cleave::output::CHECKPOINT_FILE)
+                .exists())
+    {
         first = None;
     }
     for (k, v) in variants.iter().enumerate() {
         let dir = run_dir(&opts.out, k);
-        if let Err(e) = std::fs::create_dir_all(&dir).and_then(|_| std::fs::write(dir.join("scene.json"), &v.text)) {
+        if let Err(e) = std::fs::create_dir_all(&dir)
+            .and_then(|_| std::fs::write(dir.join("scene.json"), &v.text))
+        {
             eprintln!("error: cannot write {}: {e}", dir.display());
             return Err(ExitCode::from(EXIT_FAILED));
         }
     }
-    Ok(Prepared { opts, axes, metric, reference, variants, first, done })
+    Ok(Prepared {
+        opts,
+        axes,
+        metric,
+        reference,
+        variants,
+        first,
+        done,
+    })
 }
 
 fn label(v: &Variant) -> String {
-    v.settings.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ")
+    v.settings
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// Runs the variants one after the other in this process (those an
@@ -218,38 +262,78 @@ fn label(v: &Variant) -> String {
 pub fn run_local(p: &mut Prepared) -> Vec<Outcome> {
     let n = p.variants.len();
     let mut first = p.first.take();
-    let every = p.opts.checkpoint_every.map(std::time::Duration::from_secs_f64);
+    let every = p
+        .opts
+        .checkpoint_every
+        .map(std::time::Duration::from_secs_f64);
     let mut out = Vec::with_capacity(n);
     for k in 0..n {
         let v = &p.variants[k];
         if let Some(o) = p.done[k].take() {
-            eprintln!("[{}/{n}] {}: finished by the earlier study, kept", k + 1, label(v));
+            eprintln!(
+                "[{}/{n}] {}: finished by the earlier study, kept",
+                k + 1,
+                label(v)
+            );
             out.push(o);
             continue;
         }
         let dir = run_dir(&p.opts.out, k);
-        let mut obs = StudyObserver { rec: Recorder::series_only(), timer: CheckpointTimer::new(every), dir: &dir, wall_before: 0.0, started: std::time::Instant::now() };
+        let mut obs = StudyObserver {
+            rec: Recorder::series_only(),
+            timer: CheckpointTimer::new(every),
+            dir: &dir,
+            wall_before: 0.0,
+            started: std::time::Instant::now(),
+        };
         let resumed = match resume_run(v, &dir, &mut obs) {
             Ok(sim) => sim,
             Err(e) => {
-                eprintln!("[{}/{n}] {}: cannot resume ({e}); running it from the start", k + 1, label(v));
+                eprintln!(
+                    "[{}/{n}] {}: cannot resume ({e}); running it from the start",
+                    k + 1,
+                    label(v)
+                );
                 None
             }
         };
         match &resumed {
-            Some(sim) => eprintln!("[{}/{n}] {} ({} particles), from its checkpoint at step {}", k + 1, label(v), v.scene.total_particles(), sim.steps()),
-            None => eprintln!("[{}/{n}] {} ({} particles)", k + 1, label(v), v.scene.total_particles()),
+            Some(sim) => eprintln!(
+                "[{}/{n}] {} ({} particles), from its checkpoint at step {}",
+                k + 1,
+                label(v),
+                v.scene.total_particles(),
+                sim.steps()
+            ),
+            None => eprintln!(
+                "[{}/{n}] {} ({} particles)",
+                k + 1,
+                label(v),
+                v.scene.total_particles()
+            ),
         }
-        let mut sim = resumed.or_else(|| first.take()).unwrap_or_else(|| Simulation::new(&v.scene));
+        let mut sim = resumed
+            .or_else(|| first.take())
+            .unwrap_or_else(|| Simulation::new(&v.scene));
         first = None;
         obs.started = std::time::Instant::now();
         let result = sim.run(&mut obs);
         let wall = obs.wall_before + obs.started.elapsed().as_secs_f64();
         let (failure, steps) = match result {
             Ok(s) => (None, s.steps),
-            Err(e) => (Some(e.to_string()), obs.rec.rows.last().map_or(0, |r| r.step)),
+            Err(e) => (
+                Some(e.to_string()),
+                obs.rec.rows.last().map_or(0, |r| r.step),
+            ),
         };
-        let o = Outcome { failure, wall_seconds: wall, steps, particles: v.scene.total_particles() as u64, columns: obs.rec.columns, rows: obs.rec.rows };
+        let o = Outcome {
+            failure,
+            wall_seconds: wall,
+            steps,
+            particles: v.scene.total_particles() as u64,
+            columns: obs.rec.columns,
+            rows: obs.rec.rows,
+        };
         keep(p, k, &o);
         out.push(o);
     }
@@ -258,16 +342,26 @@ pub fn run_local(p: &mut Prepared) -> Vec<Outcome> {
 
 /// The simulation of run `dir` at its checkpoint, with the observer's rows
 /// and wall time taken back; None without a checkpoint.
-fn resume_run(v: &Variant, dir: &Path, obs: &mut StudyObserver) -> Result<Option<Simulation>, String> {
+fn resume_run(
+    v: &Variant,
+    dir: &Path,
+    obs: &mut StudyObserver,
+) -> Result<Option<Simulation>, String> {
     if !cleave::output::OutputWriter::checkpoint_path(dir).exists() {
         return Ok(None);
     }
     let cp = cleave::output::OutputWriter::load_checkpoint(dir).map_err(|e| e.to_string())?;
-    let saved: SavedRun = serde_json::from_slice(&cp.observer).map_err(|e| format!("its study state: {e}"))?;
+    let saved: SavedRun =
+        serde_json::from_slice(&cp.observer).map_err(|e| format!("its study state: {e}"))?;
     let series = dir.join("series.csv");
     let (columns, mut rows) = cleave::output::read_series(&series).map_err(|e| e.to_string())?;
     if rows.len() < saved.rows {
-        return Err(format!("{} has {} rows, the checkpoint {}", series.display(), rows.len(), saved.rows));
+        return Err(format!(
+            "{} has {} rows, the checkpoint {}",
+            series.display(),
+            rows.len(),
+            saved.rows
+        ));
     }
     rows.truncate(saved.rows);
     let sim = Simulation::resume(&v.scene, cp).map_err(|e| e.to_string())?;
@@ -316,9 +410,22 @@ impl Observer for StudyObserver<'_> {
     }
     fn checkpoint(&mut self, mut cp: cleave::mpm::Checkpoint<'_>) -> Result<(), String> {
         let wall_seconds = self.wall_before + self.started.elapsed().as_secs_f64();
-        cleave::output::write_series_csv(&self.dir.join("series.csv"), &self.rec.columns, &self.rec.rows).map_err(|e| e.to_string())?;
-        cp.observer = serde_json::to_vec(&SavedRun { rows: self.rec.rows.len(), wall_seconds }).map_err(|e| e.to_string())?;
-        cleave::output::save_checkpoint(&cleave::output::OutputWriter::checkpoint_path(self.dir), &cp).map_err(|e| e.to_string())
+        cleave::output::write_series_csv(
+            &self.dir.join("series.csv"),
+            &self.rec.columns,
+            &self.rec.rows,
+        )
+        .map_err(|e| e.to_string())?;
+        cp.observer = serde_json::to_vec(&SavedRun {
+            rows: self.rec.rows.len(),
+            wall_seconds,
+        })
+        .map_err(|e| e.to_string())?;
+        cleave::output::save_checkpoint(
+            &cleave::output::OutputWriter::checkpoint_path(self.dir),
+            &cp,
+        )
+        .map_err(|e| e.to_string())
     }
 }
 
@@ -327,12 +434,19 @@ impl Observer for StudyObserver<'_> {
 fn keep(p: &Prepared, k: usize, o: &Outcome) {
     let dir = run_dir(&p.opts.out, k);
     let path = dir.join("series.csv");
-    let series = if o.columns.is_empty() { Ok(()) } else { cleave::output::write_series_csv(&path, &o.columns, &o.rows) };
+    let series = if o.columns.is_empty() {
+        Ok(())
+    } else {
+        cleave::output::write_series_csv(&path, &o.columns, &o.rows)
+    };
     match series {
         // the outcome only once the series is whole: `--resume` keeps it
         Ok(()) => {
             if let Err(e) = save_outcome(&dir, o) {
-                eprintln!("warning: cannot write {}: {e}", dir.join(OUTCOME_FILE).display());
+                eprintln!(
+                    "warning: cannot write {}: {e}",
+                    dir.join(OUTCOME_FILE).display()
+                );
             }
             let _ = std::fs::remove_file(cleave::output::OutputWriter::checkpoint_path(&dir));
             let _ = std::fs::remove_file(dir.join(JOB_FILE));
@@ -341,10 +455,16 @@ fn keep(p: &Prepared, k: usize, o: &Outcome) {
     }
     let metric = match measure(p, o) {
         Ok((v, None)) => format!("metric {v:.6e}"),
-        Ok((v, Some(w))) => format!("metric {v:.6e} (from t = {:.4e} s to {:.4e} s)", w.from.0, w.to.0),
+        Ok((v, Some(w))) => format!(
+            "metric {v:.6e} (from t = {:.4e} s to {:.4e} s)",
+            w.from.0, w.to.0
+        ),
         Err(e) => format!("no metric: {e}"),
     };
-    eprintln!("      {} steps in {:.1} s, {metric}", o.steps, o.wall_seconds);
+    eprintln!(
+        "      {} steps in {:.1} s, {metric}",
+        o.steps, o.wall_seconds
+    );
 }
 
 /// A run's metric, or why it has none (the run failed, or the metric
@@ -363,7 +483,10 @@ fn measure(p: &Prepared, o: &Outcome) -> Result<(f64, Option<cleave::study::Wind
 
 /// Submits every variant to the server at once (it runs them up to its
 /// limit in parallel), then follows each to its end and fetches its series.
-pub async fn run_remote(client: &mut Client, p: &mut Prepared) -> Result<Vec<Outcome>, remote::RemoteError> {
+pub async fn run_remote(
+    client: &mut Client,
+    p: &mut Prepared,
+) -> Result<Vec<Outcome>, remote::RemoteError> {
     let n = p.variants.len();
     let mut jobs: Vec<Option<String>> = Vec::with_capacity(n);
     for k in 0..n {
@@ -378,7 +501,11 @@ pub async fn run_remote(client: &mut Client, p: &mut Prepared) -> Result<Vec<Out
                 let id = id.trim().to_string();
                 match remote::get(client, &id).await {
                     Ok(_) => {
-                        eprintln!("[{}/{n}] {}: following job {id}, submitted by the earlier study", k + 1, label(&p.variants[k]));
+                        eprintln!(
+                            "[{}/{n}] {}: following job {id}, submitted by the earlier study",
+                            k + 1,
+                            label(&p.variants[k])
+                        );
                         jobs.push(Some(id));
                         continue;
                     }
@@ -387,16 +514,28 @@ pub async fn run_remote(client: &mut Client, p: &mut Prepared) -> Result<Vec<Out
                 }
             }
         }
-        let job = remote::submit(client, &dir.join("scene.json"), &format!("study {k:03}: {}", label(&p.variants[k]))).await?;
+        let job = remote::submit(
+            client,
+            &dir.join("scene.json"),
+            &format!("study {k:03}: {}", label(&p.variants[k])),
+        )
+        .await?;
         if let Err(e) = std::fs::write(dir.join(JOB_FILE), &job.id) {
-            eprintln!("warning: cannot write {}: {e}", dir.join(JOB_FILE).display());
+            eprintln!(
+                "warning: cannot write {}: {e}",
+                dir.join(JOB_FILE).display()
+            );
         }
         jobs.push(Some(job.id));
     }
     let mut out = Vec::with_capacity(n);
     for (k, id) in jobs.iter().enumerate() {
         let Some(id) = id else {
-            eprintln!("[{}/{n}] {}: finished by the earlier study, kept", k + 1, label(&p.variants[k]));
+            eprintln!(
+                "[{}/{n}] {}: finished by the earlier study, kept",
+                k + 1,
+                label(&p.variants[k])
+            );
             out.push(p.done[k].take().expect("a kept run"));
             continue;
         };
@@ -404,9 +543,20 @@ pub async fn run_remote(client: &mut Client, p: &mut Prepared) -> Result<Vec<Out
         let s = job.summary.unwrap_or_default();
         let succeeded = job.state == cleave::service::proto::JobState::Succeeded as i32;
         let (columns, rows) = remote::fetch_series(client, id).await?;
-        eprintln!("[{}/{n}] {} job {id}: {}", k + 1, label(&p.variants[k]), if succeeded { "done" } else { "ended" });
+        eprintln!(
+            "[{}/{n}] {} job {id}: {}",
+            k + 1,
+            label(&p.variants[k]),
+            if succeeded { "done" } else { "ended" }
+        );
         out.push(Outcome {
-            failure: (!succeeded).then(|| if job.error.is_empty() { "cancelled".to_string() } else { job.error.clone() }),
+            failure: (!succeeded).then(|| {
+                if job.error.is_empty() {
+                    "cancelled".to_string()
+                } else {
+                    job.error.clone()
+                }
+            }),
             wall_seconds: s.wall_seconds,
             steps: s.steps,
             particles: job.particles,
@@ -456,7 +606,11 @@ pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
             _ => f64::NAN,
         })
         .collect();
-    let points: Vec<(f64, f64)> = outcomes.iter().zip(&errors).map(|(o, e)| (o.wall_seconds, *e)).collect();
+    let points: Vec<(f64, f64)> = outcomes
+        .iter()
+        .zip(&errors)
+        .map(|(o, e)| (o.wall_seconds, *e))
+        .collect();
     let front = study::pareto(&points);
     let rows: Vec<Row> = (0..outcomes.len())
         .map(|k| Row {
@@ -472,20 +626,47 @@ pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
         .collect();
     write_csv(p, outcomes, &rows)?;
     let plot_path = p.opts.out.join("study.png");
-    let labels: Vec<(f64, f64, String)> =
-        points.iter().enumerate().map(|(k, q)| (q.0, q.1, format!("{k:03} {}", p.variants[k].settings.iter().map(|s| s.1.as_str()).collect::<Vec<_>>().join(" ")))).collect();
+    let labels: Vec<(f64, f64, String)> = points
+        .iter()
+        .enumerate()
+        .map(|(k, q)| {
+            (
+                q.0,
+                q.1,
+                format!(
+                    "{k:03} {}",
+                    p.variants[k]
+                        .settings
+                        .iter()
+                        .map(|s| s.1.as_str())
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                ),
+            )
+        })
+        .collect();
     let reference_text = match (p.reference, ref_run) {
         (Reference::Analytic(v), _) => format!("{v:e}"),
         (Reference::Finest, Some(k)) => format!("run {k:03}"),
         (Reference::Finest, None) => "none".into(),
     };
     let title = format!("{} against {reference_text}", p.opts.metric);
-    let plotted = cleave::output::plot_pareto(&plot_path, &title, "wall time (s)", "relative error", &labels, &front)?;
+    let plotted = cleave::output::plot_pareto(
+        &plot_path,
+        &title,
+        "wall time (s)",
+        "relative error",
+        &labels,
+        &front,
+    )?;
     if p.opts.json {
         let runs: Vec<_> = (0..outcomes.len())
             .map(|k| {
-                let settings: serde_json::Map<String, serde_json::Value> =
-                    p.variants[k].settings.iter().map(|(a, b)| (a.clone(), json!(b))).collect();
+                let settings: serde_json::Map<String, serde_json::Value> = p.variants[k]
+                    .settings
+                    .iter()
+                    .map(|(a, b)| (a.clone(), json!(b)))
+                    .collect();
                 json!({
                     "run": k, "settings": settings, "status": rows[k].status,
                     "wall_seconds": outcomes[k].wall_seconds, "steps": outcomes[k].steps,
@@ -501,8 +682,17 @@ pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
                    "csv": p.opts.out.join("study.csv"), "plot": plotted.then(|| plot_path.clone())})
         );
     } else {
-        let w = p.variants.iter().map(|v| label(v).len()).max().unwrap_or(8).max(8);
-        println!("{:>3}  {:<w$} {:>10} {:>8} {:>10} {:>14} {:>10}", "run", "settings", "wall (s)", "steps", "particles", "metric", "error");
+        let w = p
+            .variants
+            .iter()
+            .map(|v| label(v).len())
+            .max()
+            .unwrap_or(8)
+            .max(8);
+        println!(
+            "{:>3}  {:<w$} {:>10} {:>8} {:>10} {:>14} {:>10}",
+            "run", "settings", "wall (s)", "steps", "particles", "metric", "error"
+        );
         for (k, (o, r)) in outcomes.iter().zip(&rows).enumerate() {
             let err = if r.reference {
                 "reference".to_string()
@@ -511,7 +701,11 @@ pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
             } else {
                 "-".into()
             };
-            let status = if r.status == "ok" { String::new() } else { format!("  {}", r.status) };
+            let status = if r.status == "ok" {
+                String::new()
+            } else {
+                format!("  {}", r.status)
+            };
             println!(
                 "{k:>3}  {:<w$} {:>10.3} {:>8} {:>10} {:>14.6e} {:>10}{}{status}",
                 label(&p.variants[k]),
@@ -523,9 +717,17 @@ pub fn finish(p: &Prepared, outcomes: &[Outcome]) -> anyhow::Result<ExitCode> {
                 if r.pareto { "  *" } else { "" }
             );
         }
-        eprintln!("(* on the Pareto front) wrote {} and {}", p.opts.out.join("study.csv").display(), plot_path.display());
+        eprintln!(
+            "(* on the Pareto front) wrote {} and {}",
+            p.opts.out.join("study.csv").display(),
+            plot_path.display()
+        );
     }
-    Ok(if metrics.iter().any(|m| m.is_ok()) { ExitCode::SUCCESS } else { ExitCode::from(EXIT_FAILED) })
+    Ok(if metrics.iter().any(|m| m.is_ok()) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FAILED)
+    })
 }
 
 fn finite(v: f64) -> Option<f64> {
@@ -534,11 +736,29 @@ fn finite(v: f64) -> Option<f64> {
 
 fn write_csv(p: &Prepared, outcomes: &[Outcome], rows: &[Row]) -> anyhow::Result<()> {
     let path = p.opts.out.join("study.csv");
-    let mut w = std::io::BufWriter::new(std::fs::File::create(&path).with_context(|| format!("cannot write {}", path.display()))?);
+    let mut w = std::io::BufWriter::new(
+        std::fs::File::create(&path).with_context(|| format!("cannot write {}", path.display()))?,
+    );
     let keys: Vec<&str> = p.axes.iter().map(|a| a.key.as_str()).collect();
-    writeln!(w, "run,{},status,wall_seconds,steps,particles,metric,error,reference,pareto", keys.join(","))?;
-    let csv = |s: &str| if s.contains([',', '"', '\n']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() };
-    let num = |v: f64| if v.is_finite() { format!("{v:?}") } else { String::new() };
+    writeln!(
+        w,
+        "run,{},status,wall_seconds,steps,particles,metric,error,reference,pareto",
+        keys.join(",")
+    )?;
+    let csv = |s: &str| {
+        if s.contains([',', '"', '\n']) {
+            format!("\"{}\"", s.replace('"', "\"\""))
+        } else {
+            s.to_string()
+        }
+    };
+    let num = |v: f64| {
+        if v.is_finite() {
+            format!("{v:?}")
+        } else {
+            String::new()
+        }
+    };
     for (k, (o, r)) in outcomes.iter().zip(rows).enumerate() {
         let settings: Vec<String> = p.variants[k].settings.iter().map(|s| csv(&s.1)).collect();
         writeln!(
@@ -570,7 +790,10 @@ pub fn main_local(opts: Options) -> ExitCode {
 }
 
 /// `cleave study --server URL`.
-pub async fn main_remote(client: &mut Client, opts: Options) -> Result<ExitCode, remote::RemoteError> {
+pub async fn main_remote(
+    client: &mut Client,
+    opts: Options,
+) -> Result<ExitCode, remote::RemoteError> {
     if opts.checkpoint_every.is_some() {
         return Err(remote::RemoteError::new(
             crate::EXIT_INVALID,

@@ -9,7 +9,9 @@ fn cleave() -> Command {
 }
 
 fn scenes() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("scenes")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("scenes")
 }
 
 fn stderr(o: &Output) -> String {
@@ -72,7 +74,11 @@ fn bad_input_exits_2_and_names_the_field() {
         ("velocity table", GOOD.replace("max = [1.0, 1.0]", "max = [1.0, 1.0]\nboundary = { left = { type = \"velocity\", x = { table = [[1.0, 0.0], [0.5, 1.0]] } } }").into_bytes(), "grid.boundary.left.x.table[1]: times must not decrease"),
     ];
     for (name, bytes, expected) in &cases {
-        let path = write(dir.path(), &format!("{}.toml", name.replace(' ', "_")), bytes);
+        let path = write(
+            dir.path(),
+            &format!("{}.toml", name.replace(' ', "_")),
+            bytes,
+        );
         for cmd in ["validate", "run"] {
             let mut c = cleave();
             c.arg(cmd).arg(&path);
@@ -80,25 +86,69 @@ fn bad_input_exits_2_and_names_the_field() {
                 c.arg("--out").arg(dir.path().join("out"));
             }
             let out = c.output().unwrap();
-            assert_eq!(out.status.code(), Some(2), "{name} ({cmd}): exit code {:?}, stderr: {}", out.status.code(), stderr(&out));
-            assert!(stderr(&out).contains(expected), "{name} ({cmd}): expected `{expected}` in: {}", stderr(&out));
+            assert_eq!(
+                out.status.code(),
+                Some(2),
+                "{name} ({cmd}): exit code {:?}, stderr: {}",
+                out.status.code(),
+                stderr(&out)
+            );
+            assert!(
+                stderr(&out).contains(expected),
+                "{name} ({cmd}): expected `{expected}` in: {}",
+                stderr(&out)
+            );
         }
     }
     // JSON scenes get the same treatment.
     let json = write(dir.path(), "bad.json", br#"{"grid": {"cell_size": 0.1, "max": [1, 1]}, "time": {"end": 0.01}, "bodies": [{"shape": {"type": "box", "min": [0.2, 0.2], "max": [0.8, 0.8]}, "material": {"model": "linear_elastic", "density": -1, "youngs_modulus": 1e6, "poissons_ratio": 0.3}}]}"#);
     let out = cleave().arg("validate").arg(&json).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
-    assert!(stderr(&out).contains("bodies[0].material.density: must be > 0, got -1"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("bodies[0].material.density: must be > 0, got -1"),
+        "{}",
+        stderr(&out)
+    );
     let json = write(dir.path(), "broken.json", b"{\"grid\": ");
-    assert_eq!(cleave().arg("validate").arg(&json).output().unwrap().status.code(), Some(2));
+    assert_eq!(
+        cleave()
+            .arg("validate")
+            .arg(&json)
+            .output()
+            .unwrap()
+            .status
+            .code(),
+        Some(2)
+    );
     // A missing file and a bad flag are invalid input too.
-    let out = cleave().arg("validate").arg(dir.path().join("nope.toml")).output().unwrap();
+    let out = cleave()
+        .arg("validate")
+        .arg(dir.path().join("nope.toml"))
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr(&out).contains("cannot read scene file"));
-    assert_eq!(cleave().arg("run").arg("--frobnicate").output().unwrap().status.code(), Some(2));
+    assert_eq!(
+        cleave()
+            .arg("run")
+            .arg("--frobnicate")
+            .output()
+            .unwrap()
+            .status
+            .code(),
+        Some(2)
+    );
     // --json reports the errors as JSON on stdout.
-    let path = write(dir.path(), "json_errors.toml", GOOD.replace("cell_size = 0.1", "cell_size = 0").as_bytes());
-    let out = cleave().args(["validate", "--json"]).arg(&path).output().unwrap();
+    let path = write(
+        dir.path(),
+        "json_errors.toml",
+        GOOD.replace("cell_size = 0.1", "cell_size = 0").as_bytes(),
+    );
+    let out = cleave()
+        .args(["validate", "--json"])
+        .arg(&path)
+        .output()
+        .unwrap();
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     assert_eq!(v["status"], "invalid");
     assert_eq!(v["errors"][0]["path"], "grid.cell_size");
@@ -116,20 +166,42 @@ fn run_writes_results_and_reports_json() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object on stdout");
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("one JSON object on stdout");
     assert_eq!(v["status"], "succeeded");
     assert!(v["steps"].as_u64().unwrap() > 100);
     assert_eq!(v["particles"], 1600);
-    assert_eq!(v["stages"], serde_json::json!(["p2g", "grid_update", "g2p"]));
+    assert_eq!(
+        v["stages"],
+        serde_json::json!(["p2g", "grid_update", "g2p"])
+    );
     assert!(v["wall_seconds"].as_f64().unwrap() > 0.0);
     assert!(v["kinetic_energy"].as_f64().unwrap() > 0.0);
     let csv = std::fs::read_to_string(out_dir.join("series.csv")).unwrap();
     let header = csv.lines().next().unwrap();
-    for col in ["time", "kinetic_energy", "strain_energy", "external_work", "total_mass", "momentum_x", "angular_momentum"] {
-        assert!(header.split(',').any(|c| c == col), "series.csv lacks {col}: {header}");
+    for col in [
+        "time",
+        "kinetic_energy",
+        "strain_energy",
+        "external_work",
+        "total_mass",
+        "momentum_x",
+        "angular_momentum",
+    ] {
+        assert!(
+            header.split(',').any(|c| c == col),
+            "series.csv lacks {col}: {header}"
+        );
     }
     assert_eq!(csv.lines().count(), 1 + 101, "header + 101 rows");
-    for f in ["particles.pvd", "grid.pvd", "energies.png", "particles_0000.vtp", "particles_0005.vtp", "grid_0005.vti"] {
+    for f in [
+        "particles.pvd",
+        "grid.pvd",
+        "energies.png",
+        "particles_0000.vtp",
+        "particles_0005.vtp",
+        "grid_0005.vti",
+    ] {
         assert!(out_dir.join(f).is_file(), "missing {f}");
     }
     let pvd = std::fs::read_to_string(out_dir.join("particles.pvd")).unwrap();
@@ -141,24 +213,53 @@ fn a_failing_simulation_exits_1_with_a_diagnosis() {
     // A fixed time step far beyond the CFL limit.
     let dir = tempfile::tempdir().unwrap();
     // h / c = 0.1 m / 36.7 m/s = 2.7 ms
-    let path = write(dir.path(), "cfl.toml", GOOD.replace("end = 0.01", "end = 0.05\ndt = 5e-3").as_bytes());
-    let out = cleave().arg("run").arg(&path).arg("--out").arg(dir.path().join("o")).output().unwrap();
+    let path = write(
+        dir.path(),
+        "cfl.toml",
+        GOOD.replace("end = 0.01", "end = 0.05\ndt = 5e-3")
+            .as_bytes(),
+    );
+    let out = cleave()
+        .arg("run")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.path().join("o"))
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
-    assert!(stderr(&out).contains("exceeds the CFL stability limit"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("exceeds the CFL stability limit"),
+        "{}",
+        stderr(&out)
+    );
     // A body pushed out of the grid.
     let path = write(
         dir.path(),
         "leave.toml",
-        GOOD.replace("[[bodies]]", "[[bodies]]\nvelocity = [500.0, 0.0]").replace("end = 0.01", "end = 0.01\ncfl = 0.5").as_bytes(),
+        GOOD.replace("[[bodies]]", "[[bodies]]\nvelocity = [500.0, 0.0]")
+            .replace("end = 0.01", "end = 0.01\ncfl = 0.5")
+            .as_bytes(),
     );
-    let out = cleave().args(["run", "--json"]).arg(&path).arg("--out").arg(dir.path().join("o2")).output().unwrap();
+    let out = cleave()
+        .args(["run", "--json"])
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.path().join("o2"))
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     assert!(stderr(&out).contains("left the grid"), "{}", stderr(&out));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["status"], "failed");
     assert!(v["error"].as_str().unwrap().contains("particle"));
     // The rows up to the failure are kept.
-    assert!(std::fs::read_to_string(dir.path().join("o2").join("series.csv")).unwrap().lines().count() >= 2);
+    assert!(
+        std::fs::read_to_string(dir.path().join("o2").join("series.csv"))
+            .unwrap()
+            .lines()
+            .count()
+            >= 2
+    );
 }
 
 fn run_with_threads(scene: &Path, threads: &str, out: &Path) {
@@ -183,21 +284,45 @@ fn outputs_are_byte_identical_for_one_and_two_threads() {
     let p1 = dir.path().join("p1_short.toml");
     std::fs::write(
         &p1,
-        std::fs::read_to_string(scenes().join("p1_plate_coarse.toml")).unwrap().replace("end = 8.0e-5", "end = 1.0e-5"),
+        std::fs::read_to_string(scenes().join("p1_plate_coarse.toml"))
+            .unwrap()
+            .replace("end = 8.0e-5", "end = 1.0e-5"),
     )
     .unwrap();
-    for scene in [scenes().join("sliding_block.toml"), scenes().join("two_disks.toml"), p1] {
+    for scene in [
+        scenes().join("sliding_block.toml"),
+        scenes().join("two_disks.toml"),
+        p1,
+    ] {
         let dir = tempfile::tempdir().unwrap();
         let (a, b) = (dir.path().join("t1"), dir.path().join("t2"));
         run_with_threads(&scene, "1", &a);
         run_with_threads(&scene, "2", &b);
-        let mut names: Vec<_> = std::fs::read_dir(&a).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let mut names: Vec<_> = std::fs::read_dir(&a)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         names.sort();
-        assert!(names.len() >= 5, "{}: too few outputs {names:?}", scene.display());
+        assert!(
+            names.len() >= 5,
+            "{}: too few outputs {names:?}",
+            scene.display()
+        );
         for name in names {
-            let (x, y) = (std::fs::read(a.join(&name)).unwrap(), std::fs::read(b.join(&name)).unwrap());
-            let (x, y) = if name == "series.csv" { (without_timings(&x), without_timings(&y)) } else { (x, y) };
-            assert!(x == y, "{}: {name:?} differs between 1 and 2 threads", scene.display());
+            let (x, y) = (
+                std::fs::read(a.join(&name)).unwrap(),
+                std::fs::read(b.join(&name)).unwrap(),
+            );
+            let (x, y) = if name == "series.csv" {
+                (without_timings(&x), without_timings(&y))
+            } else {
+                (x, y)
+            };
+            assert!(
+                x == y,
+                "{}: {name:?} differs between 1 and 2 threads",
+                scene.display()
+            );
         }
     }
 }
@@ -208,9 +333,23 @@ fn without_timings(csv: &[u8]) -> Vec<u8> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let keep: Vec<bool> = header.iter().map(|c| !c.ends_with("_s")).collect();
-    assert!(keep.iter().any(|k| !k) || !header.iter().any(|c| c.starts_with("pf_")), "no timing columns in {header:?}");
-    let pick = |line: &str| line.split(',').zip(&keep).filter(|(_, k)| **k).map(|(v, _)| v).collect::<Vec<_>>().join(",");
-    std::iter::once(pick(&header.join(","))).chain(lines.map(pick)).collect::<Vec<_>>().join("\n").into_bytes()
+    assert!(
+        keep.iter().any(|k| !k) || !header.iter().any(|c| c.starts_with("pf_")),
+        "no timing columns in {header:?}"
+    );
+    let pick = |line: &str| {
+        line.split(',')
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(v, _)| v)
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    std::iter::once(pick(&header.join(",")))
+        .chain(lines.map(pick))
+        .collect::<Vec<_>>()
+        .join("\n")
+        .into_bytes()
 }
 
 /// `cleave gc-polar` reproduces the paper's Gc_min / Gc_max pairs (seed 001,
@@ -226,30 +365,60 @@ fn gc_polar_reproduces_the_published_extremes() {
     ] {
         let png = dir.path().join("polar.png");
         let o = cleave()
-            .args(["gc-polar", "--gamma", gamma, "--gc-bar", gc_bar, "--angle-step", "0.25", "--json", "--out"])
+            .args([
+                "gc-polar",
+                "--gamma",
+                gamma,
+                "--gc-bar",
+                gc_bar,
+                "--angle-step",
+                "0.25",
+                "--json",
+                "--out",
+            ])
             .arg(&png)
             .output()
             .unwrap();
         assert!(o.status.success(), "{}", stderr(&o));
         let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         let (lo, hi) = (v["gc_min"].as_f64().unwrap(), v["gc_max"].as_f64().unwrap());
-        assert!((lo / min - 1.0).abs() < 0.01, "{gamma}: Gc_min {lo} vs {min}");
-        assert!((hi / max - 1.0).abs() < 0.01, "{gamma}: Gc_max {hi} vs {max}");
+        assert!(
+            (lo / min - 1.0).abs() < 0.01,
+            "{gamma}: Gc_min {lo} vs {min}"
+        );
+        assert!(
+            (hi / max - 1.0).abs() < 0.01,
+            "{gamma}: Gc_max {hi} vs {max}"
+        );
         assert!(png.is_file());
     }
     // 4th-order isotropic: Gc = √2 Ḡc in every direction
-    let o = cleave().args(["gc-polar", "--gamma", "1,1,0,2", "--gc-bar", "1", "--json", "--out"]).arg(dir.path().join("i.png")).output().unwrap();
+    let o = cleave()
+        .args([
+            "gc-polar", "--gamma", "1,1,0,2", "--gc-bar", "1", "--json", "--out",
+        ])
+        .arg(dir.path().join("i.png"))
+        .output()
+        .unwrap();
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     for row in v["table"].as_array().unwrap() {
         assert!((row["gc"].as_f64().unwrap() - 2f64.sqrt()).abs() < 1e-9);
     }
     // bad input
     for args in [["--gamma", "1,2,3"], ["--gamma", "1,1,-5,0"]] {
-        let o = cleave().arg("gc-polar").args(args).args(["--gc-bar", "1"]).output().unwrap();
+        let o = cleave()
+            .arg("gc-polar")
+            .args(args)
+            .args(["--gc-bar", "1"])
+            .output()
+            .unwrap();
         assert_eq!(o.status.code(), Some(2));
         assert!(stderr(&o).contains("--gamma"), "{}", stderr(&o));
     }
-    let o = cleave().args(["gc-polar", "--gamma", "1,1,0,2", "--gc-bar", "-1"]).output().unwrap();
+    let o = cleave()
+        .args(["gc-polar", "--gamma", "1,1,0,2", "--gc-bar", "-1"])
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(2));
 }
 
@@ -269,8 +438,22 @@ fn study_runs_every_combination_and_marks_the_front() {
     let path = write(dir.path(), "bar.toml", scene.as_bytes());
     let out = dir.path().join("study");
     let o = cleave()
-        .args(["study", path.to_str().unwrap(), "--vary", "time.cfl=0.2,0.5", "--vary", "transfer.scheme=pic,flip"])
-        .args(["--metric", "final:momentum_x", "--reference", "analytic:0.2", "--out", out.to_str().unwrap()])
+        .args([
+            "study",
+            path.to_str().unwrap(),
+            "--vary",
+            "time.cfl=0.2,0.5",
+            "--vary",
+            "transfer.scheme=pic,flip",
+        ])
+        .args([
+            "--metric",
+            "final:momentum_x",
+            "--reference",
+            "analytic:0.2",
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
@@ -283,8 +466,12 @@ fn study_runs_every_combination_and_marks_the_front() {
         let f: Vec<&str> = line.split(',').collect();
         assert_eq!(f[0], k.to_string());
         assert_eq!(f[3], "ok", "{line}");
-        let (wall, steps, metric, error): (f64, u64, f64, f64) =
-            (f[4].parse().unwrap(), f[5].parse().unwrap(), f[7].parse().unwrap(), f[8].parse().unwrap());
+        let (wall, steps, metric, error): (f64, u64, f64, f64) = (
+            f[4].parse().unwrap(),
+            f[5].parse().unwrap(),
+            f[7].parse().unwrap(),
+            f[8].parse().unwrap(),
+        );
         assert!(wall > 0.0 && steps > 0);
         // the wave carries the momentum the analytic value says, within 10 %
         assert!((metric / 0.2 - 1.0).abs() < 0.1, "{line}");
@@ -293,14 +480,27 @@ fn study_runs_every_combination_and_marks_the_front() {
     }
     assert!(front >= 1, "{csv}");
     // the smaller CFL factor takes more steps
-    let steps = |k: usize| lines[1 + k].split(',').nth(5).unwrap().parse::<u64>().unwrap();
+    let steps = |k: usize| {
+        lines[1 + k]
+            .split(',')
+            .nth(5)
+            .unwrap()
+            .parse::<u64>()
+            .unwrap()
+    };
     assert!(steps(0) > steps(2), "{csv}");
     assert!(out.join("study.png").exists());
     let variant = out.join("runs").join("003").join("scene.json");
     let text = std::fs::read_to_string(&variant).unwrap();
-    assert!(text.contains("\"cfl\": 0.5") && text.contains("\"scheme\": \"flip\""), "{text}");
+    assert!(
+        text.contains("\"cfl\": 0.5") && text.contains("\"scheme\": \"flip\""),
+        "{text}"
+    );
     assert!(out.join("runs").join("003").join("series.csv").exists());
-    let o = cleave().args(["validate", variant.to_str().unwrap()]).output().unwrap();
+    let o = cleave()
+        .args(["validate", variant.to_str().unwrap()])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
@@ -312,26 +512,58 @@ fn study_rejects_bad_settings_before_running() {
     let path = write(dir.path(), "good.toml", GOOD.as_bytes());
     let out = dir.path().join("study");
     let o = cleave()
-        .args(["study", path.to_str().unwrap(), "--vary", "grid.cell_size=0.1,-0.2", "--out", out.to_str().unwrap()])
+        .args([
+            "study",
+            path.to_str().unwrap(),
+            "--vary",
+            "grid.cell_size=0.1,-0.2",
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
-    assert!(e.contains("grid.cell_size: must be > 0") && e.contains("with grid.cell_size=-0.2"), "{e}");
+    assert!(
+        e.contains("grid.cell_size: must be > 0") && e.contains("with grid.cell_size=-0.2"),
+        "{e}"
+    );
     assert!(!out.join("study.csv").exists());
     let o = cleave()
-        .args(["study", path.to_str().unwrap(), "--vary", "time.cfl=0.2", "--metric", "max:crack_speed"])
+        .args([
+            "study",
+            path.to_str().unwrap(),
+            "--vary",
+            "time.cfl=0.2",
+            "--metric",
+            "max:crack_speed",
+        ])
         .args(["--out", out.to_str().unwrap()])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("no column \"crack_speed\""), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("no column \"crack_speed\""),
+        "{}",
+        stderr(&o)
+    );
     let o = cleave()
-        .args(["study", path.to_str().unwrap(), "--vary", "bodies[2].particles_per_cell=4", "--out", out.to_str().unwrap()])
+        .args([
+            "study",
+            path.to_str().unwrap(),
+            "--vary",
+            "bodies[2].particles_per_cell=4",
+            "--out",
+            out.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("bodies[2].particles_per_cell: index 2 out of range"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("bodies[2].particles_per_cell: index 2 out of range"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// A study outlives its process: killed while its second run is under way
@@ -361,54 +593,116 @@ series_rows = 200
     let out = dir.path().join("study");
     let args = |extra: &[&str]| {
         let mut c = cleave();
-        c.args(["study", path.to_str().unwrap(), "--vary", "time.end=0.002,0.06", "--metric", "kinetic_energy"])
-            .args(["--out", out.to_str().unwrap()])
-            .args(extra);
+        c.args([
+            "study",
+            path.to_str().unwrap(),
+            "--vary",
+            "time.end=0.002,0.06",
+            "--metric",
+            "kinetic_energy",
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .args(extra);
         c
     };
-    let mut child = args(&["--checkpoint-every", "0.1"]).stderr(std::process::Stdio::null()).spawn().unwrap();
+    let mut child = args(&["--checkpoint-every", "0.1"])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
     let run1 = out.join("runs").join("001");
     let t0 = std::time::Instant::now();
     while !run1.join("checkpoint.bin").exists() {
-        assert!(child.try_wait().unwrap().is_none(), "the study ended before its second run's first checkpoint: make it longer");
-        assert!(t0.elapsed() < std::time::Duration::from_secs(120), "no checkpoint");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the study ended before its second run's first checkpoint: make it longer"
+        );
+        assert!(
+            t0.elapsed() < std::time::Duration::from_secs(120),
+            "no checkpoint"
+        );
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     child.kill().unwrap(); // SIGKILL: no chance to tidy up
     child.wait().unwrap();
-    assert!(!run1.join("outcome.json").exists(), "the second run finished before the kill: make it longer");
+    assert!(
+        !run1.join("outcome.json").exists(),
+        "the second run finished before the kill: make it longer"
+    );
     let kept = std::fs::read_to_string(out.join("runs").join("000").join("outcome.json")).unwrap();
 
     // not resumed: refused, nothing touched
     let o = args(&[]).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("holds the runs of an earlier study: --resume"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("holds the runs of an earlier study: --resume"),
+        "{}",
+        stderr(&o)
+    );
     // other settings: refused
     let o = cleave()
-        .args(["study", path.to_str().unwrap(), "--vary", "time.end=0.002,0.05", "--metric", "kinetic_energy", "--resume"])
+        .args([
+            "study",
+            path.to_str().unwrap(),
+            "--vary",
+            "time.end=0.002,0.05",
+            "--metric",
+            "kinetic_energy",
+            "--resume",
+        ])
         .args(["--out", out.to_str().unwrap()])
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("is not this study's run 1 (time.end=0.05)"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("is not this study's run 1 (time.end=0.05)"),
+        "{}",
+        stderr(&o)
+    );
     assert!(run1.join("checkpoint.bin").exists());
 
     let o = args(&["--resume"]).output().unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let e = stderr(&o);
-    assert!(e.contains("finished by the earlier study, kept") && e.contains("from its checkpoint at step"), "{e}");
-    assert_eq!(std::fs::read_to_string(out.join("runs").join("000").join("outcome.json")).unwrap(), kept);
-    assert!(!run1.join("checkpoint.bin").exists(), "the checkpoint outlived the finished run");
+    assert!(
+        e.contains("finished by the earlier study, kept")
+            && e.contains("from its checkpoint at step"),
+        "{e}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("runs").join("000").join("outcome.json")).unwrap(),
+        kept
+    );
+    assert!(
+        !run1.join("checkpoint.bin").exists(),
+        "the checkpoint outlived the finished run"
+    );
     let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
     assert_eq!(csv.lines().count(), 3, "{csv}");
-    assert!(csv.lines().skip(1).all(|l| l.split(',').nth(2) == Some("ok")), "{csv}");
+    assert!(
+        csv.lines()
+            .skip(1)
+            .all(|l| l.split(',').nth(2) == Some("ok")),
+        "{csv}"
+    );
 
     // the resumed run's series is the straight run's
     let alone = dir.path().join("alone");
-    let o = cleave().args(["run", "--quiet"]).arg(run1.join("scene.json")).arg("--out").arg(&alone).output().unwrap();
+    let o = cleave()
+        .args(["run", "--quiet"])
+        .arg(run1.join("scene.json"))
+        .arg("--out")
+        .arg(&alone)
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
-    let (a, b) = (std::fs::read(run1.join("series.csv")).unwrap(), std::fs::read(alone.join("series.csv")).unwrap());
-    assert!(a == b, "the resumed run's series differs from the straight run's");
+    let (a, b) = (
+        std::fs::read(run1.join("series.csv")).unwrap(),
+        std::fs::read(alone.join("series.csv")).unwrap(),
+    );
+    assert!(
+        a == b,
+        "the resumed run's series differs from the straight run's"
+    );
 }
 
 /// `cleave metric` measures a series as `cleave study` does: the value
@@ -418,16 +712,45 @@ series_rows = 200
 #[test]
 fn metric_measures_a_series_as_a_study_does() {
     let dir = tempfile::tempdir().unwrap();
-    let path = write(dir.path(), "good.toml", GOOD.replace("[[bodies]]", "[[bodies]]\nvelocity = [1.0, 0.0]").as_bytes());
+    let path = write(
+        dir.path(),
+        "good.toml",
+        GOOD.replace("[[bodies]]", "[[bodies]]\nvelocity = [1.0, 0.0]")
+            .as_bytes(),
+    );
     let out = dir.path().join("out");
-    let o = cleave().args(["run", "--quiet", path.to_str().unwrap(), "--out", out.to_str().unwrap()]).output().unwrap();
+    let o = cleave()
+        .args([
+            "run",
+            "--quiet",
+            path.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     let series = out.join("series.csv");
     let text = std::fs::read_to_string(&series).unwrap();
-    let last: f64 = text.lines().last().unwrap().split(',').nth(2).unwrap().parse().unwrap();
+    let last: f64 = text
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .nth(2)
+        .unwrap()
+        .parse()
+        .unwrap();
     assert!(last > 0.0);
     let o = cleave()
-        .args(["metric", series.to_str().unwrap(), "--metric", "final:kinetic_energy", "--metric", "max:kinetic_energy"])
+        .args([
+            "metric",
+            series.to_str().unwrap(),
+            "--metric",
+            "final:kinetic_energy",
+            "--metric",
+            "max:kinetic_energy",
+        ])
         .args(["--reference", &format!("analytic:{}", 2.0 * last), "--json"])
         .output()
         .unwrap();
@@ -435,18 +758,36 @@ fn metric_measures_a_series_as_a_study_does() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let m = v["metrics"].as_array().unwrap();
     assert_eq!(m[0]["value"].as_f64(), Some(last));
-    assert!((m[0]["difference"].as_f64().unwrap() + 0.5).abs() < 1e-12, "{v}");
+    assert!(
+        (m[0]["difference"].as_f64().unwrap() + 0.5).abs() < 1e-12,
+        "{v}"
+    );
     assert!(m[1]["value"].as_f64().unwrap() >= last);
     // no crack column in this series: exit 1, and says why
-    let o = cleave().args(["metric", series.to_str().unwrap(), "--metric", "propagation_energy"]).output().unwrap();
+    let o = cleave()
+        .args([
+            "metric",
+            series.to_str().unwrap(),
+            "--metric",
+            "propagation_energy",
+        ])
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("propagation_energy"), "{}", stderr(&o));
     // the same series with a crack that starts at row 2 and is through at
     // row 4: the window names those rows
     let cracked = dir.path().join("cracked.csv");
     let mut lines = text.lines();
-    let mut csv = format!("{},fracture_energy_b0,crack_length\n", lines.next().unwrap());
-    let times: Vec<f64> = text.lines().skip(1).map(|l| l.split(',').nth(1).unwrap().parse().unwrap()).collect();
+    let mut csv = format!(
+        "{},fracture_energy_b0,crack_length\n",
+        lines.next().unwrap()
+    );
+    let times: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
     assert!(times.len() > 5);
     for (i, l) in lines.enumerate() {
         let length = [0.0, 0.0, 0.05, 0.5, 1.0].get(i).copied().unwrap_or(1.0);
@@ -454,7 +795,13 @@ fn metric_measures_a_series_as_a_study_does() {
     }
     std::fs::write(&cracked, csv).unwrap();
     let o = cleave()
-        .args(["metric", cracked.to_str().unwrap(), "--metric", "propagation_energy:fracture_energy_b0", "--json"])
+        .args([
+            "metric",
+            cracked.to_str().unwrap(),
+            "--metric",
+            "propagation_energy:fracture_energy_b0",
+            "--json",
+        ])
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
@@ -464,7 +811,14 @@ fn metric_measures_a_series_as_a_study_does() {
     assert_eq!(m["window"]["from"]["time"].as_f64(), Some(times[2]), "{v}");
     assert_eq!(m["window"]["to"]["time"].as_f64(), Some(times[4]), "{v}");
     assert_eq!(m["window"]["to"]["length"].as_f64(), Some(1.0), "{v}");
-    let o = cleave().args(["metric", series.to_str().unwrap(), "--metric", "bogus:x"]).output().unwrap();
+    let o = cleave()
+        .args(["metric", series.to_str().unwrap(), "--metric", "bogus:x"])
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(stderr(&o).contains("unknown kind \"bogus\""), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("unknown kind \"bogus\""),
+        "{}",
+        stderr(&o)
+    );
 }

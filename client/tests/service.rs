@@ -15,12 +15,18 @@ fn cleave_bin() -> PathBuf {
 /// The server binary is built beside the client by `cargo test --workspace`.
 fn server_bin() -> PathBuf {
     let p = cleave_bin().with_file_name(format!("cleave-server{}", std::env::consts::EXE_SUFFIX));
-    assert!(p.exists(), "{} is missing: run the tests with `cargo test --release --workspace`", p.display());
+    assert!(
+        p.exists(),
+        "{} is missing: run the tests with `cargo test --release --workspace`",
+        p.display()
+    );
     p
 }
 
 fn scenes() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("scenes")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join("scenes")
 }
 
 struct Server {
@@ -43,17 +49,35 @@ impl Server {
             .expect("start cleave-server");
         let mut line = String::new();
         let stdout = child.stdout.take().expect("server stdout");
-        BufReader::new(stdout).read_line(&mut line).expect("read the listening line");
-        let addr = line.trim().strip_prefix("listening on ").unwrap_or_else(|| panic!("unexpected server output {line:?}")).to_string();
-        Server { child, url: format!("http://{addr}"), data: data.to_path_buf() }
+        BufReader::new(stdout)
+            .read_line(&mut line)
+            .expect("read the listening line");
+        let addr = line
+            .trim()
+            .strip_prefix("listening on ")
+            .unwrap_or_else(|| panic!("unexpected server output {line:?}"))
+            .to_string();
+        Server {
+            child,
+            url: format!("http://{addr}"),
+            data: data.to_path_buf(),
+        }
     }
 
     fn cli(&self, args: &[&str]) -> Output {
-        Command::new(cleave_bin()).arg("--server").arg(&self.url).args(args).output().expect("run cleave")
+        Command::new(cleave_bin())
+            .arg("--server")
+            .arg(&self.url)
+            .args(args)
+            .output()
+            .expect("run cleave")
     }
 
     async fn client(&self) -> CleaveClient<tonic::transport::Channel> {
-        CleaveClient::connect(self.url.clone()).await.expect("connect").max_decoding_message_size(usize::MAX)
+        CleaveClient::connect(self.url.clone())
+            .await
+            .expect("connect")
+            .max_decoding_message_size(usize::MAX)
     }
 
     fn kill(&mut self) {
@@ -97,32 +121,71 @@ snapshots = 1000
 }
 
 fn same_files(a: &Path, b: &Path) {
-    let mut names: Vec<_> = std::fs::read_dir(a).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let mut names: Vec<_> = std::fs::read_dir(a)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     names.sort();
     assert!(names.len() >= 5, "too few files in {}", a.display());
     for n in names {
-        let (x, y) = (std::fs::read(a.join(&n)).unwrap(), std::fs::read(b.join(&n)).unwrap_or_default());
-        assert!(x == y, "{n:?} differs between {} and {}", a.display(), b.display());
+        let (x, y) = (
+            std::fs::read(a.join(&n)).unwrap(),
+            std::fs::read(b.join(&n)).unwrap_or_default(),
+        );
+        assert!(
+            x == y,
+            "{n:?} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
     }
 }
 
-async fn wait_state(client: &mut CleaveClient<tonic::transport::Channel>, id: &str, want: proto::JobState, within: Duration) -> proto::Job {
+async fn wait_state(
+    client: &mut CleaveClient<tonic::transport::Channel>,
+    id: &str,
+    want: proto::JobState,
+    within: Duration,
+) -> proto::Job {
     let t0 = Instant::now();
     loop {
-        let j = client.get_job(proto::GetJobRequest { job_id: id.into() }).await.unwrap().into_inner();
+        let j = client
+            .get_job(proto::GetJobRequest { job_id: id.into() })
+            .await
+            .unwrap()
+            .into_inner();
         if j.state == want as i32 {
             return j;
         }
-        assert!(t0.elapsed() < within, "{id} is {:?}, not {want:?}, after {within:?}", proto::JobState::try_from(j.state));
+        assert!(
+            t0.elapsed() < within,
+            "{id} is {:?}, not {want:?}, after {within:?}",
+            proto::JobState::try_from(j.state)
+        );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
 }
 
-async fn wait_running_with_snapshot(client: &mut CleaveClient<tonic::transport::Channel>, id: &str) {
-    wait_state(client, id, proto::JobState::Running, Duration::from_secs(30)).await;
+async fn wait_running_with_snapshot(
+    client: &mut CleaveClient<tonic::transport::Channel>,
+    id: &str,
+) {
+    wait_state(
+        client,
+        id,
+        proto::JobState::Running,
+        Duration::from_secs(30),
+    )
+    .await;
     let t0 = Instant::now();
     loop {
-        let n = client.list_snapshots(proto::ListSnapshotsRequest { job_id: id.into() }).await.unwrap().into_inner().snapshots.len();
+        let n = client
+            .list_snapshots(proto::ListSnapshotsRequest { job_id: id.into() })
+            .await
+            .unwrap()
+            .into_inner()
+            .snapshots
+            .len();
         if n >= 2 {
             return;
         }
@@ -137,7 +200,13 @@ fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
     let server = Server::start(&dir.path().join("data"), &[]);
     let scene = scenes().join("sliding_block.toml");
     let local = dir.path().join("local");
-    let o = Command::new(cleave_bin()).args(["run", "--quiet"]).arg(&scene).arg("--out").arg(&local).output().unwrap();
+    let o = Command::new(cleave_bin())
+        .args(["run", "--quiet"])
+        .arg(&scene)
+        .arg("--out")
+        .arg(&local)
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
     // submit, watch to completion, fetch
     let o = server.cli(&["submit", scene.to_str().unwrap()]);
@@ -146,7 +215,10 @@ fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
     assert!(id.starts_with("job-"), "{id}");
     let o = server.cli(&["watch", &id, "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    let events: Vec<serde_json::Value> = stdout(&o).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let events: Vec<serde_json::Value> = stdout(&o)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
     assert_eq!(events.first().unwrap()["state"], "QUEUED");
     assert_eq!(events.last().unwrap()["state"], "SUCCEEDED");
     assert!(events.iter().any(|e| e["type"] == "progress"));
@@ -160,18 +232,30 @@ fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
     same_files(&local, &remote);
     // `run --server` does all three and gives the same files too
     let remote2 = dir.path().join("remote2");
-    let o = server.cli(&["run", scene.to_str().unwrap(), "--out", remote2.to_str().unwrap(), "--json"]);
+    let o = server.cli(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        remote2.to_str().unwrap(),
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
     assert_eq!(v["status"], "succeeded");
-    assert_eq!(v["stages"], serde_json::json!(["field_partition", "p2g", "grid_update", "contact", "g2p"]));
+    assert_eq!(
+        v["stages"],
+        serde_json::json!(["field_partition", "p2g", "grid_update", "contact", "g2p"])
+    );
     same_files(&local, &remote2);
     // list and get
     let o = server.cli(&["list", "--json"]);
     let list: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
     assert_eq!(list.as_array().unwrap().len(), 2);
     let o = server.cli(&["list", "--state", "failed", "--json"]);
-    assert_eq!(serde_json::from_str::<serde_json::Value>(stdout(&o).trim()).unwrap(), serde_json::json!([]));
+    assert_eq!(
+        serde_json::from_str::<serde_json::Value>(stdout(&o).trim()).unwrap(),
+        serde_json::json!([])
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -179,25 +263,65 @@ async fn errors_have_the_right_status_codes() {
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start(&dir.path().join("data"), &[]);
     let mut c = server.client().await;
-    let bad = std::fs::read_to_string(scenes().join("wave_bar.toml")).unwrap().replace("youngs_modulus = 2.0e11", "youngs_modulus = -3");
-    let e = c.submit_job(proto::SubmitJobRequest { scene: bad.clone(), ..Default::default() }).await.unwrap_err();
+    let bad = std::fs::read_to_string(scenes().join("wave_bar.toml"))
+        .unwrap()
+        .replace("youngs_modulus = 2.0e11", "youngs_modulus = -3");
+    let e = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: bad.clone(),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
     assert_eq!(e.code(), tonic::Code::InvalidArgument);
-    assert!(e.message().contains("materials.steel.youngs_modulus: must be > 0, got -3"), "{}", e.message());
-    let v = c.validate_scene(proto::ValidateSceneRequest { scene: bad, ..Default::default() }).await.unwrap().into_inner();
+    assert!(
+        e.message()
+            .contains("materials.steel.youngs_modulus: must be > 0, got -3"),
+        "{}",
+        e.message()
+    );
+    let v = c
+        .validate_scene(proto::ValidateSceneRequest {
+            scene: bad,
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
     assert!(!v.valid);
     assert_eq!(v.errors[0].path, "materials.steel.youngs_modulus");
-    let e = c.get_job(proto::GetJobRequest { job_id: "job-424242".into() }).await.unwrap_err();
+    let e = c
+        .get_job(proto::GetJobRequest {
+            job_id: "job-424242".into(),
+        })
+        .await
+        .unwrap_err();
     assert_eq!(e.code(), tonic::Code::NotFound);
-    let e = c.watch_job(proto::WatchJobRequest { job_id: "nope".into() }).await.unwrap_err();
+    let e = c
+        .watch_job(proto::WatchJobRequest {
+            job_id: "nope".into(),
+        })
+        .await
+        .unwrap_err();
     assert_eq!(e.code(), tonic::Code::NotFound);
-    let e = c.fetch_fields(proto::FetchFieldsRequest { job_id: "nope".into(), ..Default::default() }).await.unwrap_err();
+    let e = c
+        .fetch_fields(proto::FetchFieldsRequest {
+            job_id: "nope".into(),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
     assert_eq!(e.code(), tonic::Code::NotFound);
     // the CLI maps them to exit codes
     let path = dir.path().join("bad.toml");
     std::fs::write(&path, "[grid]\ncell_size = -1\nmax = [1, 1]\n[time]\nend = 1\n[[bodies]]\nshape = { type = \"disk\", center = [0.5, 0.5], radius = 0.1 }\nmaterial = { model = \"linear_elastic\", density = 1.0, youngs_modulus = 1.0, poissons_ratio = 0.0 }\n").unwrap();
     let o = server.cli(&["submit", path.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(stderr(&o).contains("grid.cell_size: must be > 0"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("grid.cell_size: must be > 0"),
+        "{}",
+        stderr(&o)
+    );
     let o = server.cli(&["get", "job-424242"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("not found"));
@@ -208,34 +332,71 @@ async fn token_is_required_except_for_health() {
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start(&dir.path().join("data"), &["--token", "s3cret"]);
     let mut c = server.client().await;
-    let e = c.list_jobs(proto::ListJobsRequest::default()).await.unwrap_err();
+    let e = c
+        .list_jobs(proto::ListJobsRequest::default())
+        .await
+        .unwrap_err();
     assert_eq!(e.code(), tonic::Code::Unauthenticated);
     let mut req = tonic::Request::new(proto::ListJobsRequest::default());
-    req.metadata_mut().insert("authorization", "Bearer wrong".parse().unwrap());
-    assert_eq!(c.list_jobs(req).await.unwrap_err().code(), tonic::Code::Unauthenticated);
+    req.metadata_mut()
+        .insert("authorization", "Bearer wrong".parse().unwrap());
+    assert_eq!(
+        c.list_jobs(req).await.unwrap_err().code(),
+        tonic::Code::Unauthenticated
+    );
     let mut req = tonic::Request::new(proto::ListJobsRequest::default());
-    req.metadata_mut().insert("authorization", "Bearer s3cret".parse().unwrap());
+    req.metadata_mut()
+        .insert("authorization", "Bearer s3cret".parse().unwrap());
     assert!(c.list_jobs(req).await.is_ok());
     // health needs no token and says SERVING
-    let channel = tonic::transport::Channel::from_shared(server.url.clone()).unwrap().connect().await.unwrap();
+    let channel = tonic::transport::Channel::from_shared(server.url.clone())
+        .unwrap()
+        .connect()
+        .await
+        .unwrap();
     let mut health = tonic_health::pb::health_client::HealthClient::new(channel);
     let r = health
-        .check(tonic_health::pb::HealthCheckRequest { service: "cleave.v1.Cleave".into() })
+        .check(tonic_health::pb::HealthCheckRequest {
+            service: "cleave.v1.Cleave".into(),
+        })
         .await
         .unwrap()
         .into_inner();
-    assert_eq!(r.status, tonic_health::pb::health_check_response::ServingStatus::Serving as i32);
+    assert_eq!(
+        r.status,
+        tonic_health::pb::health_check_response::ServingStatus::Serving as i32
+    );
     // reflection (what grpcurl uses) lists every service, with the token
-    use tonic_reflection::pb::v1::{server_reflection_client::ServerReflectionClient, server_reflection_request::MessageRequest, server_reflection_response::MessageResponse, ServerReflectionRequest};
-    let channel = tonic::transport::Channel::from_shared(server.url.clone()).unwrap().connect().await.unwrap();
+    use tonic_reflection::pb::v1::{
+        server_reflection_client::ServerReflectionClient,
+        server_reflection_request::MessageRequest, server_reflection_response::MessageResponse,
+        ServerReflectionRequest,
+    };
+    let channel = tonic::transport::Channel::from_shared(server.url.clone())
+        .unwrap()
+        .connect()
+        .await
+        .unwrap();
     let token: tonic::metadata::MetadataValue<_> = "Bearer s3cret".parse().unwrap();
-    let mut refl = ServerReflectionClient::with_interceptor(channel, move |mut r: tonic::Request<()>| {
-        r.metadata_mut().insert("authorization", token.clone());
-        Ok(r)
-    });
-    let ask = ServerReflectionRequest { host: String::new(), message_request: Some(MessageRequest::ListServices(String::new())) };
-    let mut answers = refl.server_reflection_info(tokio_stream::iter(vec![ask])).await.unwrap().into_inner();
-    let Some(MessageResponse::ListServicesResponse(list)) = answers.message().await.unwrap().unwrap().message_response else { panic!("no service list") };
+    let mut refl =
+        ServerReflectionClient::with_interceptor(channel, move |mut r: tonic::Request<()>| {
+            r.metadata_mut().insert("authorization", token.clone());
+            Ok(r)
+        });
+    let ask = ServerReflectionRequest {
+        host: String::new(),
+        message_request: Some(MessageRequest::ListServices(String::new())),
+    };
+    let mut answers = refl
+        .server_reflection_info(tokio_stream::iter(vec![ask]))
+        .await
+        .unwrap()
+        .into_inner();
+    let Some(MessageResponse::ListServicesResponse(list)) =
+        answers.message().await.unwrap().unwrap().message_response
+    else {
+        panic!("no service list")
+    };
     let names: Vec<_> = list.service.iter().map(|s| s.name.as_str()).collect();
     for want in ["cleave.v1.Cleave", "grpc.health.v1.Health"] {
         assert!(names.contains(&want), "reflection lists {names:?}");
@@ -244,10 +405,19 @@ async fn token_is_required_except_for_health() {
     let o = server.cli(&["list"]);
     assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
     assert!(stderr(&o).contains("unauthenticated"));
-    assert_eq!(server.cli(&["--token", "wrong", "list"]).status.code(), Some(3));
-    assert_eq!(server.cli(&["--token", "s3cret", "list"]).status.code(), Some(0));
+    assert_eq!(
+        server.cli(&["--token", "wrong", "list"]).status.code(),
+        Some(3)
+    );
+    assert_eq!(
+        server.cli(&["--token", "s3cret", "list"]).status.code(),
+        Some(0)
+    );
     // an unreachable server is exit 3 too
-    let o = Command::new(cleave_bin()).args(["--server", "http://127.0.0.1:9", "list"]).output().unwrap();
+    let o = Command::new(cleave_bin())
+        .args(["--server", "http://127.0.0.1:9", "list"])
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(3));
 }
 
@@ -256,25 +426,83 @@ async fn cancel_takes_effect_within_a_second_and_writes_nothing_more() {
     let dir = tempfile::tempdir().unwrap();
     let server = Server::start(&dir.path().join("data"), &[]);
     let mut c = server.client().await;
-    let job = c.submit_job(proto::SubmitJobRequest { scene: slow_scene(), ..Default::default() }).await.unwrap().into_inner();
+    let job = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: slow_scene(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
     wait_running_with_snapshot(&mut c, &job.id).await;
     let t0 = Instant::now();
-    c.cancel_job(proto::CancelJobRequest { job_id: job.id.clone() }).await.unwrap();
-    let done = wait_state(&mut c, &job.id, proto::JobState::Cancelled, Duration::from_secs(1)).await;
+    c.cancel_job(proto::CancelJobRequest {
+        job_id: job.id.clone(),
+    })
+    .await
+    .unwrap();
+    let done = wait_state(
+        &mut c,
+        &job.id,
+        proto::JobState::Cancelled,
+        Duration::from_secs(1),
+    )
+    .await;
     assert!(t0.elapsed() < Duration::from_secs(1));
     assert!(done.error.contains("cancelled"));
     let jobdir = server.data.join("jobs").join(&job.id);
-    let count = || std::fs::read_dir(&jobdir).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with("snapshot_")).count();
+    let count = || {
+        std::fs::read_dir(&jobdir)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .starts_with("snapshot_")
+            })
+            .count()
+    };
     let n = count();
     tokio::time::sleep(Duration::from_millis(500)).await;
     assert_eq!(count(), n, "snapshots written after cancellation");
     // a queued job is cancelled at once
-    let a = c.submit_job(proto::SubmitJobRequest { scene: slow_scene(), ..Default::default() }).await.unwrap().into_inner();
-    let b = c.submit_job(proto::SubmitJobRequest { scene: slow_scene(), ..Default::default() }).await.unwrap().into_inner();
-    let b = c.cancel_job(proto::CancelJobRequest { job_id: b.id.clone() }).await.unwrap().into_inner();
+    let a = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: slow_scene(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    let b = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: slow_scene(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    let b = c
+        .cancel_job(proto::CancelJobRequest {
+            job_id: b.id.clone(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
     assert_eq!(b.state, proto::JobState::Cancelled as i32);
-    c.cancel_job(proto::CancelJobRequest { job_id: a.id.clone() }).await.unwrap();
-    wait_state(&mut c, &a.id, proto::JobState::Cancelled, Duration::from_secs(5)).await;
+    c.cancel_job(proto::CancelJobRequest {
+        job_id: a.id.clone(),
+    })
+    .await
+    .unwrap();
+    wait_state(
+        &mut c,
+        &a.id,
+        proto::JobState::Cancelled,
+        Duration::from_secs(5),
+    )
+    .await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -287,20 +515,45 @@ async fn a_killed_server_keeps_finished_jobs_and_fails_the_interrupted_one() {
     assert!(o.status.success(), "{}", stderr(&o));
     let done = stdout(&o).lines().next().unwrap().trim().to_string();
     let before = dir.path().join("before");
-    assert!(server.cli(&["fetch", &done, "--out", before.to_str().unwrap()]).status.success());
+    assert!(server
+        .cli(&["fetch", &done, "--out", before.to_str().unwrap()])
+        .status
+        .success());
     let mut c = server.client().await;
-    let slow = c.submit_job(proto::SubmitJobRequest { scene: slow_scene(), ..Default::default() }).await.unwrap().into_inner();
+    let slow = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: slow_scene(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
     wait_running_with_snapshot(&mut c, &slow.id).await;
     server.kill(); // SIGKILL in the middle of the run
     let server = Server::start(&data, &[]);
     let mut c = server.client().await;
-    let j = c.get_job(proto::GetJobRequest { job_id: slow.id.clone() }).await.unwrap().into_inner();
+    let j = c
+        .get_job(proto::GetJobRequest {
+            job_id: slow.id.clone(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
     assert_eq!(j.state, proto::JobState::Failed as i32);
     assert!(j.error.contains("server stopped"), "{}", j.error);
-    let j = c.get_job(proto::GetJobRequest { job_id: done.clone() }).await.unwrap().into_inner();
+    let j = c
+        .get_job(proto::GetJobRequest {
+            job_id: done.clone(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
     assert_eq!(j.state, proto::JobState::Succeeded as i32);
     let after = dir.path().join("after");
-    assert!(server.cli(&["fetch", &done, "--out", after.to_str().unwrap()]).status.success());
+    assert!(server
+        .cli(&["fetch", &done, "--out", after.to_str().unwrap()])
+        .status
+        .success());
     same_files(&before, &after);
     // watching a finished job of the earlier server replays its end
     let o = server.cli(&["watch", &done, "--json"]);
@@ -317,7 +570,10 @@ async fn wait_checkpoint(server: &Server, id: &str, after: Option<std::time::Sys
         if modified.is_some_and(|m| after.is_none_or(|a| m > a)) {
             return;
         }
-        assert!(t0.elapsed() < Duration::from_secs(60), "no checkpoint of {id}");
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "no checkpoint of {id}"
+        );
         tokio::time::sleep(Duration::from_millis(20)).await;
     }
 }
@@ -333,35 +589,100 @@ async fn a_job_resumes_from_its_checkpoint_after_a_kill_and_a_shutdown_with_the_
     let scene = dir.path().join("spin.toml");
     std::fs::write(&scene, &text).unwrap();
     let local = dir.path().join("local");
-    let o = Command::new(cleave_bin()).args(["run", "--quiet"]).arg(&scene).arg("--out").arg(&local).output().unwrap();
+    let o = Command::new(cleave_bin())
+        .args(["run", "--quiet"])
+        .arg(&scene)
+        .arg("--out")
+        .arg(&local)
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
 
     let flags = ["--checkpoint-every", "0.2"];
     let mut server = Server::start(&data, &flags);
     let mut c = server.client().await;
-    let job = c.submit_job(proto::SubmitJobRequest { scene: text.clone(), ..Default::default() }).await.unwrap().into_inner();
-    wait_state(&mut c, &job.id, proto::JobState::Running, Duration::from_secs(30)).await;
+    let job = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: text.clone(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    wait_state(
+        &mut c,
+        &job.id,
+        proto::JobState::Running,
+        Duration::from_secs(30),
+    )
+    .await;
     wait_checkpoint(&server, &job.id, None).await;
     server.kill(); // SIGKILL in the middle of the run, after a checkpoint
-    let first = std::fs::metadata(server.data.join("jobs").join(&job.id).join("checkpoint.bin")).unwrap().modified().unwrap();
+    let first = std::fs::metadata(
+        server
+            .data
+            .join("jobs")
+            .join(&job.id)
+            .join("checkpoint.bin"),
+    )
+    .unwrap()
+    .modified()
+    .unwrap();
 
     // the next server resumes it; then a graceful stop (SIGTERM) checkpoints it
     let mut server = Server::start(&data, &flags);
     let mut c = server.client().await;
-    wait_state(&mut c, &job.id, proto::JobState::Running, Duration::from_secs(30)).await;
+    wait_state(
+        &mut c,
+        &job.id,
+        proto::JobState::Running,
+        Duration::from_secs(30),
+    )
+    .await;
     wait_checkpoint(&server, &job.id, Some(first)).await;
-    let j = c.get_job(proto::GetJobRequest { job_id: job.id.clone() }).await.unwrap().into_inner();
-    assert_eq!(j.state, proto::JobState::Running as i32, "the job ended before the shutdown: make the scene longer");
-    let term = Command::new("kill").arg("-TERM").arg(server.child.id().to_string()).status().unwrap();
+    let j = c
+        .get_job(proto::GetJobRequest {
+            job_id: job.id.clone(),
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(
+        j.state,
+        proto::JobState::Running as i32,
+        "the job ended before the shutdown: make the scene longer"
+    );
+    let term = Command::new("kill")
+        .arg("-TERM")
+        .arg(server.child.id().to_string())
+        .status()
+        .unwrap();
     assert!(term.success());
     let status = server.child.wait().unwrap();
-    assert!(status.success(), "the server did not stop cleanly: {status:?}");
+    assert!(
+        status.success(),
+        "the server did not stop cleanly: {status:?}"
+    );
 
     let server = Server::start(&data, &flags);
     let mut c = server.client().await;
-    let j = wait_state(&mut c, &job.id, proto::JobState::Succeeded, Duration::from_secs(120)).await;
+    let j = wait_state(
+        &mut c,
+        &job.id,
+        proto::JobState::Succeeded,
+        Duration::from_secs(120),
+    )
+    .await;
     assert!(j.error.is_empty(), "{}", j.error);
-    assert!(!server.data.join("jobs").join(&job.id).join("checkpoint.bin").exists(), "the finished job's checkpoint is left");
+    assert!(
+        !server
+            .data
+            .join("jobs")
+            .join(&job.id)
+            .join("checkpoint.bin")
+            .exists(),
+        "the finished job's checkpoint is left"
+    );
     let remote = dir.path().join("remote");
     let o = server.cli(&["fetch", &job.id, "--out", remote.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -375,17 +696,51 @@ async fn a_blow_up_fails_with_a_diagnosis_while_another_job_finishes() {
     let mut c = server.client().await;
     // fixed dt far beyond the CFL limit of the moving block
     let bad = slow_scene().replace("cfl = 0.5", "dt = 1.0e-2");
-    let bad = c.submit_job(proto::SubmitJobRequest { scene: bad, label: "bad".into(), ..Default::default() }).await.unwrap().into_inner();
+    let bad = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: bad,
+            label: "bad".into(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
     let good = std::fs::read_to_string(scenes().join("wave_bar.toml")).unwrap();
-    let good = c.submit_job(proto::SubmitJobRequest { scene: good, label: "good".into(), ..Default::default() }).await.unwrap().into_inner();
-    let b = wait_state(&mut c, &bad.id, proto::JobState::Failed, Duration::from_secs(30)).await;
+    let good = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: good,
+            label: "good".into(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    let b = wait_state(
+        &mut c,
+        &bad.id,
+        proto::JobState::Failed,
+        Duration::from_secs(30),
+    )
+    .await;
     assert!(b.error.contains("CFL"), "{}", b.error);
-    wait_state(&mut c, &good.id, proto::JobState::Succeeded, Duration::from_secs(60)).await;
+    wait_state(
+        &mut c,
+        &good.id,
+        proto::JobState::Succeeded,
+        Duration::from_secs(60),
+    )
+    .await;
     // and a scene that asks too much is refused up front
     let huge = slow_scene().replace("cell_size = 0.005", "cell_size = 0.0005");
     let server2 = Server::start(&dir.path().join("data2"), &["--max-particles", "1000"]);
     let mut c2 = server2.client().await;
-    let e = c2.submit_job(proto::SubmitJobRequest { scene: huge, ..Default::default() }).await.unwrap_err();
+    let e = c2
+        .submit_job(proto::SubmitJobRequest {
+            scene: huge,
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
     assert_eq!(e.code(), tonic::Code::ResourceExhausted);
 }
 
@@ -395,14 +750,25 @@ async fn thirty_two_watchers_see_the_complete_ordered_stream() {
     let server = Server::start(&dir.path().join("data"), &[]);
     let mut c = server.client().await;
     let scene = std::fs::read_to_string(scenes().join("two_disks.toml")).unwrap();
-    let job = c.submit_job(proto::SubmitJobRequest { scene, ..Default::default() }).await.unwrap().into_inner();
+    let job = c
+        .submit_job(proto::SubmitJobRequest {
+            scene,
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
     let mut tasks = Vec::new();
     for _ in 0..32 {
         let url = server.url.clone();
         let id = job.id.clone();
         tasks.push(tokio::spawn(async move {
             let mut c = CleaveClient::connect(url).await.unwrap();
-            let mut s = c.watch_job(proto::WatchJobRequest { job_id: id }).await.unwrap().into_inner();
+            let mut s = c
+                .watch_job(proto::WatchJobRequest { job_id: id })
+                .await
+                .unwrap()
+                .into_inner();
             let mut events = Vec::new();
             while let Some(e) = s.message().await.unwrap() {
                 events.push(e);
@@ -419,8 +785,12 @@ async fn thirty_two_watchers_see_the_complete_ordered_stream() {
     for (k, e) in first.iter().enumerate() {
         assert_eq!(e.sequence, k as u64);
     }
-    assert!(matches!(&first[0].event, Some(Event::State(s)) if s.state == proto::JobState::Queued as i32));
-    assert!(matches!(&first.last().unwrap().event, Some(Event::State(s)) if s.state == proto::JobState::Succeeded as i32));
+    assert!(
+        matches!(&first[0].event, Some(Event::State(s)) if s.state == proto::JobState::Queued as i32)
+    );
+    assert!(
+        matches!(&first.last().unwrap().event, Some(Event::State(s)) if s.state == proto::JobState::Succeeded as i32)
+    );
     for s in &streams {
         assert_eq!(s, first, "a watcher saw a different stream");
     }
@@ -433,10 +803,24 @@ fn tls_with_a_self_signed_certificate() {
     let (crt, key) = (dir.path().join("server.crt"), dir.path().join("server.key"));
     std::fs::write(&crt, cert.cert.pem()).unwrap();
     std::fs::write(&key, cert.signing_key.serialize_pem()).unwrap();
-    let server = Server::start(&dir.path().join("data"), &["--tls-cert", crt.to_str().unwrap(), "--tls-key", key.to_str().unwrap()]);
+    let server = Server::start(
+        &dir.path().join("data"),
+        &[
+            "--tls-cert",
+            crt.to_str().unwrap(),
+            "--tls-key",
+            key.to_str().unwrap(),
+        ],
+    );
     let https = server.url.replace("http://127.0.0.1", "https://localhost");
     let run = |extra: &[&str]| {
-        Command::new(cleave_bin()).args(["--server", &https]).args(extra).args(["validate"]).arg(scenes().join("wave_bar.toml")).output().unwrap()
+        Command::new(cleave_bin())
+            .args(["--server", &https])
+            .args(extra)
+            .args(["validate"])
+            .arg(scenes().join("wave_bar.toml"))
+            .output()
+            .unwrap()
     };
     let o = run(&["--ca-cert", crt.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -477,9 +861,17 @@ fn a_study_against_a_server_measures_what_an_embedded_one_does() {
     let metrics = |o: &Output| -> Vec<(serde_json::Value, serde_json::Value)> {
         assert!(o.status.success(), "{}", stderr(o));
         let v: serde_json::Value = serde_json::from_str(stdout(o).trim()).unwrap();
-        v["runs"].as_array().unwrap().iter().map(|r| (r["metric"].clone(), r["steps"].clone())).collect()
+        v["runs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| (r["metric"].clone(), r["steps"].clone()))
+            .collect()
     };
-    let local = Command::new(cleave_bin()).args(args(&dir.path().join("local"))).output().unwrap();
+    let local = Command::new(cleave_bin())
+        .args(args(&dir.path().join("local")))
+        .output()
+        .unwrap();
     let remote_args = args(&dir.path().join("remote"));
     let remote = server.cli(&remote_args.iter().map(String::as_str).collect::<Vec<_>>());
     let (a, b) = (metrics(&local), metrics(&remote));
@@ -488,7 +880,11 @@ fn a_study_against_a_server_measures_what_an_embedded_one_does() {
     assert_eq!(a, b);
     let jobs = || -> Vec<serde_json::Value> {
         let o = server.cli(&["list", "--json"]);
-        serde_json::from_str::<serde_json::Value>(stdout(&o).trim()).unwrap().as_array().unwrap().clone()
+        serde_json::from_str::<serde_json::Value>(stdout(&o).trim())
+            .unwrap()
+            .as_array()
+            .unwrap()
+            .clone()
     };
     assert_eq!(jobs().len(), 2);
 
@@ -501,10 +897,20 @@ fn a_study_against_a_server_measures_what_an_embedded_one_does() {
     // followed, not submitted again
     let run1 = dir.path().join("remote").join("runs").join("001");
     std::fs::remove_file(run1.join("outcome.json")).unwrap();
-    let id = jobs().iter().find(|j| j["label"].as_str().unwrap().starts_with("study 001")).unwrap()["id"].as_str().unwrap().to_string();
+    let id = jobs()
+        .iter()
+        .find(|j| j["label"].as_str().unwrap().starts_with("study 001"))
+        .unwrap()["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
     std::fs::write(run1.join("job"), &id).unwrap();
     let o = server.cli(&resume);
-    assert!(stderr(&o).contains(&format!("following job {id}")), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(&format!("following job {id}")),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(metrics(&o), b);
     assert_eq!(jobs().len(), 2);
     assert!(!run1.join("job").exists());

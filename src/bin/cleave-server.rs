@@ -51,11 +51,15 @@ struct Args {
 
 fn main() -> anyhow::Result<()> {
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+        )
         .with_writer(std::io::stderr)
         .init();
     let a = Args::parse();
-    let threads = a.threads_per_job.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = a
+        .threads_per_job
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let config = ServerConfig {
         listen: a.listen,
         jobs: JobConfig {
@@ -64,7 +68,9 @@ fn main() -> anyhow::Result<()> {
             threads_per_job: threads.max(1),
             max_particles: a.max_particles,
             max_queued: a.max_queued_jobs,
-            checkpoint_every: match cleave::mpm::CheckpointTimer::interval(a.checkpoint_every).map_err(anyhow::Error::msg)? {
+            checkpoint_every: match cleave::mpm::CheckpointTimer::interval(a.checkpoint_every)
+                .map_err(anyhow::Error::msg)?
+            {
                 std::time::Duration::ZERO => None,
                 every => Some(every),
             },
@@ -73,6 +79,9 @@ fn main() -> anyhow::Result<()> {
         max_request_bytes: a.max_request_bytes,
         tls: a.tls_cert.zip(a.tls_key),
     };
-    let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
     runtime.block_on(serve(config))
 }

@@ -79,7 +79,9 @@ impl FragmentFinder {
         eligible: impl Fn(usize) -> bool,
     ) -> Fragments {
         let n = x.len();
-        let ok: Vec<bool> = (0..n).map(|p| eligible(p) && x[p].iter().all(|c| c.is_finite())).collect();
+        let ok: Vec<bool> = (0..n)
+            .map(|p| eligible(p) && x[p].iter().all(|c| c.is_finite()))
+            .collect();
         let mut lo = [f64::INFINITY; 2];
         let mut hi = [f64::NEG_INFINITY; 2];
         let mut reach: f64 = 0.0;
@@ -95,10 +97,12 @@ impl FragmentFinder {
         if reach > 0.0 && reach.is_finite() {
             // Cell lists with cells at least the largest link distance wide:
             // every link is between particles of the same or adjacent cells.
-            let dims = [0, 1].map(|k| (((hi[k] - lo[k]) / reach).floor() as usize + 1).min(1 << 15));
+            let dims =
+                [0, 1].map(|k| (((hi[k] - lo[k]) / reach).floor() as usize + 1).min(1 << 15));
             let cell = [0, 1].map(|k| ((hi[k] - lo[k]) / dims[k] as f64).max(reach));
             let ncell = dims[0] * dims[1];
-            let index = |p: usize, k: usize| (((x[p][k] - lo[k]) / cell[k]) as usize).min(dims[k] - 1);
+            let index =
+                |p: usize, k: usize| (((x[p][k] - lo[k]) / cell[k]) as usize).min(dims[k] - 1);
             self.cell_of.clear();
             self.cell_of.resize(n, u32::MAX);
             self.start.clear();
@@ -128,7 +132,8 @@ impl FragmentFinder {
                 for cj2 in cj.saturating_sub(1)..(cj + 2).min(dims[1]) {
                     for ci2 in ci.saturating_sub(1)..(ci + 2).min(dims[0]) {
                         let c2 = ci2 + cj2 * dims[0];
-                        for &q in &self.order[self.start[c2] as usize..self.start[c2 + 1] as usize] {
+                        for &q in &self.order[self.start[c2] as usize..self.start[c2 + 1] as usize]
+                        {
                             let q = q as usize;
                             if q <= p || body[q] != body[p] {
                                 continue;
@@ -138,7 +143,10 @@ impl FragmentFinder {
                             if d[0] * d[0] + d[1] * d[1] > l * l {
                                 continue;
                             }
-                            let (a, b) = (root(&mut self.parent, p as u32), root(&mut self.parent, q as u32));
+                            let (a, b) = (
+                                root(&mut self.parent, p as u32),
+                                root(&mut self.parent, q as u32),
+                            );
                             if a != b {
                                 // the smaller index is the root: labels do not
                                 // depend on the order links are found in
@@ -163,7 +171,13 @@ impl FragmentFinder {
                 slot[r] = list.len() as u32;
                 list.push((
                     r as u32,
-                    Fragment { particles: 0, mass: 0.0, volume: 0.0, speed: 0.0, centroid: [0.0; 2] },
+                    Fragment {
+                        particles: 0,
+                        mass: 0.0,
+                        volume: 0.0,
+                        speed: 0.0,
+                        centroid: [0.0; 2],
+                    },
                     [0.0; 3],
                 ));
             }
@@ -185,7 +199,13 @@ impl FragmentFinder {
         }
         // Largest first; ties by smallest particle index.
         let mut rank: Vec<usize> = (0..list.len()).collect();
-        rank.sort_by(|&a, &b| list[b].1.particles.cmp(&list[a].1.particles).then(list[a].0.cmp(&list[b].0)));
+        rank.sort_by(|&a, &b| {
+            list[b]
+                .1
+                .particles
+                .cmp(&list[a].1.particles)
+                .then(list[a].0.cmp(&list[b].0))
+        });
         let mut new_of = vec![0u32; list.len()];
         for (new, &old) in rank.iter().enumerate() {
             new_of[old] = new as u32;
@@ -193,7 +213,10 @@ impl FragmentFinder {
         for l in label.iter_mut().filter(|l| **l != NONE) {
             *l = new_of[*l as usize];
         }
-        Fragments { label, list: rank.into_iter().map(|k| list[k].1.clone()).collect() }
+        Fragments {
+            label,
+            list: rank.into_iter().map(|k| list[k].1.clone()).collect(),
+        }
     }
 }
 
@@ -212,10 +235,29 @@ pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
     else {
         return None;
     };
-    let count = label.iter().filter(|&&l| l != NONE).map(|&l| l as usize + 1).max().unwrap_or(0);
-    let mut list = vec![Fragment { particles: 0, mass: 0.0, volume: 0.0, speed: 0.0, centroid: [0.0; 2] }; count];
+    let count = label
+        .iter()
+        .filter(|&&l| l != NONE)
+        .map(|&l| l as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut list = vec![
+        Fragment {
+            particles: 0,
+            mass: 0.0,
+            volume: 0.0,
+            speed: 0.0,
+            centroid: [0.0; 2]
+        };
+        count
+    ];
     for (p, &l) in label.iter().enumerate() {
-        if l == NONE || p >= mass.len() || p >= vol.len() || 2 * p + 1 >= vel.len() || p >= snap.positions.len() {
+        if l == NONE
+            || p >= mass.len()
+            || p >= vol.len()
+            || 2 * p + 1 >= vel.len()
+            || p >= snap.positions.len()
+        {
             continue;
         }
         let f = &mut list[l as usize];
@@ -256,9 +298,12 @@ mod tests {
             }
         }
         let n = x.len();
-        let v: Vec<[f64; 2]> = (0..n).map(|p| [if x[p][0] < 4.0 { -1.0 } else { 2.0 }, 0.0]).collect();
+        let v: Vec<[f64; 2]> = (0..n)
+            .map(|p| [if x[p][0] < 4.0 { -1.0 } else { 2.0 }, 0.0])
+            .collect();
         let ones = vec![1.0; n];
-        let f = FragmentFinder::default().find(&x, &v, &ones, &ones, &[1.0, 1.0], &body, |p| !damaged[p]);
+        let f = FragmentFinder::default()
+            .find(&x, &v, &ones, &ones, &[1.0, 1.0], &body, |p| !damaged[p]);
         let sizes: Vec<u32> = f.list.iter().map(|f| f.particles).collect();
         assert_eq!(sizes, vec![10, 10, 8, 8]);
         // ties by smallest particle index: the right half of body 0 (index
@@ -268,7 +313,10 @@ mod tests {
         assert_eq!(f.label[0], 2);
         assert_eq!(f.label[4], NONE);
         assert!((f.list[0].speed - 2.0).abs() < 1e-12 && (f.list[2].speed - 1.0).abs() < 1e-12);
-        assert!((f.list[0].centroid[0] - 7.0).abs() < 1e-12 && (f.list[0].centroid[1] - 0.5).abs() < 1e-12);
+        assert!(
+            (f.list[0].centroid[0] - 7.0).abs() < 1e-12
+                && (f.list[0].centroid[1] - 0.5).abs() < 1e-12
+        );
     }
 
     /// Diagonal neighbours link, particles two spacings apart do not.
@@ -277,7 +325,15 @@ mod tests {
         let x = vec![[0.0, 0.0], [1.0, 1.0], [3.0, 1.0], [3.0, 3.0]];
         let n = x.len();
         let ones = vec![1.0; n];
-        let f = FragmentFinder::default().find(&x, &vec![[0.0; 2]; n], &ones, &ones, &[1.0], &vec![0; n], |_| true);
+        let f = FragmentFinder::default().find(
+            &x,
+            &vec![[0.0; 2]; n],
+            &ones,
+            &ones,
+            &[1.0],
+            &vec![0; n],
+            |_| true,
+        );
         assert_eq!(f.list.len(), 3);
         assert_eq!(f.label, vec![0, 0, 1, 2]);
     }

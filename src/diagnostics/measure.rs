@@ -45,7 +45,9 @@ pub fn measure(parts: &Particles, mats: &[Elastic], apic_d: Option<f64>) -> Meas
                 }
                 let mat = &mats[parts.material[p] as usize];
                 let psi = match mat.model {
-                    MaterialModel::LinearElastic => Elastic::energy_linear(parts.stress[p], parts.strain[p]),
+                    MaterialModel::LinearElastic => {
+                        Elastic::energy_linear(parts.stress[p], parts.strain[p])
+                    }
                     MaterialModel::NeoHookean => mat.energy_neo_hookean(parts.def_grad[p]),
                 };
                 // ψ is per current volume for the linear model (small strain:
@@ -72,11 +74,19 @@ pub fn measure(parts: &Particles, mats: &[Elastic], apic_d: Option<f64>) -> Meas
 }
 
 fn f64_field(name: &str, components: usize, data: Vec<f64>) -> Field {
-    Field { name: name.to_string(), components, data: FieldData::F64(data) }
+    Field {
+        name: name.to_string(),
+        components,
+        data: FieldData::F64(data),
+    }
 }
 
 fn u32_field(name: &str, data: Vec<u32>) -> Field {
-    Field { name: name.to_string(), components: 1, data: FieldData::U32(data) }
+    Field {
+        name: name.to_string(),
+        components: 1,
+        data: FieldData::U32(data),
+    }
 }
 
 /// Particle fields at this instant: velocity, stress and strain
@@ -111,7 +121,11 @@ pub fn snapshot(
                 ([0.5 * (c11 - 1.0), 0.5 * (c22 - 1.0), 0.5 * c12], 0.0)
             }
         };
-        let szz = mat.stress_zz(s, parts.strain.get(p).copied(), parts.def_grad.get(p).copied());
+        let szz = mat.stress_zz(
+            s,
+            parts.strain.get(p).copied(),
+            parts.def_grad.get(p).copied(),
+        );
         stress.extend_from_slice(&[s[0], s[1], s[2], szz]);
         strain.extend_from_slice(&[e[0], e[1], e[2], ezz]);
     }
@@ -126,7 +140,10 @@ pub fn snapshot(
             f64_field("strain", 4, strain),
             f64_field("mass", 1, parts.mass.clone()),
             f64_field("volume", 1, parts.vol.clone()),
-            u32_field("material_id", parts.material.iter().map(|&m| m as u32).collect()),
+            u32_field(
+                "material_id",
+                parts.material.iter().map(|&m| m as u32).collect(),
+            ),
             u32_field("body_id", parts.body.iter().map(|&b| b as u32).collect()),
             u32_field("particle_id", parts.id.clone()),
         ]
@@ -141,7 +158,11 @@ pub fn snapshot(
 
 /// Nodal mass and velocity (momentum-weighted over the velocity fields) of
 /// the last step, on the whole padded lattice.
-pub fn grid_snapshot(geom: &GridGeom, grid: &GridFields, multi: Option<&MultiField>) -> GridSnapshot {
+pub fn grid_snapshot(
+    geom: &GridGeom,
+    grid: &GridFields,
+    multi: Option<&MultiField>,
+) -> GridSnapshot {
     let nodes = geom.node_count();
     let mut mass = grid.mass[..nodes].to_vec();
     let mut mom: Vec<f64> = (0..nodes)

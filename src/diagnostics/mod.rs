@@ -246,13 +246,19 @@ pub struct Recorder {
 impl Recorder {
     /// A recorder of the series alone.
     pub fn series_only() -> Recorder {
-        Recorder { series_only: true, ..Default::default() }
+        Recorder {
+            series_only: true,
+            ..Default::default()
+        }
     }
 
     /// The values of a named column, one per row (None if no such column).
     pub fn column(&self, name: &str) -> Option<Vec<f64>> {
         self.columns.iter().position(|c| c == name)?;
-        self.rows.iter().map(|r| r.get(&self.columns, name)).collect()
+        self.rows
+            .iter()
+            .map(|r| r.get(&self.columns, name))
+            .collect()
     }
 }
 

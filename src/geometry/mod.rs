@@ -16,17 +16,27 @@ pub struct Aabb {
 /// Bounding box of a shape.
 pub fn bounds(shape: &ShapeSpec) -> Aabb {
     match shape {
-        ShapeSpec::Box { min, max } => Aabb { min: *min, max: *max },
+        ShapeSpec::Box { min, max } => Aabb {
+            min: *min,
+            max: *max,
+        },
         ShapeSpec::Disk { center, radius } => Aabb {
             min: [center[0] - radius, center[1] - radius],
             max: [center[0] + radius, center[1] + radius],
         },
-        ShapeSpec::Ring { center, outer_radius, .. } => Aabb {
+        ShapeSpec::Ring {
+            center,
+            outer_radius,
+            ..
+        } => Aabb {
             min: [center[0] - outer_radius, center[1] - outer_radius],
             max: [center[0] + outer_radius, center[1] + outer_radius],
         },
         ShapeSpec::Polygon { vertices } => {
-            let mut b = Aabb { min: [f64::INFINITY; 2], max: [f64::NEG_INFINITY; 2] };
+            let mut b = Aabb {
+                min: [f64::INFINITY; 2],
+                max: [f64::NEG_INFINITY; 2],
+            };
             for v in vertices {
                 for d in 0..2 {
                     b.min[d] = b.min[d].min(v[d]);
@@ -50,9 +60,15 @@ pub fn bounds(shape: &ShapeSpec) -> Aabb {
 /// that is aligned with the grid).
 pub fn contains(shape: &ShapeSpec, p: [f64; 2]) -> bool {
     match shape {
-        ShapeSpec::Box { min, max } => p[0] >= min[0] && p[0] <= max[0] && p[1] >= min[1] && p[1] <= max[1],
+        ShapeSpec::Box { min, max } => {
+            p[0] >= min[0] && p[0] <= max[0] && p[1] >= min[1] && p[1] <= max[1]
+        }
         ShapeSpec::Disk { center, radius } => dist2(p, *center) <= radius * radius,
-        ShapeSpec::Ring { center, inner_radius, outer_radius } => {
+        ShapeSpec::Ring {
+            center,
+            inner_radius,
+            outer_radius,
+        } => {
             let d2 = dist2(p, *center);
             d2 <= outer_radius * outer_radius && d2 >= inner_radius * inner_radius
         }
@@ -64,7 +80,11 @@ pub fn contains(shape: &ShapeSpec, p: [f64; 2]) -> bool {
             let ap = [p[0] - a[0], p[1] - a[1]];
             // A slot is a rectangle: the projection must fall on the segment
             // (no rounded ends: notches have square ends).
-            let t = if len2 > 0.0 { (ap[0] * ab[0] + ap[1] * ab[1]) / len2 } else { 0.0 };
+            let t = if len2 > 0.0 {
+                (ap[0] * ab[0] + ap[1] * ab[1]) / len2
+            } else {
+                0.0
+            };
             if !(0.0..=1.0).contains(&t) {
                 return false;
             }
@@ -186,20 +206,43 @@ mod tests {
 
     #[test]
     fn disk_seeding_area_converges() {
-        let shape = ShapeSpec::Disk { center: [0.5, 0.5], radius: 0.3 };
-        let lat = Lattice { origin: [0.0, 0.0], h: 0.01, cells: [100, 100], per_dir: 2 };
+        let shape = ShapeSpec::Disk {
+            center: [0.5, 0.5],
+            radius: 0.3,
+        };
+        let lat = Lattice {
+            origin: [0.0, 0.0],
+            h: 0.01,
+            cells: [100, 100],
+            per_dir: 2,
+        };
         let mut count = 0usize;
         seed(&shape, &[], &lat, |_| count += 1);
         let area = count as f64 * (0.005f64).powi(2);
         let exact = std::f64::consts::PI * 0.09;
-        assert!((area - exact).abs() / exact < 0.01, "area {area} vs {exact}");
+        assert!(
+            (area - exact).abs() / exact < 0.01,
+            "area {area} vs {exact}"
+        );
     }
 
     #[test]
     fn holes_and_slots_remove_particles() {
-        let shape = ShapeSpec::Box { min: [0.0, 0.0], max: [1.0, 1.0] };
-        let slot = ShapeSpec::Slot { start: [0.0, 0.5], end: [0.5, 0.5], width: 0.1 };
-        let lat = Lattice { origin: [0.0, 0.0], h: 0.05, cells: [20, 20], per_dir: 2 };
+        let shape = ShapeSpec::Box {
+            min: [0.0, 0.0],
+            max: [1.0, 1.0],
+        };
+        let slot = ShapeSpec::Slot {
+            start: [0.0, 0.5],
+            end: [0.5, 0.5],
+            width: 0.1,
+        };
+        let lat = Lattice {
+            origin: [0.0, 0.0],
+            h: 0.05,
+            cells: [20, 20],
+            per_dir: 2,
+        };
         let mut pts = Vec::new();
         seed(&shape, &[slot.clone()], &lat, |p| pts.push(p));
         assert!(pts.iter().all(|p| !contains(&slot, *p)));

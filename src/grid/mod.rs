@@ -92,7 +92,10 @@ impl GridGeom {
     /// Position in node units.
     #[inline(always)]
     pub fn xi(&self, x: [f64; 2]) -> [f64; 2] {
-        [(x[0] - self.origin[0]) * self.inv_h, (x[1] - self.origin[1]) * self.inv_h]
+        [
+            (x[0] - self.origin[0]) * self.inv_h,
+            (x[1] - self.origin[1]) * self.inv_h,
+        ]
     }
 
     #[inline(always)]
@@ -102,7 +105,10 @@ impl GridGeom {
 
     pub fn node_position(&self, n: usize) -> [f64; 2] {
         let (i, j) = (n % self.nodes[0], n / self.nodes[0]);
-        [self.origin[0] + i as f64 * self.h, self.origin[1] + j as f64 * self.h]
+        [
+            self.origin[0] + i as f64 * self.h,
+            self.origin[1] + j as f64 * self.h,
+        ]
     }
 
     /// Tile of a particle at node-unit position `xi` (clamped into the grid).
@@ -131,7 +137,10 @@ impl GridGeom {
     }
 
     pub fn inside_domain(&self, x: [f64; 2]) -> bool {
-        x[0] >= self.domain_min[0] && x[0] <= self.domain_max[0] && x[1] >= self.domain_min[1] && x[1] <= self.domain_max[1]
+        x[0] >= self.domain_min[0]
+            && x[0] <= self.domain_max[0]
+            && x[1] >= self.domain_min[1]
+            && x[1] <= self.domain_max[1]
     }
 }
 
@@ -157,8 +166,20 @@ impl GridFields {
     /// `slots − nodes` extra field slots: zeroes the node ranges the last
     /// scatter wrote (`written`; every other node is still zero) and the
     /// extra slots. Only active tiles cost anything.
-    pub fn reset(&mut self, nodes: usize, slots: usize, with_mass_grad: bool, written: &[Range<usize>]) {
-        fn clear<T: Copy + Send + Sync>(v: &mut Vec<T>, nodes: usize, slots: usize, zero: T, written: &[Range<usize>]) {
+    pub fn reset(
+        &mut self,
+        nodes: usize,
+        slots: usize,
+        with_mass_grad: bool,
+        written: &[Range<usize>],
+    ) {
+        fn clear<T: Copy + Send + Sync>(
+            v: &mut Vec<T>,
+            nodes: usize,
+            slots: usize,
+            zero: T,
+            written: &[Range<usize>],
+        ) {
             if v.len() < nodes {
                 v.clear();
                 v.resize(nodes, zero);
@@ -290,7 +311,10 @@ pub struct Bins {
 impl Bins {
     /// The bins of particles at `x` for a kernel of `support` nodes.
     pub fn new(geom: &GridGeom, x: &[[f64; 2]], support: usize) -> Bins {
-        let mut bins = Bins { tile_of: x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect(), ..Default::default() };
+        let mut bins = Bins {
+            tile_of: x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect(),
+            ..Default::default()
+        };
         bins.rebuild(geom, x, support);
         bins
     }
@@ -307,7 +331,12 @@ impl Bins {
         const PER_TILE: usize = (TILE + 1) * (TILE + 1);
         let ntiles = geom.tiles[0] * geom.tiles[1];
         self.key.clear();
-        self.key.extend(self.tile_of.iter().zip(x).map(|(&t, &x)| t * PER_TILE as u32 + geom.support_in_tile(geom.xi(x), support)));
+        self.key.extend(
+            self.tile_of
+                .iter()
+                .zip(x)
+                .map(|(&t, &x)| t * PER_TILE as u32 + geom.support_in_tile(geom.xi(x), support)),
+        );
         self.cursor.clear();
         self.cursor.resize(ntiles * PER_TILE + 1, 0);
         for &k in &self.key {
@@ -317,7 +346,8 @@ impl Bins {
             self.cursor[k + 1] += self.cursor[k];
         }
         self.start.clear();
-        self.start.extend((0..=ntiles).map(|t| self.cursor[t * PER_TILE]));
+        self.start
+            .extend((0..=ntiles).map(|t| self.cursor[t * PER_TILE]));
         self.order.resize(self.key.len(), 0);
         for (p, &k) in self.key.iter().enumerate() {
             let c = &mut self.cursor[k as usize];
@@ -331,13 +361,22 @@ impl Bins {
     /// within a tile the order depends on where the particles were at the
     /// last rebuild, and it sets the order of the sums into the grid).
     /// Fails if `order` does not list every particle once, tile by tile.
-    pub fn restore(&mut self, geom: &GridGeom, x: &[[f64; 2]], order: Vec<u32>) -> Result<(), String> {
+    pub fn restore(
+        &mut self,
+        geom: &GridGeom,
+        x: &[[f64; 2]],
+        order: Vec<u32>,
+    ) -> Result<(), String> {
         let ntiles = geom.tiles[0] * geom.tiles[1];
         self.tile_of = x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect();
         let mut seen = vec![false; x.len()];
         let sorted = order.len() == x.len()
-            && order.iter().all(|&p| (p as usize) < x.len() && !std::mem::replace(&mut seen[p as usize], true))
-            && order.windows(2).all(|w| self.tile_of[w[0] as usize] <= self.tile_of[w[1] as usize]);
+            && order.iter().all(|&p| {
+                (p as usize) < x.len() && !std::mem::replace(&mut seen[p as usize], true)
+            })
+            && order
+                .windows(2)
+                .all(|w| self.tile_of[w[0] as usize] <= self.tile_of[w[1] as usize]);
         if !sorted {
             return Err("the saved particle order does not sort the particles by tile".into());
         }
@@ -470,7 +509,9 @@ mod tests {
     fn bins_keep_a_tiles_particles_of_one_support_together() {
         let mut seed = 12345u64;
         let mut next = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         let x: Vec<[f64; 2]> = (0..5000).map(|_| [30.0 * next(), 30.0 * next()]).collect();
@@ -478,15 +519,22 @@ mod tests {
         let kernels: [(usize, fn(f64) -> isize); 4] = [
             (shape::Linear::N, |xi| shape::Linear::eval(xi, 0.25).base),
             (shape::Gimp::N, |xi| shape::Gimp::eval(xi, 0.25).base),
-            (shape::QuadraticBspline::N, |xi| shape::QuadraticBspline::eval(xi, 0.0).base),
-            (shape::CubicBspline::N, |xi| shape::CubicBspline::eval(xi, 0.0).base),
+            (shape::QuadraticBspline::N, |xi| {
+                shape::QuadraticBspline::eval(xi, 0.0).base
+            }),
+            (shape::CubicBspline::N, |xi| {
+                shape::CubicBspline::eval(xi, 0.0).base
+            }),
         ];
         let geom = GridGeom::new([0.0, 0.0], 1.0, [30, 30]);
         for (n, base) in kernels {
             let bins = Bins::new(&geom, &x, n);
             let mut seen = vec![false; x.len()];
             for &p in &bins.order {
-                assert!(!std::mem::replace(&mut seen[p as usize], true), "particle {p} twice");
+                assert!(
+                    !std::mem::replace(&mut seen[p as usize], true),
+                    "particle {p} twice"
+                );
             }
             assert!(seen.iter().all(|&s| s));
             for t in 0..(geom.tiles[0] * geom.tiles[1]) as u32 {
@@ -502,7 +550,11 @@ mod tests {
                         assert!(run[k - 1] < p, "stable within a support");
                         continue;
                     }
-                    assert!(done.insert(support(p)), "support {:?} split in tile {t} ({n}-node kernel)", support(p));
+                    assert!(
+                        done.insert(support(p)),
+                        "support {:?} split in tile {t} ({n}-node kernel)",
+                        support(p)
+                    );
                 }
             }
         }

@@ -24,7 +24,11 @@ use crate::scene::ShapeFunctionKind;
 #[inline(always)]
 pub fn floor(x: f64) -> f64 {
     let t = x as i64 as f64;
-    if t > x { t - 1.0 } else { t }
+    if t > x {
+        t - 1.0
+    } else {
+        t
+    }
 }
 
 /// Widest support of any kernel (nodes per direction).
@@ -78,7 +82,11 @@ impl Kernel for Linear {
     fn eval(xi: f64, _lp: f64) -> Weights1 {
         let b = floor(xi);
         let f = xi - b;
-        Weights1 { base: b as isize, w: [1.0 - f, f, 0.0, 0.0], dw: [-1.0, 1.0, 0.0, 0.0] }
+        Weights1 {
+            base: b as isize,
+            w: [1.0 - f, f, 0.0, 0.0],
+            dw: [-1.0, 1.0, 0.0, 0.0],
+        }
     }
 }
 
@@ -107,7 +115,10 @@ impl Kernel for Gimp {
     #[inline(always)]
     fn eval(xi: f64, lp: f64) -> Weights1 {
         let base = floor(xi + 0.5) - 1.0;
-        let mut out = Weights1 { base: base as isize, ..Default::default() };
+        let mut out = Weights1 {
+            base: base as isize,
+            ..Default::default()
+        };
         for k in 0..3 {
             let (w, dw) = gimp_1d(xi - (base + k as f64), lp);
             out.w[k] = w;
@@ -143,7 +154,11 @@ fn cubic_1d(d: f64) -> (f64, f64, f64) {
     let a = d.abs();
     let s = if d < 0.0 { -1.0 } else { 1.0 };
     if a < 1.0 {
-        (2.0 / 3.0 - a * a + 0.5 * a * a * a, s * (-2.0 * a + 1.5 * a * a), -2.0 + 3.0 * a)
+        (
+            2.0 / 3.0 - a * a + 0.5 * a * a * a,
+            s * (-2.0 * a + 1.5 * a * a),
+            -2.0 + 3.0 * a,
+        )
     } else if a < 2.0 {
         let t = 2.0 - a;
         (t * t * t / 6.0, -s * 0.5 * t * t, t)
@@ -159,7 +174,10 @@ impl Kernel for CubicBspline {
     #[inline(always)]
     fn eval(xi: f64, _lp: f64) -> Weights1 {
         let base = floor(xi) - 1.0;
-        let mut out = Weights1 { base: base as isize, ..Default::default() };
+        let mut out = Weights1 {
+            base: base as isize,
+            ..Default::default()
+        };
         for k in 0..4 {
             let (w, dw, _) = cubic_1d(xi - (base + k as f64));
             out.w[k] = w;
@@ -169,7 +187,10 @@ impl Kernel for CubicBspline {
     }
     fn eval2(xi: f64, _lp: f64) -> (Weights1, [f64; MAX_SUPPORT]) {
         let base = floor(xi) - 1.0;
-        let mut out = Weights1 { base: base as isize, ..Default::default() };
+        let mut out = Weights1 {
+            base: base as isize,
+            ..Default::default()
+        };
         let mut d2 = [0.0; MAX_SUPPORT];
         for k in 0..4 {
             let (w, dw, ddw) = cubic_1d(xi - (base + k as f64));
@@ -197,8 +218,24 @@ mod tests {
 
     #[test]
     fn inlined_floor_is_floor() {
-        let edge = [0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.999999999999999, -2.000000000000001, 4503599627370495.5, -4503599627370495.5, 9.0e15, -9.0e15];
-        for x in edge.into_iter().chain((0..2001).map(|k| -10.0 + k as f64 * 0.01)) {
+        let edge = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999999999999999,
+            -2.000000000000001,
+            4503599627370495.5,
+            -4503599627370495.5,
+            9.0e15,
+            -9.0e15,
+        ];
+        for x in edge
+            .into_iter()
+            .chain((0..2001).map(|k| -10.0 + k as f64 * 0.01))
+        {
             assert_eq!(floor(x), x.floor(), "floor({x})");
         }
     }
@@ -209,11 +246,19 @@ mod tests {
             let w = K::eval(xi, lp);
             let sum: f64 = w.w[..K::N].iter().sum();
             let dsum: f64 = w.dw[..K::N].iter().sum();
-            let first: f64 = (0..K::N).map(|j| w.w[j] * (w.base + j as isize) as f64).sum();
-            assert!((sum - 1.0).abs() < 1e-12, "partition of unity at {xi}: {sum}");
+            let first: f64 = (0..K::N)
+                .map(|j| w.w[j] * (w.base + j as isize) as f64)
+                .sum();
+            assert!(
+                (sum - 1.0).abs() < 1e-12,
+                "partition of unity at {xi}: {sum}"
+            );
             assert!(dsum.abs() < 1e-12, "gradient sum at {xi}: {dsum}");
             // Linear completeness: Σ N_k x_k = ξ.
-            assert!((first - xi).abs() < 1e-12, "linear completeness at {xi}: {first}");
+            assert!(
+                (first - xi).abs() < 1e-12,
+                "linear completeness at {xi}: {first}"
+            );
             assert!(w.w.iter().all(|&v| v >= 0.0));
             // Derivative by central differences.
             let e = 1e-6;
@@ -221,7 +266,11 @@ mod tests {
             if a.base == w.base && b.base == w.base {
                 for j in 0..K::N {
                     let fd = (b.w[j] - a.w[j]) / (2.0 * e);
-                    assert!((fd - w.dw[j]).abs() < 1e-5, "dw[{j}] at {xi}: {} vs {fd}", w.dw[j]);
+                    assert!(
+                        (fd - w.dw[j]).abs() < 1e-5,
+                        "dw[{j}] at {xi}: {} vs {fd}",
+                        w.dw[j]
+                    );
                 }
             }
         }
@@ -247,7 +296,11 @@ mod tests {
                 if a.base == w.base && b.base == w.base {
                     for j in 0..K::N {
                         let fd = (b.dw[j] - a.dw[j]) / (2.0 * e);
-                        assert!((fd - d2[j]).abs() < 1e-4, "d2[{j}] at {xi}: {} vs {fd}", d2[j]);
+                        assert!(
+                            (fd - d2[j]).abs() < 1e-4,
+                            "d2[{j}] at {xi}: {} vs {fd}",
+                            d2[j]
+                        );
                     }
                 }
                 let s: f64 = d2[..K::N].iter().sum();

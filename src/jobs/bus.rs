@@ -10,7 +10,10 @@ use tokio::sync::watch;
 /// One event of a job.
 #[derive(Debug, Clone, PartialEq)]
 pub enum JobEvent {
-    State { state: JobState, error: Option<String> },
+    State {
+        state: JobState,
+        error: Option<String>,
+    },
     Progress(JobProgress),
     Summary(JobSummary),
 }
@@ -36,7 +39,10 @@ impl Default for JobBus {
 
 impl JobBus {
     pub fn new() -> JobBus {
-        JobBus { events: Mutex::new(Vec::new()), len: watch::channel(0).0 }
+        JobBus {
+            events: Mutex::new(Vec::new()),
+            len: watch::channel(0).0,
+        }
     }
 
     pub fn push(&self, e: JobEvent) {
@@ -54,7 +60,10 @@ impl JobBus {
     /// Events from index `from` on.
     pub fn since(&self, from: usize) -> Vec<JobEvent> {
         let events = self.events.lock().unwrap_or_else(|p| p.into_inner());
-        events.get(from..).map(<[JobEvent]>::to_vec).unwrap_or_default()
+        events
+            .get(from..)
+            .map(<[JobEvent]>::to_vec)
+            .unwrap_or_default()
     }
 
     /// A receiver that changes whenever an event is appended.

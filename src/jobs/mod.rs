@@ -66,7 +66,10 @@ impl JobState {
     }
 
     pub fn is_final(self) -> bool {
-        matches!(self, JobState::Succeeded | JobState::Failed | JobState::Cancelled)
+        matches!(
+            self,
+            JobState::Succeeded | JobState::Failed | JobState::Cancelled
+        )
     }
 }
 
@@ -144,7 +147,9 @@ pub struct JobConfig {
 
 /// Seconds since the Unix epoch.
 pub fn now() -> f64 {
-    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64())
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
 }
 
 struct Queue {
@@ -188,14 +193,24 @@ impl JobManager {
                 tracing::warn!(job = %id, "the server stopped while it was running: queued to resume from its checkpoint");
                 waiting.push_back(id);
             } else {
-                store.finish(&id, JobState::Failed, now(), Some("server stopped while the job was running"), None)?;
+                store.finish(
+                    &id,
+                    JobState::Failed,
+                    now(),
+                    Some("server stopped while the job was running"),
+                    None,
+                )?;
                 tracing::warn!(job = %id, "marked FAILED: the server stopped while it was running");
             }
         }
         waiting.extend(queued);
         let inner = Arc::new(Inner {
             store,
-            queue: Mutex::new(Queue { waiting, running: HashMap::new(), shutdown: false }),
+            queue: Mutex::new(Queue {
+                waiting,
+                running: HashMap::new(),
+                shutdown: false,
+            }),
             wake: Condvar::new(),
             buses: Mutex::new(HashMap::new()),
             stopping: AtomicBool::new(false),
@@ -249,7 +264,12 @@ impl JobManager {
     }
 
     /// Validates and queues a scene.
-    pub fn submit(&self, text: &str, format: Option<Format>, label: &str) -> Result<JobRecord, JobError> {
+    pub fn submit(
+        &self,
+        text: &str,
+        format: Option<Format>,
+        label: &str,
+    ) -> Result<JobRecord, JobError> {
         let scene = Scene::from_text(text, format)?;
         let particles = scene.total_particles() as u64;
         if particles > self.inner.config.max_particles {
@@ -267,7 +287,10 @@ impl JobManager {
             )));
         }
         let stages: Vec<String> = scene.plan.names().into_iter().map(String::from).collect();
-        let id = self.inner.store.insert(label, text, now(), particles, &stages)?;
+        let id = self
+            .inner
+            .store
+            .insert(label, text, now(), particles, &stages)?;
         let bus = Arc::new(JobBus::new());
         bus.push_state(JobState::Queued, None);
         lock(&self.inner.buses).insert(id.clone(), bus);
@@ -287,13 +310,25 @@ impl JobManager {
         Ok(r)
     }
 
-    pub fn list(&self, page_size: usize, token: &str, state: Option<JobState>) -> Result<(Vec<JobRecord>, String), JobError> {
+    pub fn list(
+        &self,
+        page_size: usize,
+        token: &str,
+        state: Option<JobState>,
+    ) -> Result<(Vec<JobRecord>, String), JobError> {
         let after = if token.is_empty() {
             None
         } else {
-            Some(token.parse::<i64>().map_err(|_| JobError::Precondition(format!("invalid page_token {token:?}")))?)
+            Some(
+                token
+                    .parse::<i64>()
+                    .map_err(|_| JobError::Precondition(format!("invalid page_token {token:?}")))?,
+            )
         };
-        let (jobs, next) = self.inner.store.list(page_size.clamp(1, 1000), after, state)?;
+        let (jobs, next) = self
+            .inner
+            .store
+            .list(page_size.clamp(1, 1000), after, state)?;
         Ok((jobs, next.map(|n| n.to_string()).unwrap_or_default()))
     }
 
@@ -304,8 +339,17 @@ impl JobManager {
         if let Some(pos) = q.waiting.iter().position(|j| j == id) {
             q.waiting.remove(pos);
             drop(q);
-            self.inner.store.finish(id, JobState::Cancelled, now(), Some("cancelled before it started"), None)?;
-            self.bus(id).push_state(JobState::Cancelled, Some("cancelled before it started".into()));
+            self.inner.store.finish(
+                id,
+                JobState::Cancelled,
+                now(),
+                Some("cancelled before it started"),
+                None,
+            )?;
+            self.bus(id).push_state(
+                JobState::Cancelled,
+                Some("cancelled before it started".into()),
+            );
         } else if let Some(flag) = q.running.get(id) {
             flag.store(true, Ordering::SeqCst);
         } else if !record.state.is_final() {
@@ -353,13 +397,21 @@ impl JobManager {
             if !path.exists() {
                 break;
             }
-            out.push(snapfile::SnapshotReader::open(&path).map_err(JobError::Store)?.header);
+            out.push(
+                snapfile::SnapshotReader::open(&path)
+                    .map_err(JobError::Store)?
+                    .header,
+            );
         }
         Ok(out)
     }
 
     /// Opens one snapshot of a job.
-    pub fn open_snapshot(&self, id: &str, index: u32) -> Result<snapfile::SnapshotReader, JobError> {
+    pub fn open_snapshot(
+        &self,
+        id: &str,
+        index: u32,
+    ) -> Result<snapfile::SnapshotReader, JobError> {
         let record = self.inner.store.get(id)?;
         let path = snapshot_path(&self.inner.store.job_dir(id), index);
         if !path.exists() {
@@ -378,10 +430,13 @@ impl JobManager {
         let path = self.inner.store.job_dir(id).join("series.csv");
         match crate::output::read_series(&path) {
             Ok(s) => Ok(s),
-            Err(e) if e.source.kind() != std::io::ErrorKind::InvalidData
-                && (!record.state.is_final() || record.state == JobState::Cancelled) =>
+            Err(e)
+                if e.source.kind() != std::io::ErrorKind::InvalidData
+                    && (!record.state.is_final() || record.state == JobState::Cancelled) =>
             {
-                Err(JobError::Precondition(format!("{id} has no time series yet")))
+                Err(JobError::Precondition(format!(
+                    "{id} has no time series yet"
+                )))
             }
             Err(e) => Err(JobError::Store(e.to_string())),
         }
@@ -413,12 +468,16 @@ fn runner(inner: Arc<Inner>) {
                 q = inner.wake.wait(q).unwrap_or_else(|p| p.into_inner());
             }
         };
-        let manager = JobManager { inner: inner.clone() };
+        let manager = JobManager {
+            inner: inner.clone(),
+        };
         let bus = manager.bus(&id);
         if let Err(e) = run_job(&inner, &id, &bus, &cancel) {
             tracing::error!(job = %id, error = %e, "job bookkeeping failed");
             let msg = format!("internal error: {e}");
-            let _ = inner.store.finish(&id, JobState::Failed, now(), Some(&msg), None);
+            let _ = inner
+                .store
+                .finish(&id, JobState::Failed, now(), Some(&msg), None);
             bus.push_state(JobState::Failed, Some(msg));
         }
         lock(&inner.queue).running.remove(&id);
@@ -426,21 +485,29 @@ fn runner(inner: Arc<Inner>) {
 }
 
 /// Runs one job to its end and records the outcome.
-fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> Result<(), JobError> {
+fn run_job(
+    inner: &Inner,
+    id: &str,
+    bus: &JobBus,
+    cancel: &Arc<AtomicBool>,
+) -> Result<(), JobError> {
     let record = inner.store.get(id)?;
     let scene = Scene::from_text(&record.scene, None)?;
     inner.store.set_running(id, now())?;
     bus.push_state(JobState::Running, None);
     tracing::info!(job = %id, "running");
     let dir = inner.store.job_dir(id);
-    std::fs::create_dir_all(&dir).map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
     let cp_path = checkpoint_path(&dir);
     let resume = if cp_path.exists() {
         match resume_job(&dir) {
             Ok(r) => Some(r),
             Err(e) => {
                 let msg = format!("cannot resume from its checkpoint: {e}");
-                inner.store.finish(id, JobState::Failed, now(), Some(&msg), None)?;
+                inner
+                    .store
+                    .finish(id, JobState::Failed, now(), Some(&msg), None)?;
                 bus.push_state(JobState::Failed, Some(msg));
                 return Ok(());
             }
@@ -483,7 +550,8 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
     let outcome = pool.install(|| {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             let mut sim = match cp {
-                Some(cp) => Simulation::resume(&scene, cp).map_err(|e| format!("cannot resume from its checkpoint: {e}"))?,
+                Some(cp) => Simulation::resume(&scene, cp)
+                    .map_err(|e| format!("cannot resume from its checkpoint: {e}"))?,
                 None => Simulation::new(&scene),
             };
             sim.run(&mut observer).map_err(|e| e.to_string())
@@ -491,10 +559,19 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
     });
     let _ = std::io::Write::flush(&mut observer.series);
     let wall = observer.wall_before + observer.started.elapsed().as_secs_f64();
-    if inner.stopping.load(Ordering::SeqCst) && observer.stop_next && matches!(&outcome, Ok(Ok(s)) if s.cancelled) {
+    if inner.stopping.load(Ordering::SeqCst)
+        && observer.stop_next
+        && matches!(&outcome, Ok(Ok(s)) if s.cancelled)
+    {
         // stopped by the server's shutdown after a checkpoint: the next
         // server resumes it (the store keeps it RUNNING until then)
-        bus.push_state(JobState::Queued, Some("the server is stopping; the job resumes from its checkpoint when it starts again".into()));
+        bus.push_state(
+            JobState::Queued,
+            Some(
+                "the server is stopping; the job resumes from its checkpoint when it starts again"
+                    .into(),
+            ),
+        );
         tracing::info!(job = %id, "checkpointed for the next server");
         return Ok(());
     }
@@ -514,7 +591,10 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
         summary.energy_error = r.energy_error;
     }
     let (state, error) = match outcome {
-        Ok(Ok(s)) if s.cancelled => (JobState::Cancelled, Some("cancelled while running".to_string())),
+        Ok(Ok(s)) if s.cancelled => (
+            JobState::Cancelled,
+            Some("cancelled while running".to_string()),
+        ),
         Ok(Ok(s)) => {
             summary.steps = s.steps;
             summary.time = s.time;
@@ -527,10 +607,15 @@ fn run_job(inner: &Inner, id: &str, bus: &JobBus, cancel: &Arc<AtomicBool>) -> R
                 .map(|s| s.to_string())
                 .or_else(|| panic.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "unknown panic".into());
-            (JobState::Failed, Some(format!("internal error (panic): {what}")))
+            (
+                JobState::Failed,
+                Some(format!("internal error (panic): {what}")),
+            )
         }
     };
-    inner.store.finish(id, state, now(), error.as_deref(), Some(&summary))?;
+    inner
+        .store
+        .finish(id, state, now(), error.as_deref(), Some(&summary))?;
     bus.push(JobEvent::Summary(summary));
     bus.push_state(state, error.clone());
     tracing::info!(job = %id, state = state.as_str(), error = error.as_deref().unwrap_or(""), wall, "finished");
@@ -557,10 +642,21 @@ pub(crate) struct ObserverState {
 /// A job's checkpoint, read back: its series cut back to the checkpoint
 /// (and opened to append), the observer's counts, and the checkpoint for
 /// [`Simulation::resume`].
-fn resume_job(dir: &Path) -> Result<(std::fs::File, ObserverState, crate::mpm::Checkpoint<'static>), String> {
+fn resume_job(
+    dir: &Path,
+) -> Result<
+    (
+        std::fs::File,
+        ObserverState,
+        crate::mpm::Checkpoint<'static>,
+    ),
+    String,
+> {
     let cp = crate::mpm::Checkpoint::load(&checkpoint_path(dir)).map_err(|e| e.to_string())?;
-    let saved: ObserverState = postcard::from_bytes(&cp.observer).map_err(|e| format!("its observer state: {e}"))?;
-    let series = crate::output::reopen_series(&dir.join("series.csv"), saved.series_bytes).map_err(|e| e.to_string())?;
+    let saved: ObserverState =
+        postcard::from_bytes(&cp.observer).map_err(|e| format!("its observer state: {e}"))?;
+    let series = crate::output::reopen_series(&dir.join("series.csv"), saved.series_bytes)
+        .map_err(|e| e.to_string())?;
     Ok((series, saved, cp))
 }
 
@@ -585,7 +681,9 @@ struct JobObserver<'a> {
 
 impl Observer for JobObserver<'_> {
     fn checkpoint(&mut self, mut cp: crate::mpm::Checkpoint<'_>) -> Result<(), String> {
-        let series_bytes = crate::output::flushed_len(&mut self.series, &self.dir.join("series.csv")).map_err(|e| e.to_string())?;
+        let series_bytes =
+            crate::output::flushed_len(&mut self.series, &self.dir.join("series.csv"))
+                .map_err(|e| e.to_string())?;
         let state = ObserverState {
             series_bytes,
             snapshots: self.snapshots,
@@ -599,7 +697,8 @@ impl Observer for JobObserver<'_> {
 
     fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
         use std::io::Write;
-        writeln!(self.series, "{}", columns.join(",")).map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))
+        writeln!(self.series, "{}", columns.join(","))
+            .map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))
     }
 
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
@@ -624,7 +723,11 @@ impl Observer for JobObserver<'_> {
     fn progress(&mut self, p: &Progress) -> Control {
         if self.cancel.load(Ordering::SeqCst) {
             // a shutdown (not a user's cancel) saves a checkpoint first
-            if self.checkpoints.enabled() && self.stopping.load(Ordering::SeqCst) && !self.stop_next && p.time < p.end_time {
+            if self.checkpoints.enabled()
+                && self.stopping.load(Ordering::SeqCst)
+                && !self.stop_next
+                && p.time < p.end_time
+            {
                 self.stop_next = true;
                 return Control::Checkpoint;
             }
@@ -635,11 +738,17 @@ impl Observer for JobObserver<'_> {
         let fraction = p.fraction();
         let due = match self.last_emit {
             None => true,
-            Some((t, f)) => fraction - f >= 0.01 || (now - t).as_secs_f64() >= 0.25 || fraction >= 1.0,
+            Some((t, f)) => {
+                fraction - f >= 0.01 || (now - t).as_secs_f64() >= 0.25 || fraction >= 1.0
+            }
         };
         if due {
             let wall = (now - self.started).as_secs_f64();
-            let eta = if fraction > 0.0 { wall * (1.0 - fraction) / fraction } else { 0.0 };
+            let eta = if fraction > 0.0 {
+                wall * (1.0 - fraction) / fraction
+            } else {
+                0.0
+            };
             self.bus.push(JobEvent::Progress(JobProgress {
                 step: p.step,
                 time: p.time,
@@ -672,7 +781,9 @@ mod tests {
         let ones = vec!["1"; SeriesRow::COLUMNS.len()].join(",");
         // a phase-field series: two extra columns; the last row was cut
         // short by a crash
-        let text = format!("{core},pf_residual,crack_length\n{ones},NaN,0.05\n{ones},1e-3,0.06\n{ones},2e-3\n");
+        let text = format!(
+            "{core},pf_residual,crack_length\n{ones},NaN,0.05\n{ones},1e-3,0.06\n{ones},2e-3\n"
+        );
         let (columns, rows) = parse_series(&text).unwrap();
         assert_eq!(columns.len(), SeriesRow::COLUMNS.len() + 2);
         assert_eq!(rows.len(), 2);

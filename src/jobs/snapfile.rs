@@ -76,18 +76,32 @@ pub fn write(path: &Path, snap: &Snapshot) -> Result<(), String> {
             FieldData::F64(v) => (Dtype::F64, v.len()),
             FieldData::U32(v) => (Dtype::U32, v.len()),
         };
-        let a = ArrayInfo { name: name.to_string(), dtype, components, len, offset };
+        let a = ArrayInfo {
+            name: name.to_string(),
+            dtype,
+            components,
+            len,
+            offset,
+        };
         offset += (len * dtype.size()) as u64;
         a
     };
     let positions = FieldData::F64(snap.positions.iter().flat_map(|p| [p[0], p[1]]).collect());
     let mut fields = vec![info("position", &positions, 2)];
-    fields.extend(snap.fields.iter().map(|f| info(&f.name, &f.data, f.components)));
+    fields.extend(
+        snap.fields
+            .iter()
+            .map(|f| info(&f.name, &f.data, f.components)),
+    );
     let grid = snap.grid.as_ref().map(|g| GridInfo {
         origin: g.origin,
         spacing: g.spacing,
         dims: g.dims,
-        fields: g.fields.iter().map(|f| info(&f.name, &f.data, f.components)).collect(),
+        fields: g
+            .fields
+            .iter()
+            .map(|f| info(&f.name, &f.data, f.components))
+            .collect(),
     });
     let header = SnapshotHeader {
         index: snap.index,
@@ -100,7 +114,11 @@ pub fn write(path: &Path, snap: &Snapshot) -> Result<(), String> {
     let json = serde_json::to_vec(&header).map_err(|e| e.to_string())?;
     let arrays = std::iter::once(&positions)
         .chain(snap.fields.iter().map(|f| &f.data))
-        .chain(snap.grid.iter().flat_map(|g| g.fields.iter().map(|f| &f.data)));
+        .chain(
+            snap.grid
+                .iter()
+                .flat_map(|g| g.fields.iter().map(|f| &f.data)),
+        );
     crate::output::write_atomic(path, |w| {
         w.write_all(MAGIC)?;
         w.write_all(&(json.len() as u64).to_le_bytes())?;
@@ -141,24 +159,48 @@ impl SnapshotReader {
         }
         let mut json = vec![0u8; len as usize];
         file.read_exact(&mut json).map_err(|e| io(path, e))?;
-        let header: SnapshotHeader =
-            serde_json::from_slice(&json).map_err(|e| format!("{}: corrupt header: {e}", path.display()))?;
-        Ok(SnapshotReader { file, path: path.to_path_buf(), header, base: 20 + len })
+        let header: SnapshotHeader = serde_json::from_slice(&json)
+            .map_err(|e| format!("{}: corrupt header: {e}", path.display()))?;
+        Ok(SnapshotReader {
+            file,
+            path: path.to_path_buf(),
+            header,
+            base: 20 + len,
+        })
     }
 
     /// Reads `count` bytes of an array from byte `from` within it.
-    pub fn read_bytes(&mut self, a: &ArrayInfo, from: u64, count: usize) -> Result<Vec<u8>, String> {
+    pub fn read_bytes(
+        &mut self,
+        a: &ArrayInfo,
+        from: u64,
+        count: usize,
+    ) -> Result<Vec<u8>, String> {
         let mut buf = vec![0u8; count];
-        self.file.seek(SeekFrom::Start(self.base + a.offset + from)).map_err(|e| io(&self.path, e))?;
-        self.file.read_exact(&mut buf).map_err(|e| io(&self.path, e))?;
+        self.file
+            .seek(SeekFrom::Start(self.base + a.offset + from))
+            .map_err(|e| io(&self.path, e))?;
+        self.file
+            .read_exact(&mut buf)
+            .map_err(|e| io(&self.path, e))?;
         Ok(buf)
     }
 
     fn read_array(&mut self, a: &ArrayInfo) -> Result<FieldData, String> {
         let bytes = self.read_bytes(a, 0, a.len * a.dtype.size())?;
         Ok(match a.dtype {
-            Dtype::F64 => FieldData::F64(bytes.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect()),
-            Dtype::U32 => FieldData::U32(bytes.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap_or([0; 4]))).collect()),
+            Dtype::F64 => FieldData::F64(
+                bytes
+                    .chunks_exact(8)
+                    .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+                    .collect(),
+            ),
+            Dtype::U32 => FieldData::U32(
+                bytes
+                    .chunks_exact(4)
+                    .map(|c| u32::from_le_bytes(c.try_into().unwrap_or([0; 4])))
+                    .collect(),
+            ),
         })
     }
 
@@ -174,20 +216,40 @@ impl SnapshotReader {
                     positions = v.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
                 }
             } else {
-                fields.push(Field { name: a.name.clone(), components: a.components, data });
+                fields.push(Field {
+                    name: a.name.clone(),
+                    components: a.components,
+                    data,
+                });
             }
         }
         let grid = match &h.grid {
             Some(g) => {
                 let mut gf = Vec::new();
                 for a in &g.fields {
-                    gf.push(Field { name: a.name.clone(), components: a.components, data: self.read_array(a)? });
+                    gf.push(Field {
+                        name: a.name.clone(),
+                        components: a.components,
+                        data: self.read_array(a)?,
+                    });
                 }
-                Some(GridSnapshot { origin: g.origin, spacing: g.spacing, dims: g.dims, fields: gf })
+                Some(GridSnapshot {
+                    origin: g.origin,
+                    spacing: g.spacing,
+                    dims: g.dims,
+                    fields: gf,
+                })
             }
             None => None,
         };
-        Ok(Snapshot { index: h.index, step: h.step, time: h.time, positions, fields, grid })
+        Ok(Snapshot {
+            index: h.index,
+            step: h.step,
+            time: h.time,
+            positions,
+            fields,
+            grid,
+        })
     }
 }
 
@@ -203,14 +265,26 @@ mod tests {
             time: 1.25e-5,
             positions: vec![[0.1, 0.2], [f64::MIN_POSITIVE, -3.0]],
             fields: vec![
-                Field { name: "velocity".into(), components: 2, data: FieldData::F64(vec![1.0, 2.0, 3.0, f64::NAN]) },
-                Field { name: "particle_id".into(), components: 1, data: FieldData::U32(vec![5, 6]) },
+                Field {
+                    name: "velocity".into(),
+                    components: 2,
+                    data: FieldData::F64(vec![1.0, 2.0, 3.0, f64::NAN]),
+                },
+                Field {
+                    name: "particle_id".into(),
+                    components: 1,
+                    data: FieldData::U32(vec![5, 6]),
+                },
             ],
             grid: Some(GridSnapshot {
                 origin: [-1.0, -1.0],
                 spacing: 0.5,
                 dims: [2, 1],
-                fields: vec![Field { name: "mass".into(), components: 1, data: FieldData::F64(vec![0.5, 0.25]) }],
+                fields: vec![Field {
+                    name: "mass".into(),
+                    components: 1,
+                    data: FieldData::F64(vec![0.5, 0.25]),
+                }],
             }),
         };
         let dir = tempfile::tempdir().unwrap();

@@ -37,7 +37,11 @@ fn record(row: &rusqlite::Row<'_>) -> rusqlite::Result<JobRecord> {
         finished_at: row.get(6)?,
         error: row.get(7)?,
         particles: row.get::<_, i64>(8)? as u64,
-        stages: stages.split(',').filter(|s| !s.is_empty()).map(String::from).collect(),
+        stages: stages
+            .split(',')
+            .filter(|s| !s.is_empty())
+            .map(String::from)
+            .collect(),
         summary: summary.and_then(|s| serde_json::from_str(&s).ok()),
         progress: None,
     })
@@ -69,7 +73,10 @@ impl Store {
              CREATE INDEX IF NOT EXISTS jobs_state ON jobs(state);",
         )
         .map_err(db_err)?;
-        Ok(Store { conn: Mutex::new(conn), dir: dir.to_path_buf() })
+        Ok(Store {
+            conn: Mutex::new(conn),
+            dir: dir.to_path_buf(),
+        })
     }
 
     fn conn(&self) -> std::sync::MutexGuard<'_, Connection> {
@@ -84,7 +91,14 @@ impl Store {
     }
 
     /// Inserts a new queued job and returns its id (`job-000001`, ...).
-    pub fn insert(&self, label: &str, scene: &str, created_at: f64, particles: u64, stages: &[String]) -> Result<String, JobError> {
+    pub fn insert(
+        &self,
+        label: &str,
+        scene: &str,
+        created_at: f64,
+        particles: u64,
+        stages: &[String],
+    ) -> Result<String, JobError> {
         let conn = self.conn();
         let tx = conn.unchecked_transaction().map_err(db_err)?;
         tx.execute(
@@ -94,7 +108,8 @@ impl Store {
         .map_err(db_err)?;
         let seq = tx.last_insert_rowid();
         let id = format!("job-{seq:06}");
-        tx.execute("UPDATE jobs SET id = ?1 WHERE seq = ?2", params![id, seq]).map_err(db_err)?;
+        tx.execute("UPDATE jobs SET id = ?1 WHERE seq = ?2", params![id, seq])
+            .map_err(db_err)?;
         tx.commit().map_err(db_err)?;
         std::fs::create_dir_all(self.job_dir(&id))
             .map_err(|e| JobError::Store(format!("cannot create the directory of {id}: {e}")))?;
@@ -103,7 +118,11 @@ impl Store {
 
     pub fn get(&self, id: &str) -> Result<JobRecord, JobError> {
         self.conn()
-            .query_row(&format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"), params![id], record)
+            .query_row(
+                &format!("SELECT {COLUMNS} FROM jobs WHERE id = ?1"),
+                params![id],
+                record,
+            )
             .optional()
             .map_err(db_err)?
             .ok_or_else(|| JobError::NotFound(format!("no job {id}")))
@@ -111,7 +130,12 @@ impl Store {
 
     /// Jobs newest first, after the page token (the sequence number of the
     /// last job of the previous page), optionally in one state.
-    pub fn list(&self, page_size: usize, after: Option<i64>, state: Option<JobState>) -> Result<(Vec<JobRecord>, Option<i64>), JobError> {
+    pub fn list(
+        &self,
+        page_size: usize,
+        after: Option<i64>,
+        state: Option<JobState>,
+    ) -> Result<(Vec<JobRecord>, Option<i64>), JobError> {
         let conn = self.conn();
         let mut stmt = conn
             .prepare(&format!(
@@ -120,7 +144,11 @@ impl Store {
             .map_err(db_err)?;
         let rows = stmt
             .query_map(
-                params![after.unwrap_or(i64::MAX), state.map(|s| s.as_str()), page_size as i64 + 1],
+                params![
+                    after.unwrap_or(i64::MAX),
+                    state.map(|s| s.as_str()),
+                    page_size as i64 + 1
+                ],
                 |row| Ok((record(row)?, row.get::<_, i64>(11)?)),
             )
             .map_err(db_err)?;
@@ -130,21 +158,33 @@ impl Store {
         }
         let more = out.len() > page_size;
         out.truncate(page_size);
-        let next = if more { out.last().map(|(_, seq)| *seq) } else { None };
+        let next = if more {
+            out.last().map(|(_, seq)| *seq)
+        } else {
+            None
+        };
         Ok((out.into_iter().map(|(r, _)| r).collect(), next))
     }
 
     /// Ids of jobs in a state, oldest first.
     pub fn ids_in_state(&self, state: JobState) -> Result<Vec<String>, JobError> {
         let conn = self.conn();
-        let mut stmt = conn.prepare("SELECT id FROM jobs WHERE state = ?1 ORDER BY seq").map_err(db_err)?;
-        let rows = stmt.query_map(params![state.as_str()], |r| r.get(0)).map_err(db_err)?;
+        let mut stmt = conn
+            .prepare("SELECT id FROM jobs WHERE state = ?1 ORDER BY seq")
+            .map_err(db_err)?;
+        let rows = stmt
+            .query_map(params![state.as_str()], |r| r.get(0))
+            .map_err(db_err)?;
         rows.collect::<Result<Vec<String>, _>>().map_err(db_err)
     }
 
     pub fn count_in_state(&self, state: JobState) -> Result<usize, JobError> {
         self.conn()
-            .query_row("SELECT COUNT(*) FROM jobs WHERE state = ?1", params![state.as_str()], |r| r.get::<_, i64>(0))
+            .query_row(
+                "SELECT COUNT(*) FROM jobs WHERE state = ?1",
+                params![state.as_str()],
+                |r| r.get::<_, i64>(0),
+            )
             .map(|n| n as usize)
             .map_err(db_err)
     }
@@ -152,7 +192,10 @@ impl Store {
     /// Sets a job's state alone (a job queued again to resume).
     pub fn set_state(&self, id: &str, state: JobState) -> Result<(), JobError> {
         self.conn()
-            .execute("UPDATE jobs SET state = ?1 WHERE id = ?2", params![state.as_str(), id])
+            .execute(
+                "UPDATE jobs SET state = ?1 WHERE id = ?2",
+                params![state.as_str(), id],
+            )
             .map(|_| ())
             .map_err(db_err)
     }

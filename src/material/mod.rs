@@ -61,7 +61,11 @@ impl Elastic {
     #[inline(always)]
     pub fn neo_hookean(&self, f: [f64; 4]) -> ([f64; 3], f64) {
         let j = f[0] * f[3] - f[1] * f[2];
-        let b = [f[0] * f[0] + f[1] * f[1], f[2] * f[2] + f[3] * f[3], f[0] * f[2] + f[1] * f[3]];
+        let b = [
+            f[0] * f[0] + f[1] * f[1],
+            f[2] * f[2] + f[3] * f[3],
+            f[0] * f[2] + f[1] * f[3],
+        ];
         let lnj = j.ln();
         let a = self.mu / j;
         let p = self.lambda * lnj / j;
@@ -69,7 +73,12 @@ impl Elastic {
     }
 
     /// Out-of-plane stress σ_zz.
-    pub fn stress_zz(&self, stress: [f64; 3], strain: Option<[f64; 3]>, def_grad: Option<[f64; 4]>) -> f64 {
+    pub fn stress_zz(
+        &self,
+        stress: [f64; 3],
+        strain: Option<[f64; 3]>,
+        def_grad: Option<[f64; 4]>,
+    ) -> f64 {
         match (self.model, self.plane) {
             (_, PlaneKind::PlaneStress) => 0.0,
             (MaterialModel::LinearElastic, PlaneKind::PlaneStrain) => {
@@ -89,7 +98,9 @@ impl Elastic {
     pub fn strain_zz(&self, e: [f64; 3]) -> f64 {
         match self.plane {
             PlaneKind::PlaneStrain => 0.0,
-            PlaneKind::PlaneStress => -self.poissons_ratio / (1.0 - self.poissons_ratio) * (e[0] + e[1]),
+            PlaneKind::PlaneStress => {
+                -self.poissons_ratio / (1.0 - self.poissons_ratio) * (e[0] + e[1])
+            }
         }
     }
 
@@ -147,13 +158,18 @@ pub fn miehe_split(lambda: f64, mu: f64, e: [f64; 3], ezz: f64) -> (f64, [f64; 3
     let tr = e1 + e2 + ezz;
     let pos = |x: f64| x.max(0.0);
     let neg = |x: f64| x.min(0.0);
-    let psi = 0.5 * lambda * pos(tr).powi(2) + mu * (pos(e1).powi(2) + pos(e2).powi(2) + pos(ezz).powi(2));
+    let psi = 0.5 * lambda * pos(tr).powi(2)
+        + mu * (pos(e1).powi(2) + pos(e2).powi(2) + pos(ezz).powi(2));
     // s1 n1⊗n1 + s2 n2⊗n2, with n2⊗n2 = (nyy, nxx, −nxy)
     let proj = |s1: f64, s2: f64| [s1 * nxx + s2 * nyy, s1 * nyy + s2 * nxx, (s1 - s2) * nxy];
     let sp = proj(2.0 * mu * pos(e1), 2.0 * mu * pos(e2));
     let sn = proj(2.0 * mu * neg(e1), 2.0 * mu * neg(e2));
     let (lp, ln) = (lambda * pos(tr), lambda * neg(tr));
-    (psi, [sp[0] + lp, sp[1] + lp, sp[2]], [sn[0] + ln, sn[1] + ln, sn[2]])
+    (
+        psi,
+        [sp[0] + lp, sp[1] + lp, sp[2]],
+        [sn[0] + ln, sn[1] + ln, sn[2]],
+    )
 }
 
 #[cfg(test)]
@@ -161,17 +177,35 @@ mod tests {
     #[test]
     fn miehe_split_sums_to_hooke_and_separates_tension() {
         let (lambda, mu) = (1.2e9, 0.8e9);
-        for e in [[1e-3, -2e-4, 3e-4], [-1e-3, -5e-4, 1e-4], [2e-3, 2e-3, 0.0], [0.0, 0.0, 5e-4]] {
+        for e in [
+            [1e-3, -2e-4, 3e-4],
+            [-1e-3, -5e-4, 1e-4],
+            [2e-3, 2e-3, 0.0],
+            [0.0, 0.0, 5e-4],
+        ] {
             let (psi, sp, sn) = super::miehe_split(lambda, mu, e, 0.0);
-            let hooke = [(lambda + 2.0 * mu) * e[0] + lambda * e[1], lambda * e[0] + (lambda + 2.0 * mu) * e[1], 2.0 * mu * e[2]];
+            let hooke = [
+                (lambda + 2.0 * mu) * e[0] + lambda * e[1],
+                lambda * e[0] + (lambda + 2.0 * mu) * e[1],
+                2.0 * mu * e[2],
+            ];
             for k in 0..3 {
-                assert!((sp[k] + sn[k] - hooke[k]).abs() < 1e-6 * 1e9 * 1e-3, "{e:?}: {k}");
+                assert!(
+                    (sp[k] + sn[k] - hooke[k]).abs() < 1e-6 * 1e9 * 1e-3,
+                    "{e:?}: {k}"
+                );
             }
             let total = 0.5 * (hooke[0] * e[0] + hooke[1] * e[1] + 2.0 * hooke[2] * e[2]);
-            assert!(psi >= 0.0 && psi <= total + 1e-9, "{e:?}: psi+ {psi} of {total}");
+            assert!(
+                psi >= 0.0 && psi <= total + 1e-9,
+                "{e:?}: psi+ {psi} of {total}"
+            );
             // ψ⁺ = ½ σ⁺ : ε
             let half = 0.5 * (sp[0] * e[0] + sp[1] * e[1] + 2.0 * sp[2] * e[2]);
-            assert!((psi - half).abs() < 1e-9 * total.max(1.0), "{e:?}: {psi} vs {half}");
+            assert!(
+                (psi - half).abs() < 1e-9 * total.max(1.0),
+                "{e:?}: {psi} vs {half}"
+            );
         }
         // pure compression has no tensile energy
         let (psi, sp, _) = super::miehe_split(lambda, mu, [-1e-3, -1e-3, 0.0], 0.0);
@@ -210,16 +244,26 @@ mod tests {
     #[test]
     fn both_plane_stress_splits_sum_to_plane_stress_hooke() {
         let m = steel(MaterialModel::LinearElastic, PlaneKind::PlaneStress);
-        for e in [[1e-3, -2e-4, 3e-4], [-1e-3, -5e-4, 1e-4], [2e-3, -4e-3, 0.0]] {
+        for e in [
+            [1e-3, -2e-4, 3e-4],
+            [-1e-3, -5e-4, 1e-4],
+            [2e-3, -4e-3, 0.0],
+        ] {
             let hooke = m.hooke(e);
             // with ε_zz (the default) and in-plane with λ* = c12
             for (lambda, ezz) in [(m.lambda, m.strain_zz(e)), (m.c12, 0.0)] {
                 let (psi, sp, sn) = miehe_split(lambda, m.mu, e, ezz);
                 for k in 0..3 {
-                    assert!((sp[k] + sn[k] - hooke[k]).abs() < 1e-9 * 200e9 * 1e-3, "{e:?} {lambda}: {k}");
+                    assert!(
+                        (sp[k] + sn[k] - hooke[k]).abs() < 1e-9 * 200e9 * 1e-3,
+                        "{e:?} {lambda}: {k}"
+                    );
                 }
                 let total = Elastic::energy_linear(hooke, e);
-                assert!(psi >= 0.0 && psi <= total * (1.0 + 1e-12), "{e:?}: psi+ {psi} of {total}");
+                assert!(
+                    psi >= 0.0 && psi <= total * (1.0 + 1e-12),
+                    "{e:?}: psi+ {psi} of {total}"
+                );
             }
         }
         // in-plane biaxial compression thickens the plate: tensile energy
@@ -227,7 +271,10 @@ mod tests {
         let e = [-1e-3, -1e-3, 0.0];
         let ezz = m.strain_zz(e);
         let (with_zz, _, _) = miehe_split(m.lambda, m.mu, e, ezz);
-        assert!((with_zz - m.mu * ezz * ezz).abs() < 1e-9 * with_zz, "{with_zz}");
+        assert!(
+            (with_zz - m.mu * ezz * ezz).abs() < 1e-9 * with_zz,
+            "{with_zz}"
+        );
         let (in_plane, _, _) = miehe_split(m.c12, m.mu, e, 0.0);
         assert_eq!(in_plane, 0.0);
     }
@@ -240,7 +287,12 @@ mod tests {
         let (s, _) = neo.neo_hookean([1.0 + e, 0.5 * e, 0.5 * e, 1.0 - 0.5 * e]);
         let h = lin.hooke([e, -0.5 * e, 0.5 * e]);
         for k in 0..3 {
-            assert!((s[k] - h[k]).abs() < 1e-4 * 200e9 * e, "{k}: {} vs {}", s[k], h[k]);
+            assert!(
+                (s[k] - h[k]).abs() < 1e-4 * 200e9 * e,
+                "{k}: {} vs {}",
+                s[k],
+                h[k]
+            );
         }
         // energy density of the unstrained state is zero
         assert_eq!(neo.energy_neo_hookean([1.0, 0.0, 0.0, 1.0]), 0.0);

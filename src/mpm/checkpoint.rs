@@ -48,7 +48,11 @@ pub enum CheckpointError {
     #[error("checkpoint is damaged or from another format: {0}")]
     Decode(String),
     #[error("the scene is not the one the checkpoint was written for: {path} is {scene} in the scene, {checkpoint} in the checkpoint")]
-    SceneMismatch { path: String, scene: String, checkpoint: String },
+    SceneMismatch {
+        path: String,
+        scene: String,
+        checkpoint: String,
+    },
     #[error("checkpoint does not fit the scene: {0}")]
     Inconsistent(String),
 }
@@ -124,7 +128,9 @@ impl Checkpoint<'_> {
     pub fn read_from(r: &mut impl Read) -> Result<Checkpoint<'static>, CheckpointError> {
         let mut bytes = Vec::new();
         r.read_to_end(&mut bytes)?;
-        let body = bytes.strip_prefix(MAGIC.as_slice()).ok_or(CheckpointError::NotACheckpoint)?;
+        let body = bytes
+            .strip_prefix(MAGIC.as_slice())
+            .ok_or(CheckpointError::NotACheckpoint)?;
         postcard::from_bytes(body).map_err(|e| CheckpointError::Decode(e.to_string()))
     }
 
@@ -148,7 +154,10 @@ pub struct CheckpointTimer {
 impl CheckpointTimer {
     /// A timer that starts now; `None` never asks.
     pub fn new(every: Option<std::time::Duration>) -> CheckpointTimer {
-        CheckpointTimer { every, last: std::time::Instant::now() }
+        CheckpointTimer {
+            every,
+            last: std::time::Instant::now(),
+        }
     }
 
     /// The interval a command line's `--checkpoint-every SECONDS` asks
@@ -157,7 +166,9 @@ impl CheckpointTimer {
         if seconds.is_finite() && seconds >= 0.0 {
             Ok(std::time::Duration::from_secs_f64(seconds))
         } else {
-            Err(format!("--checkpoint-every: must be a number of seconds >= 0, got {seconds}"))
+            Err(format!(
+                "--checkpoint-every: must be a number of seconds >= 0, got {seconds}"
+            ))
         }
     }
 
@@ -188,9 +199,19 @@ const SOLVER_KEY: &str = "phase_field_solver";
 
 /// The first place where two JSON values differ, as a field path and the
 /// two values (None if they are equal).
-fn first_difference(path: &str, a: &serde_json::Value, b: &serde_json::Value) -> Option<(String, String, String)> {
+fn first_difference(
+    path: &str,
+    a: &serde_json::Value,
+    b: &serde_json::Value,
+) -> Option<(String, String, String)> {
     use serde_json::Value;
-    let join = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };
+    let join = |k: &str| {
+        if path.is_empty() {
+            k.to_string()
+        } else {
+            format!("{path}.{k}")
+        }
+    };
     match (a, b) {
         (Value::Object(x), Value::Object(y)) => {
             for (k, va) in x {
@@ -203,13 +224,25 @@ fn first_difference(path: &str, a: &serde_json::Value, b: &serde_json::Value) ->
                     None => return Some((join(k), va.to_string(), "absent".into())),
                 }
             }
-            y.keys().find(|k| !x.contains_key(*k)).map(|k| (join(k), "absent".into(), y[k].to_string()))
+            y.keys()
+                .find(|k| !x.contains_key(*k))
+                .map(|k| (join(k), "absent".into(), y[k].to_string()))
         }
-        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
-            x.iter().zip(y).enumerate().find_map(|(i, (va, vb))| first_difference(&format!("{path}[{i}]"), va, vb))
-        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => x
+            .iter()
+            .zip(y)
+            .enumerate()
+            .find_map(|(i, (va, vb))| first_difference(&format!("{path}[{i}]"), va, vb)),
         _ if a == b => None,
-        _ => Some((if path.is_empty() { "(the scene)".into() } else { path.to_string() }, a.to_string(), b.to_string())),
+        _ => Some((
+            if path.is_empty() {
+                "(the scene)".into()
+            } else {
+                path.to_string()
+            },
+            a.to_string(),
+            b.to_string(),
+        )),
     }
 }
 
@@ -237,7 +270,11 @@ fn other_layout(a: &Particles, b: &Particles) -> Option<&'static str> {
             ("strength", p.strength.len()),
         ]
     };
-    lengths(a).into_iter().zip(lengths(b)).find(|(x, y)| x.1 != y.1).map(|(x, _)| x.0)
+    lengths(a)
+        .into_iter()
+        .zip(lengths(b))
+        .find(|(x, y)| x.1 != y.1)
+        .map(|(x, _)| x.0)
 }
 
 impl Simulation {
@@ -277,19 +314,24 @@ impl Simulation {
     /// run's to the solvers' tolerance, not bit for bit).
     pub fn resume(scene: &Scene, cp: Checkpoint<'_>) -> Result<Simulation, CheckpointError> {
         let mut now = serde_json::to_value(&scene.file).unwrap_or_default();
-        let mut then: serde_json::Value =
-            serde_json::from_str(&cp.scene).map_err(|e| CheckpointError::Decode(format!("its scene: {e}")))?;
+        let mut then: serde_json::Value = serde_json::from_str(&cp.scene)
+            .map_err(|e| CheckpointError::Decode(format!("its scene: {e}")))?;
         // The phase-field solver may change: it decides how c is solved
         // for, to its tolerance, not what is simulated (a long run can go on
         // with a faster method).
-        let solver = |v: &mut serde_json::Value| v.as_object_mut().and_then(|o| o.remove(SOLVER_KEY));
+        let solver =
+            |v: &mut serde_json::Value| v.as_object_mut().and_then(|o| o.remove(SOLVER_KEY));
         if let (Some(a), Some(b)) = (solver(&mut then), solver(&mut now)) {
             if a != b {
                 tracing::info!(checkpoint = %a, scene = %b, "resuming with another phase-field solver");
             }
         }
         if let Some((path, checkpoint, scene)) = first_difference("", &then, &now) {
-            return Err(CheckpointError::SceneMismatch { path, scene, checkpoint });
+            return Err(CheckpointError::SceneMismatch {
+                path,
+                scene,
+                checkpoint,
+            });
         }
         let mut sim = Simulation::new(scene);
         let s = cp.state;
@@ -302,14 +344,21 @@ impl Simulation {
             )));
         }
         if let Some(array) = other_layout(&s.parts, &sim.parts) {
-            return Err(bad(format!("its particle array `{array}` does not have the scene's length")));
+            return Err(bad(format!(
+                "its particle array `{array}` does not have the scene's length"
+            )));
         }
-        if s.phase.is_some() != sim.phase.is_some() || s.damage.is_some() != sim.damage.is_some() || s.dfg.is_some() != sim.dfg.is_some() {
+        if s.phase.is_some() != sim.phase.is_some()
+            || s.damage.is_some() != sim.damage.is_some()
+            || s.dfg.is_some() != sim.dfg.is_some()
+        {
             return Err(bad("its stages are not the scene's".into()));
         }
         sim.parts = s.parts.into_owned();
         sim.group_of = sim.parts.group.clone();
-        sim.bins.restore(&sim.geom, &sim.parts.x, s.bins_order.into_owned()).map_err(bad)?;
+        sim.bins
+            .restore(&sim.geom, &sim.parts.x, s.bins_order.into_owned())
+            .map_err(bad)?;
         if let (Some(pf), Some(st)) = (sim.phase.as_mut(), s.phase) {
             pf.restore(st, sim.geom.node_count()).map_err(bad)?;
         }
@@ -318,7 +367,9 @@ impl Simulation {
         }
         if let (Some(d), Some((x_built, builds))) = (sim.dfg.as_mut(), s.dfg) {
             if x_built.len() != sim.parts.len() && !x_built.is_empty() {
-                return Err(bad("DFG's neighbour positions are not one per particle".into()));
+                return Err(bad(
+                    "DFG's neighbour positions are not one per particle".into()
+                ));
             }
             d.restore_neighbours(&sim.geom, &sim.parts, &x_built, builds);
         }
@@ -347,9 +398,15 @@ mod tests {
         let a = json!({"time": {"end": 1.0, "dt": 2.0}, "bodies": [{"name": "a"}, {"name": "b"}]});
         let b = json!({"time": {"end": 1.0, "dt": 2.0}, "bodies": [{"name": "a"}, {"name": "c"}]});
         assert_eq!(first_difference("", &a, &a), None);
-        assert_eq!(first_difference("", &a, &b), Some(("bodies[1].name".into(), "\"b\"".into(), "\"c\"".into())));
+        assert_eq!(
+            first_difference("", &a, &b),
+            Some(("bodies[1].name".into(), "\"b\"".into(), "\"c\"".into()))
+        );
         let c = json!({"time": {"end": 2.0, "dt": 2.0}});
-        assert_eq!(first_difference("", &json!({"time": {"end": 1.0, "dt": 2.0}}), &c).map(|d| d.0), Some("time.end".into()));
+        assert_eq!(
+            first_difference("", &json!({"time": {"end": 1.0, "dt": 2.0}}), &c).map(|d| d.0),
+            Some("time.end".into())
+        );
     }
 
     /// postcard writes no field names nor types: a file read with another
@@ -362,13 +419,20 @@ mod tests {
     fn the_file_layout_is_the_one_its_header_names() {
         use serde_reflection::{Tracer, TracerConfig};
         let mut tracer = Tracer::new(TracerConfig::default());
-        tracer.trace_simple_type::<Checkpoint>().expect("trace the checkpoint's types");
+        tracer
+            .trace_simple_type::<Checkpoint>()
+            .expect("trace the checkpoint's types");
         // the observers' own state, saved in `Checkpoint::observer`
-        tracer.trace_simple_type::<crate::output::WriterState>().expect("trace the CLI writer's state");
-        tracer.trace_simple_type::<crate::jobs::ObserverState>().expect("trace a job's state");
+        tracer
+            .trace_simple_type::<crate::output::WriterState>()
+            .expect("trace the CLI writer's state");
+        tracer
+            .trace_simple_type::<crate::jobs::ObserverState>()
+            .expect("trace a job's state");
         let registry = tracer.registry().expect("every saved type is known");
         let layout = serde_json::to_string_pretty(&registry).expect("layout as JSON") + "\n";
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/mpm/checkpoint_layout.json");
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/mpm/checkpoint_layout.json");
         let held = std::fs::read_to_string(&path).unwrap_or_default();
         if layout != held {
             let fresh = path.with_extension("json.new");

@@ -68,7 +68,9 @@ impl DamageState {
             tips: Vec::new(),
             seed_radius: 2.0 * h,
             fragment_damage: scene.file.output.fragment_damage,
-            spacing: (0..scene.file.bodies.len()).map(|b| scene.particle_spacing(b)).collect(),
+            spacing: (0..scene.file.bodies.len())
+                .map(|b| scene.particle_spacing(b))
+                .collect(),
             finder: FragmentFinder::default(),
         })
     }
@@ -107,20 +109,35 @@ impl DamageState {
                 let roots: Vec<u32> = particles
                     .iter()
                     .copied()
-                    .filter(|&p| (x[p as usize][0] - o[0]).powi(2) + (x[p as usize][1] - o[1]).powi(2) < r2)
+                    .filter(|&p| {
+                        (x[p as usize][0] - o[0]).powi(2) + (x[p as usize][1] - o[1]).powi(2) < r2
+                    })
                     .collect();
-                self.tips.push(TrackedCrack { body: b, particles, member, roots, tracker: TipTracker::new(o) });
+                self.tips.push(TrackedCrack {
+                    body: b,
+                    particles,
+                    member,
+                    roots,
+                    tracker: TipTracker::new(o),
+                });
             }
         }
     }
 
     pub(super) fn saved(&self) -> DamageSaved {
-        DamageSaved { dissipated: self.dissipated, tips: self.tips.iter().map(|t| t.tracker).collect() }
+        DamageSaved {
+            dissipated: self.dissipated,
+            tips: self.tips.iter().map(|t| t.tracker).collect(),
+        }
     }
 
     pub(super) fn restore(&mut self, s: DamageSaved) -> Result<(), String> {
         if s.tips.len() != self.tips.len() {
-            return Err(format!("{} tracked cracks in the checkpoint, {} in the scene", s.tips.len(), self.tips.len()));
+            return Err(format!(
+                "{} tracked cracks in the checkpoint, {} in the scene",
+                s.tips.len(),
+                self.tips.len()
+            ));
         }
         self.dissipated = s.dissipated;
         for (t, tracker) in self.tips.iter_mut().zip(s.tips) {
@@ -144,9 +161,15 @@ impl DamageState {
     /// ([`crate::diagnostics::fragments`]).
     pub(super) fn fragments(&mut self, parts: &Particles) -> Fragments {
         let (models, limit) = (&self.law.models, self.fragment_damage);
-        self.finder.find(&parts.x, &parts.v, &parts.mass, &parts.vol, &self.spacing, &parts.body, |p| {
-            models[parts.material[p] as usize].is_some() && parts.damage[p] < limit
-        })
+        self.finder.find(
+            &parts.x,
+            &parts.v,
+            &parts.mass,
+            &parts.vol,
+            &self.spacing,
+            &parts.body,
+            |p| models[parts.material[p] as usize].is_some() && parts.damage[p] < limit,
+        )
     }
 
     /// Mass-weighted mean speed of the particles of damage-model materials
@@ -156,10 +179,15 @@ impl DamageState {
         for p in 0..parts.len() {
             if self.law.models[parts.material[p] as usize].is_some() {
                 m += parts.mass[p];
-                mv += parts.mass[p] * (parts.v[p][0] * parts.v[p][0] + parts.v[p][1] * parts.v[p][1]).sqrt();
+                mv += parts.mass[p]
+                    * (parts.v[p][0] * parts.v[p][0] + parts.v[p][1] * parts.v[p][1]).sqrt();
             }
         }
-        if m > 0.0 { mv / m } else { 0.0 }
+        if m > 0.0 {
+            mv / m
+        } else {
+            0.0
+        }
     }
 
     /// The crack tips at `time`. A body's crack is the set of broken
@@ -174,9 +202,15 @@ impl DamageState {
         self.tips
             .iter_mut()
             .map(|t| {
-                let broken = finder.find(&parts.x, &parts.v, &parts.mass, &parts.vol, spacing, &parts.body, |p| {
-                    t.member[p] && parts.damage[p] > TIP_D
-                });
+                let broken = finder.find(
+                    &parts.x,
+                    &parts.v,
+                    &parts.mass,
+                    &parts.vol,
+                    spacing,
+                    &parts.body,
+                    |p| t.member[p] && parts.damage[p] > TIP_D,
+                );
                 let mut seeds: Vec<u32> = t
                     .roots
                     .iter()
@@ -185,7 +219,12 @@ impl DamageState {
                     .collect();
                 seeds.sort_unstable();
                 seeds.dedup();
-                t.tracker.measure(&parts.x, &t.particles, |p| seeds.binary_search(&broken.label[p]).is_ok(), time)
+                t.tracker.measure(
+                    &parts.x,
+                    &t.particles,
+                    |p| seeds.binary_search(&broken.label[p]).is_ok(),
+                    time,
+                )
             })
             .collect()
     }

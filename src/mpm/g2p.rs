@@ -109,7 +109,13 @@ unsafe fn constitutive(
 
 /// The guards every particle passes after its update.
 #[inline(always)]
-fn guard(geom: &GridGeom, x: [f64; 2], v: [f64; 2], sig: [f64; 3], j_ratio: f64) -> Option<BadKind> {
+fn guard(
+    geom: &GridGeom,
+    x: [f64; 2],
+    v: [f64; 2],
+    sig: [f64; 3],
+    j_ratio: f64,
+) -> Option<BadKind> {
     if !(x[0].is_finite() && x[1].is_finite()) {
         Some(BadKind::NonFinite("position"))
     } else if !(v[0].is_finite() && v[1].is_finite()) {
@@ -235,7 +241,12 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
                     let a = unsafe { affine.at(p) };
                     *a = match dinv {
                         // B is in cell units of distance: C = B h D⁻¹.
-                        Some(d) => [b[0] * geom.h * d, b[1] * geom.h * d, b[2] * geom.h * d, b[3] * geom.h * d],
+                        Some(d) => [
+                            b[0] * geom.h * d,
+                            b[1] * geom.h * d,
+                            b[2] * geom.h * d,
+                            b[3] * geom.h * d,
+                        ],
                         None => l,
                     };
                     vpic
@@ -257,7 +268,8 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
                 // constitutive update and guards
                 let mat = &mats[material[p] as usize];
                 // SAFETY: as above.
-                let (sig, j_ratio) = unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
+                let (sig, j_ratio) =
+                    unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
                 unsafe { *stress.at(p) = sig };
                 // SAFETY: as above.
                 unsafe { finish(geom, p, *xp, vnew, sig, j_ratio, mat, tile_of, &mut st) };
@@ -318,7 +330,8 @@ pub fn musl_stress<K: Kernel, S: FieldSlots>(
                 }
                 let mat = &mats[material[p] as usize];
                 // SAFETY: as above.
-                let (sig, j_ratio) = unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
+                let (sig, j_ratio) =
+                    unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
                 unsafe { *stress.at(p) = sig };
                 *xp = x_next[p];
                 // SAFETY: as above.

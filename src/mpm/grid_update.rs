@@ -7,9 +7,9 @@
 //! blow-ups at free surfaces. A negative nodal mass stops the run.
 
 use crate::grid::{GridFields, GridGeom, MultiField, SyncPtr, PAD};
-use std::ops::Range;
 use crate::scene::{SideCondition, TimeFunction};
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// Fixed chunk for deterministic partial sums (independent of threads).
 const CHUNK: usize = 4096;
@@ -29,7 +29,10 @@ pub fn update(
 ) -> (f64, Option<(usize, f64)>) {
     let body_force = g != [0.0, 0.0];
     let slots = grid.mass.len();
-    let extra_runs: Vec<Range<usize>> = (extra..slots).step_by(CHUNK).map(|a| a..(a + CHUNK).min(slots)).collect();
+    let extra_runs: Vec<Range<usize>> = (extra..slots)
+        .step_by(CHUNK)
+        .map(|a| a..(a + CHUNK).min(slots))
+        .collect();
     let (mass, mom, force) = (&grid.mass, &grid.momentum, &grid.force);
     let vel_old = SyncPtr::new(&mut grid.vel_old);
     let vel = SyncPtr::new(&mut grid.vel);
@@ -44,7 +47,10 @@ pub fn update(
                 let (vo, vn) = if m > m_min {
                     let inv = 1.0 / m;
                     let vo = [mom[s][0] * inv, mom[s][1] * inv];
-                    let vn = [vo[0] + dt * (force[s][0] * inv + g[0]), vo[1] + dt * (force[s][1] * inv + g[1])];
+                    let vn = [
+                        vo[0] + dt * (force[s][0] * inv + g[0]),
+                        vo[1] + dt * (force[s][1] * inv + g[1]),
+                    ];
                     if body_force {
                         work += 0.5 * m * dt * (g[0] * (vo[0] + vn[0]) + g[1] * (vo[1] + vn[1]));
                     }
@@ -99,14 +105,19 @@ impl Boundary {
             let mut v = Vec::new();
             match side {
                 0 => (0..ny).for_each(|j| (0..=PAD).for_each(|i| v.push(geom.node(i, j) as u32))),
-                1 => (0..ny).for_each(|j| (nx - 1 - PAD..nx).for_each(|i| v.push(geom.node(i, j) as u32))),
+                1 => (0..ny)
+                    .for_each(|j| (nx - 1 - PAD..nx).for_each(|i| v.push(geom.node(i, j) as u32))),
                 2 => (0..=PAD).for_each(|j| (0..nx).for_each(|i| v.push(geom.node(i, j) as u32))),
-                _ => (ny - 1 - PAD..ny).for_each(|j| (0..nx).for_each(|i| v.push(geom.node(i, j) as u32))),
+                _ => (ny - 1 - PAD..ny)
+                    .for_each(|j| (0..nx).for_each(|i| v.push(geom.node(i, j) as u32))),
             }
             v
         };
         let mut sides = Vec::new();
-        for (k, cond) in [&spec.left, &spec.right, &spec.bottom, &spec.top].into_iter().enumerate() {
+        for (k, cond) in [&spec.left, &spec.right, &spec.bottom, &spec.top]
+            .into_iter()
+            .enumerate()
+        {
             let normal_axis = if k < 2 { 0 } else { 1 };
             let c = match cond {
                 SideCondition::Free | SideCondition::Traction { .. } => continue,
@@ -134,7 +145,10 @@ impl Boundary {
                     t[*a] = Some(0.0);
                     t
                 }
-                Constraint::Velocity(f) => [f[0].as_ref().map(|f| f.eval(t)), f[1].as_ref().map(|f| f.eval(t))],
+                Constraint::Velocity(f) => [
+                    f[0].as_ref().map(|f| f.eval(t)),
+                    f[1].as_ref().map(|f| f.eval(t)),
+                ],
             };
             for &n in list {
                 let n = n as usize;

@@ -55,27 +55,67 @@ macro_rules! by_kernel {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {
     #[error("step {step}, t = {time:.6e} s: particle {particle} has a non-finite {quantity}")]
-    NonFinite { step: u64, time: f64, particle: u32, quantity: &'static str },
-    #[error("step {step}, t = {time:.6e} s: particle {particle} left the grid at ({x:.6e}, {y:.6e}) m")]
-    LeftGrid { step: u64, time: f64, particle: u32, x: f64, y: f64 },
+    NonFinite {
+        step: u64,
+        time: f64,
+        particle: u32,
+        quantity: &'static str,
+    },
+    #[error(
+        "step {step}, t = {time:.6e} s: particle {particle} left the grid at ({x:.6e}, {y:.6e}) m"
+    )]
+    LeftGrid {
+        step: u64,
+        time: f64,
+        particle: u32,
+        x: f64,
+        y: f64,
+    },
     #[error("step {step}, t = {time:.6e} s: particle {particle} volume vanished or inverted (J = {j:.3e})")]
-    VolumeVanished { step: u64, time: f64, particle: u32, j: f64 },
+    VolumeVanished {
+        step: u64,
+        time: f64,
+        particle: u32,
+        j: f64,
+    },
     #[error("step {step}, t = {time:.6e} s: negative nodal mass {mass:.3e} kg at node {node} ({x:.6e}, {y:.6e}) m")]
-    NegativeMass { step: u64, time: f64, node: usize, mass: f64, x: f64, y: f64 },
+    NegativeMass {
+        step: u64,
+        time: f64,
+        node: usize,
+        mass: f64,
+        x: f64,
+        y: f64,
+    },
     #[error(
         "step {step}, t = {time:.6e} s: runaway energy: kinetic + strain = {energy:.6e} J exceeds {bound:.6e} J \
          (guards.energy_growth × (initial energy + |external work|))"
     )]
-    EnergyRunaway { step: u64, time: f64, energy: f64, bound: f64 },
+    EnergyRunaway {
+        step: u64,
+        time: f64,
+        energy: f64,
+        bound: f64,
+    },
     #[error(
         "step {step}, t = {time:.6e} s: time.dt = {dt:.3e} s exceeds the CFL stability limit {limit:.3e} s \
          (h / max(c + |v|), reached at particle {particle})"
     )]
-    CflViolated { step: u64, time: f64, dt: f64, limit: f64, particle: u32 },
+    CflViolated {
+        step: u64,
+        time: f64,
+        dt: f64,
+        limit: f64,
+        particle: u32,
+    },
     #[error("step {step}, t = {time:.6e} s: reached time.max_steps = {step} before time.end")]
     MaxSteps { step: u64, time: f64 },
     #[error("step {step}, t = {time:.6e} s: {message}")]
-    PhaseField { step: u64, time: f64, message: String },
+    PhaseField {
+        step: u64,
+        time: f64,
+        message: String,
+    },
     #[error("writing results failed: {0}")]
     Observer(String),
 }
@@ -222,21 +262,45 @@ impl Simulation {
     pub fn series_columns(&self) -> Vec<String> {
         let mut c: Vec<String> = SeriesRow::COLUMNS.iter().map(|s| s.to_string()).collect();
         if let Some(pf) = &self.phase {
-            c.extend(["pf_assembly_s", "pf_factorization_s", "pf_solve_s", "pf_stagger_iterations", "pf_residual"].map(String::from));
+            c.extend(
+                [
+                    "pf_assembly_s",
+                    "pf_factorization_s",
+                    "pf_solve_s",
+                    "pf_stagger_iterations",
+                    "pf_residual",
+                ]
+                .map(String::from),
+            );
             let (all, tracked) = pf.bodies();
             if all.len() > 1 {
                 c.extend(all.iter().map(|b| format!("fracture_energy_b{b}")));
             }
             for b in &tracked {
-                let suffix = if tracked.len() > 1 { format!("_b{b}") } else { String::new() };
-                c.extend(["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"].map(|n| format!("{n}{suffix}")));
+                let suffix = if tracked.len() > 1 {
+                    format!("_b{b}")
+                } else {
+                    String::new()
+                };
+                c.extend(
+                    ["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"]
+                        .map(|n| format!("{n}{suffix}")),
+                );
             }
         }
         if self.dfg.is_some() {
             c.extend(["dfg_separated_nodes", "dfg_neighbour_builds"].map(String::from));
         }
         if let Some(d) = &self.damage {
-            c.extend(["energy_balance", "failed_particles", "fragments", "mean_speed"].map(String::from));
+            c.extend(
+                [
+                    "energy_balance",
+                    "failed_particles",
+                    "fragments",
+                    "mean_speed",
+                ]
+                .map(String::from),
+            );
             let tracked = d.tracked();
             for b in &tracked {
                 let suffix = if tracked.len() > 1 {
@@ -262,14 +326,21 @@ impl Simulation {
         let snaps = self.scene.file.output.snapshots as u64;
         let max_steps = self.scene.file.time.max_steps.unwrap_or(10_000_000);
         let row_time = |k: u64| end * k as f64 / (rows - 1) as f64;
-        let snap_time = |k: u64| if snaps <= 1 { end } else { end * k as f64 / (snaps - 1) as f64 };
+        let snap_time = |k: u64| {
+            if snaps <= 1 {
+                end
+            } else {
+                end * k as f64 / (snaps - 1) as f64
+            }
+        };
 
         let (mut last, mut next_row, mut next_snap) = match self.resumed.take() {
             // a resumed run's header, rows and snapshots up to the
             // checkpoint were written before it
             Some(c) => (c.last, c.next_row, c.next_snap),
             None => {
-                obs.series_columns(&self.series_columns()).map_err(SimError::Observer)?;
+                obs.series_columns(&self.series_columns())
+                    .map_err(SimError::Observer)?;
                 let last = self.row();
                 self.initial_energy = last.kinetic_energy + last.strain_energy;
                 obs.series_row(&last).map_err(SimError::Observer)?;
@@ -284,13 +355,17 @@ impl Simulation {
         let mut cancelled = false;
         while self.time < end * (1.0 - 1e-12) {
             if self.step >= max_steps {
-                return Err(SimError::MaxSteps { step: self.step, time: self.time });
+                return Err(SimError::MaxSteps {
+                    step: self.step,
+                    time: self.time,
+                });
             }
             let dt = self.next_dt(end)?;
             let t = self.time + dt;
             let ends = t >= end * (1.0 - 1e-12);
             self.row_due = next_row < rows && (t >= row_time(next_row) * (1.0 - 1e-12) || ends);
-            self.output_due = self.row_due || (next_snap < snaps && (t >= snap_time(next_snap) * (1.0 - 1e-12) || ends));
+            self.output_due = self.row_due
+                || (next_snap < snaps && (t >= snap_time(next_snap) * (1.0 - 1e-12) || ends));
             self.advance(dt)?;
             let at_end = self.time >= end * (1.0 - 1e-12);
             if next_row < rows && (self.time >= row_time(next_row) * (1.0 - 1e-12) || at_end) {
@@ -321,7 +396,11 @@ impl Simulation {
                     break;
                 }
                 Control::Checkpoint => {
-                    let cp = self.checkpoint_at(checkpoint::RunClock { next_row, next_snap, last: last.clone() });
+                    let cp = self.checkpoint_at(checkpoint::RunClock {
+                        next_row,
+                        next_snap,
+                        last: last.clone(),
+                    });
                     obs.checkpoint(cp).map_err(SimError::Observer)?;
                 }
             }
@@ -365,7 +444,11 @@ impl Simulation {
             None => self.scene.cfl() * limit,
         };
         let left = end - self.time;
-        Ok(if dt > left || left - dt < 1e-9 * dt { left } else { dt })
+        Ok(if dt > left || left - dt < 1e-9 * dt {
+            left
+        } else {
+            dt
+        })
     }
 
     fn fastest_particle(&self) -> u32 {
@@ -577,9 +660,27 @@ impl Simulation {
         let stats = if self.musl {
             self.musl::<K, S>(dt, t_bc, slots, multi, transfer)
         } else if self.apic {
-            g2p::g2p::<K, S, true>(&self.geom, &mut self.parts, &mut self.bins, slots, &self.grid, &self.mats, transfer, dt)
+            g2p::g2p::<K, S, true>(
+                &self.geom,
+                &mut self.parts,
+                &mut self.bins,
+                slots,
+                &self.grid,
+                &self.mats,
+                transfer,
+                dt,
+            )
         } else {
-            g2p::g2p::<K, S, false>(&self.geom, &mut self.parts, &mut self.bins, slots, &self.grid, &self.mats, transfer, dt)
+            g2p::g2p::<K, S, false>(
+                &self.geom,
+                &mut self.parts,
+                &mut self.bins,
+                slots,
+                &self.grid,
+                &self.mats,
+                transfer,
+                dt,
+            )
         };
         let t5 = Instant::now();
         self.times.g2p += (t5 - t4).as_secs_f64();
@@ -590,9 +691,25 @@ impl Simulation {
         if let Some((p, kind)) = stats.bad {
             let (step, time, particle) = (self.step, self.time, self.parts.id[p]);
             return Err(match kind {
-                BadKind::NonFinite(quantity) => SimError::NonFinite { step, time, particle, quantity },
-                BadKind::LeftGrid([x, y]) => SimError::LeftGrid { step, time, particle, x, y },
-                BadKind::VolumeVanished(j) => SimError::VolumeVanished { step, time, particle, j },
+                BadKind::NonFinite(quantity) => SimError::NonFinite {
+                    step,
+                    time,
+                    particle,
+                    quantity,
+                },
+                BadKind::LeftGrid([x, y]) => SimError::LeftGrid {
+                    step,
+                    time,
+                    particle,
+                    x,
+                    y,
+                },
+                BadKind::VolumeVanished(j) => SimError::VolumeVanished {
+                    step,
+                    time,
+                    particle,
+                    j,
+                },
             });
         }
         if let Some(pf) = self.phase.as_mut() {
@@ -613,7 +730,15 @@ impl Simulation {
         self.times.bins += t6.elapsed().as_secs_f64();
         if let Some(pf) = self.phase.as_mut() {
             let t = Instant::now();
-            pf.stagger::<K>(&self.geom, &self.bins, &mut self.parts, &self.mats, self.row_due, self.output_due).map_err(|e| SimError::PhaseField {
+            pf.stagger::<K>(
+                &self.geom,
+                &self.bins,
+                &mut self.parts,
+                &self.mats,
+                self.row_due,
+                self.output_due,
+            )
+            .map_err(|e| SimError::PhaseField {
                 step: self.step,
                 time: self.time,
                 message: e.to_string(),
@@ -635,16 +760,61 @@ impl Simulation {
         let (geom, mats) = (&self.geom, &self.mats);
         self.x_next.resize(self.parts.len(), [0.0; 2]);
         if self.apic {
-            g2p::musl_velocities::<K, S, true>(geom, &mut self.parts, &mut self.bins, &mut self.x_next, slots, &self.grid, mats, transfer, dt);
-            p2g::remap_velocities::<K, S, true>(geom, &self.parts, &self.bins, slots, &mut self.grid, &self.written, self.m_min);
+            g2p::musl_velocities::<K, S, true>(
+                geom,
+                &mut self.parts,
+                &mut self.bins,
+                &mut self.x_next,
+                slots,
+                &self.grid,
+                mats,
+                transfer,
+                dt,
+            );
+            p2g::remap_velocities::<K, S, true>(
+                geom,
+                &self.parts,
+                &self.bins,
+                slots,
+                &mut self.grid,
+                &self.written,
+                self.m_min,
+            );
         } else {
-            g2p::musl_velocities::<K, S, false>(geom, &mut self.parts, &mut self.bins, &mut self.x_next, slots, &self.grid, mats, transfer, dt);
-            p2g::remap_velocities::<K, S, false>(geom, &self.parts, &self.bins, slots, &mut self.grid, &self.written, self.m_min);
+            g2p::musl_velocities::<K, S, false>(
+                geom,
+                &mut self.parts,
+                &mut self.bins,
+                &mut self.x_next,
+                slots,
+                &self.grid,
+                mats,
+                transfer,
+                dt,
+            );
+            p2g::remap_velocities::<K, S, false>(
+                geom,
+                &self.parts,
+                &self.bins,
+                slots,
+                &mut self.grid,
+                &self.written,
+                self.m_min,
+            );
         }
         // The walls hold the remapped velocities too (no work: that was
         // counted when they were first imposed).
         self.boundary.apply(t_bc, &mut self.grid, multi);
-        g2p::musl_stress::<K, S>(geom, &mut self.parts, &mut self.bins, &self.x_next, slots, &self.grid, mats, dt)
+        g2p::musl_stress::<K, S>(
+            geom,
+            &mut self.parts,
+            &mut self.bins,
+            &self.x_next,
+            slots,
+            &self.grid,
+            mats,
+            dt,
+        )
     }
 
     fn add_work(&mut self, w: f64) {
@@ -671,7 +841,13 @@ impl Simulation {
             let energies = by_kernel!(self.scene.file.grid.shape_function, K => pf.fracture_energies::<K>(&self.geom, &self.parts));
             fracture_energy = energies.iter().fold(0.0, |a, b| a + b); // (an empty f64 sum is −0.0)
             let s = pf.row_stats();
-            extra.extend([s.assembly, s.factorization, s.solve, s.staggers as f64, s.residual]);
+            extra.extend([
+                s.assembly,
+                s.factorization,
+                s.solve,
+                s.staggers as f64,
+                s.residual,
+            ]);
             if energies.len() > 1 {
                 extra.extend(&energies);
             }
@@ -711,7 +887,11 @@ impl Simulation {
             kinetic_energy: m.kinetic,
             strain_energy: m.strain,
             external_work: self.external_work,
-            energy_error: if self.step == 0 { 0.0 } else { e - self.initial_energy - self.external_work },
+            energy_error: if self.step == 0 {
+                0.0
+            } else {
+                e - self.initial_energy - self.external_work
+            },
             total_mass: m.mass,
             momentum_x: m.momentum[0],
             momentum_y: m.momentum[1],
@@ -726,9 +906,15 @@ impl Simulation {
 
     fn check_energy(&self, row: &SeriesRow) -> Result<(), SimError> {
         let energy = row.kinetic_energy + row.strain_energy;
-        let bound = self.scene.file.guards.energy_growth * (self.initial_energy + self.abs_work + self.energy_floor);
+        let bound = self.scene.file.guards.energy_growth
+            * (self.initial_energy + self.abs_work + self.energy_floor);
         if !(energy <= bound) {
-            return Err(SimError::EnergyRunaway { step: row.step, time: row.time, energy, bound });
+            return Err(SimError::EnergyRunaway {
+                step: row.step,
+                time: row.time,
+                energy,
+                bound,
+            });
         }
         Ok(())
     }
@@ -736,7 +922,11 @@ impl Simulation {
     fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
         let t0 = Instant::now();
         let grid = if self.scene.file.output.grid_fields && self.grid_valid {
-            Some(measure::grid_snapshot(&self.geom, &self.grid, self.multi.as_ref()))
+            Some(measure::grid_snapshot(
+                &self.geom,
+                &self.grid,
+                self.multi.as_ref(),
+            ))
         } else {
             None
         };

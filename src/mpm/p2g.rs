@@ -53,7 +53,10 @@ pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
                 let wm = w * m;
                 let (mx, my) = if APIC {
                     let dx = ((wx.base + i as isize) as f64 - xi[0]) * h;
-                    (wm * (v[0] + c[0] * dx + c[1] * dy), wm * (v[1] + c[2] * dx + c[3] * dy))
+                    (
+                        wm * (v[0] + c[0] * dx + c[1] * dy),
+                        wm * (v[1] + c[2] * dx + c[3] * dy),
+                    )
                 } else {
                     (wm * v[0], wm * v[1])
                 };
@@ -96,7 +99,8 @@ pub fn partition_fields<K: Kernel>(
         // gradient there, so the slot must exist.
         for j in 0..K::N {
             for i in 0..K::N {
-                let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+                let node = (wx.base + i as isize) as usize
+                    + (wy.base + j as isize) as usize * geom.nodes[0];
                 // SAFETY: coloured scatter; a bitwise OR is order-independent.
                 unsafe { *mask.at(node) |= bit };
             }
@@ -130,7 +134,8 @@ pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
         for j in 0..K::N {
             let dy = ((wy.base + j as isize) as f64 - xi[1]) * geom.h;
             for i in 0..K::N {
-                let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+                let node = (wx.base + i as isize) as usize
+                    + (wy.base + j as isize) as usize * geom.nodes[0];
                 let wm = wx.w[i] * wy.w[j] * m;
                 let dx = ((wx.base + i as isize) as f64 - xi[0]) * geom.h;
                 // SAFETY: coloured scatter (see `scatter_coloured`).
@@ -142,6 +147,10 @@ pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
     });
     let (mass, mom) = (&grid.mass, &grid.momentum);
     grid.vel.par_iter_mut().enumerate().for_each(|(s, v)| {
-        *v = if mass[s] > m_min { [mom[s][0] / mass[s], mom[s][1] / mass[s]] } else { [0.0; 2] };
+        *v = if mass[s] > m_min {
+            [mom[s][0] / mass[s], mom[s][1] / mass[s]]
+        } else {
+            [0.0; 2]
+        };
     });
 }

@@ -29,7 +29,10 @@ use crate::grid::shape::Kernel;
 use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, Elastic};
 use crate::particles::Particles;
-use crate::scene::{phase_field_gamma, CrackProfile, CrackSpec, PhaseFieldMethod, PlaneKind, PlaneStressSplit, Scene};
+use crate::scene::{
+    phase_field_gamma, CrackProfile, CrackSpec, PhaseFieldMethod, PlaneKind, PlaneStressSplit,
+    Scene,
+};
 use rayon::prelude::*;
 
 /// B of a `line` crack: the history on it is B·Ḡc/(4l₀), which drives c to
@@ -42,7 +45,12 @@ const BORDEN_B: f64 = 1e3;
 /// The initial history of a particle at `x` from a body's initial cracks
 /// (the largest over the cracks; 0 off them), by each crack's profile
 /// ([`CrackProfile`]); `spacing` is the body's particle spacing.
-fn initial_history(x: [f64; 2], cracks: &[CrackSpec], params: &PhaseFieldParams, spacing: f64) -> f64 {
+fn initial_history(
+    x: [f64; 2],
+    cracks: &[CrackSpec],
+    params: &PhaseFieldParams,
+    spacing: f64,
+) -> f64 {
     let unit = params.gc_bar / (4.0 * params.l0);
     cracks
         .iter()
@@ -148,7 +156,13 @@ pub(super) struct PhaseState {
 
 /// One body's particles as the phase-field system reads them.
 fn of_body<'a>(parts: &'a Particles, body: u16, bins: Option<&'a Bins>) -> FieldParticles<'a> {
-    FieldParticles { x: &parts.x, vol: &parts.vol, history: &parts.history, body: Some((&parts.body, body)), bins }
+    FieldParticles {
+        x: &parts.x,
+        vol: &parts.vol,
+        history: &parts.history,
+        body: Some((&parts.body, body)),
+        bins,
+    }
 }
 
 impl PhaseFields {
@@ -161,9 +175,18 @@ impl PhaseFields {
             let mat = &scene.materials[scene.body_material[b]];
             let Some(pf) = &mat.phase_field else { continue };
             let gamma = phase_field_gamma(pf).rotated(pf.angle.to_radians());
-            let params = PhaseFieldParams { gc_bar: pf.gc, l0: pf.l0, k_f: pf.k_f, gamma };
-            let particles: Vec<u32> = (0..parts.len() as u32).filter(|&p| parts.body[p as usize] as usize == b).collect();
-            let origin = spec.crack_origin.or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()));
+            let params = PhaseFieldParams {
+                gc_bar: pf.gc,
+                l0: pf.l0,
+                k_f: pf.k_f,
+                gamma,
+            };
+            let particles: Vec<u32> = (0..parts.len() as u32)
+                .filter(|&p| parts.body[p as usize] as usize == b)
+                .collect();
+            let origin = spec
+                .crack_origin
+                .or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()));
             let in_plane = pf.plane_stress_split == PlaneStressSplit::InPlane;
             bodies.push((b, spec.cracks.clone(), params, particles, origin, in_plane));
         }
@@ -214,7 +237,10 @@ impl PhaseFields {
             dh: vec![0.0; n],
             current: false,
             staggers: 0,
-            interval: Interval { residual: f64::NAN, ..Default::default() },
+            interval: Interval {
+                residual: f64::NAN,
+                ..Default::default()
+            },
             energy: Vec::new(),
             body_energy: Vec::new(),
             recorded: false,
@@ -233,14 +259,24 @@ impl PhaseFields {
     /// the solver starts afresh (analysis and factor on the next solve).
     pub(super) fn restore(&mut self, s: PhaseState, nodes: usize) -> Result<(), String> {
         if s.c.len() != self.bodies.len() || s.tips.len() != self.bodies.len() {
-            return Err(format!("{} phase-field bodies in the checkpoint, {} in the scene", s.c.len(), self.bodies.len()));
+            return Err(format!(
+                "{} phase-field bodies in the checkpoint, {} in the scene",
+                s.c.len(),
+                self.bodies.len()
+            ));
         }
         if let Some(c) = s.c.iter().find(|c| !c.is_empty() && c.len() != nodes) {
-            return Err(format!("a phase field of {} nodes, the grid has {nodes}", c.len()));
+            return Err(format!(
+                "a phase field of {} nodes, the grid has {nodes}",
+                c.len()
+            ));
         }
         for ((body, c), tip) in self.bodies.iter_mut().zip(s.c).zip(s.tips) {
             if tip.is_some() != body.tip.is_some() {
-                return Err(format!("body {}: the crack tip is tracked in one and not the other", body.body));
+                return Err(format!(
+                    "body {}: the crack tip is tracked in one and not the other",
+                    body.body
+                ));
             }
             body.c = c;
             body.tip = tip;
@@ -254,7 +290,13 @@ impl PhaseFields {
     /// the previous step already did so for the same positions and history.
     /// With `record` (the step ends on a series row or a snapshot), also
     /// measures Ψ_f ([`Self::fracture_energies`]).
-    pub(super) fn solve<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles, record: bool) -> Result<(), PhaseFieldError> {
+    pub(super) fn solve<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        bins: &Bins,
+        parts: &mut Particles,
+        record: bool,
+    ) -> Result<(), PhaseFieldError> {
         self.staggers = 1;
         self.recorded = false;
         if !std::mem::take(&mut self.current) {
@@ -295,16 +337,26 @@ impl PhaseFields {
                 unsafe { *energy.at(p) = v };
             });
             // in the particles' order, as system::fracture_energy sums
-            self.body_energy[b] = body.particles.iter().map(|&p| self.energy[p as usize]).fold(0.0, |a, v| a + v); // (an empty f64 sum is −0.0)
+            self.body_energy[b] = body
+                .particles
+                .iter()
+                .map(|&p| self.energy[p as usize])
+                .fold(0.0, |a, v| a + v); // (an empty f64 sum is −0.0)
         }
         self.recorded = true;
     }
 
-    fn solve_all<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &mut Particles) -> Result<(), PhaseFieldError> {
+    fn solve_all<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        bins: &Bins,
+        parts: &mut Particles,
+    ) -> Result<(), PhaseFieldError> {
         for body in &mut self.bodies {
             let fp = of_body(parts, body.body, Some(bins));
             body.system.assemble::<K>(geom, &fp, &body.params);
-            body.system.solve_into(geom.node_count(), self.method, &mut body.c)?;
+            body.system
+                .solve_into(geom.node_count(), self.method, &mut body.c)?;
             let phase = SyncPtr::new(&mut parts.phase);
             let (c, xs) = (&body.c, &parts.x);
             body.particles.par_iter().for_each(|&p| {
@@ -353,7 +405,12 @@ impl PhaseFields {
     }
 
     /// max over bodies of ‖ΔK c‖/‖F‖ for the last history update.
-    fn history_residual<K: Kernel>(&mut self, geom: &GridGeom, bins: &Bins, parts: &Particles) -> f64 {
+    fn history_residual<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        bins: &Bins,
+        parts: &Particles,
+    ) -> f64 {
         let mut r: f64 = 0.0;
         for body in &mut self.bodies {
             let fp = of_body(parts, body.body, Some(bins));
@@ -369,7 +426,8 @@ impl PhaseFields {
         let history = SyncPtr::new(&mut parts.history);
         let stress = SyncPtr::new(&mut parts.stress);
         let dh = SyncPtr::new(&mut self.dh);
-        let (strain, phase, material, vol) = (&parts.strain, &parts.phase, &parts.material, &parts.vol);
+        let (strain, phase, material, vol) =
+            (&parts.strain, &parts.phase, &parts.material, &parts.vol);
         for body in &self.bodies {
             let k_f = body.params.k_f;
             let reaction = 4.0 * body.params.l0 * (1.0 - k_f) / body.params.gc_bar;
@@ -389,7 +447,11 @@ impl PhaseFields {
                 // SAFETY: each particle index appears once in the body's list.
                 unsafe {
                     let h = history.at(p);
-                    *dh.at(p) = if psi > *h { vol[p] * reaction * (psi - *h) * c } else { 0.0 };
+                    *dh.at(p) = if psi > *h {
+                        vol[p] * reaction * (psi - *h) * c
+                    } else {
+                        0.0
+                    };
                     if psi > *h {
                         *h = psi;
                     }
@@ -404,7 +466,11 @@ impl PhaseFields {
     /// solved for when the present step was asked to ([`Self::record`]),
     /// otherwise recorded now, at the present positions (the t = 0 row, or
     /// a caller's own row between output steps).
-    pub(super) fn fracture_energies<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
+    pub(super) fn fracture_energies<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        parts: &Particles,
+    ) -> Vec<f64> {
         if !self.recorded {
             self.record::<K>(geom, parts);
         }
@@ -417,12 +483,20 @@ impl PhaseFields {
     /// [`Self::fracture_energies`]: V_p times it, summed over a body's
     /// particles, is the body's Ψ_f, and over a region, the energy
     /// dissipated there.
-    pub(super) fn fracture_energy_densities<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles) -> Vec<f64> {
+    pub(super) fn fracture_energy_densities<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        parts: &Particles,
+    ) -> Vec<f64> {
         if !self.recorded {
             self.record::<K>(geom, parts);
         }
         // per the present volume, so that V_p times it still sums to Ψ_f
-        self.energy.iter().zip(&parts.vol).map(|(e, v)| if *v > 0.0 { e / v } else { 0.0 }).collect()
+        self.energy
+            .iter()
+            .zip(&parts.vol)
+            .map(|(e, v)| if *v > 0.0 { e / v } else { 0.0 })
+            .collect()
     }
 
     /// The scene indices of the phase-field bodies, and of those whose
@@ -458,11 +532,27 @@ impl PhaseFields {
     /// The per-step solver figures since the last call.
     pub(super) fn row_stats(&mut self) -> RowStats {
         let now = self.stats();
-        let i = std::mem::replace(&mut self.interval, Interval { residual: f64::NAN, mark: now, ..Default::default() });
-        let per = |a: f64, b: f64| if i.steps > 0 { (a - b) / i.steps as f64 } else { 0.0 };
+        let i = std::mem::replace(
+            &mut self.interval,
+            Interval {
+                residual: f64::NAN,
+                mark: now,
+                ..Default::default()
+            },
+        );
+        let per = |a: f64, b: f64| {
+            if i.steps > 0 {
+                (a - b) / i.steps as f64
+            } else {
+                0.0
+            }
+        };
         RowStats {
             assembly: per(now.assembly, i.mark.assembly),
-            factorization: per(now.analysis + now.factorization, i.mark.analysis + i.mark.factorization),
+            factorization: per(
+                now.analysis + now.factorization,
+                i.mark.analysis + i.mark.factorization,
+            ),
             solve: per(now.solve, i.mark.solve),
             staggers: i.max_staggers,
             residual: i.residual,
@@ -494,14 +584,30 @@ mod tests {
 
     #[test]
     fn the_initial_history_follows_the_crack_profile() {
-        let params = PhaseFieldParams { gc_bar: 3.0, l0: 2.5e-4, k_f: 0.0, gamma: Gamma::default() };
+        let params = PhaseFieldParams {
+            gc_bar: 3.0,
+            l0: 2.5e-4,
+            k_f: 0.0,
+            gamma: Gamma::default(),
+        };
         let unit = 3.0 / (4.0 * 2.5e-4);
-        let crack = |profile| vec![CrackSpec { points: vec![[0.0, 0.0], [1.0e-3, 0.0]], profile }];
+        let crack = |profile| {
+            vec![CrackSpec {
+                points: vec![[0.0, 0.0], [1.0e-3, 0.0]],
+                profile,
+            }]
+        };
         let spacing = 1.0e-4;
         // line: the particles within 0.55 spacings, all at B = 1e6
         let line = crack(CrackProfile::Line);
-        assert_eq!(initial_history([5e-4, 0.5e-4], &line, &params, spacing), CRACK_B * unit);
-        assert_eq!(initial_history([5e-4, 0.6e-4], &line, &params, spacing), 0.0);
+        assert_eq!(
+            initial_history([5e-4, 0.5e-4], &line, &params, spacing),
+            CRACK_B * unit
+        );
+        assert_eq!(
+            initial_history([5e-4, 0.6e-4], &line, &params, spacing),
+            0.0
+        );
         // Borden: B = 1e3 on the line, falling linearly to 0 at l0/2
         let borden = crack(CrackProfile::Borden);
         let h = |y: f64| initial_history([5e-4, y], &borden, &params, spacing);
@@ -549,7 +655,8 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
         let scene = Scene::from_text(text, None).unwrap();
         let mut sim = crate::mpm::Simulation::new(&scene);
         let pf = sim.phase.as_mut().unwrap();
-        pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, true).unwrap();
+        pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, true)
+            .unwrap();
         let c = pf.bodies[0].c.clone();
         let at = |parts: &Particles| {
             let fp = of_body(parts, 0, None);
@@ -557,32 +664,52 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
         };
         let solved = at(&sim.parts);
         // the crack holds √2·Ḡc per unit length, about: 4 mm · 1 m · √2 J/m²
-        assert!((solved / (0.004 * 2f64.sqrt()) - 1.0).abs() < 0.2, "Ψ_f = {solved}");
+        assert!(
+            (solved / (0.004 * 2f64.sqrt()) - 1.0).abs() < 0.2,
+            "Ψ_f = {solved}"
+        );
         // The left face's particles sit h/6 inside it. Moved out by 0.3 h
         // their supports keep their nodes, and Ψ_f hardly changes; by
         // 0.7 h, they take in the node column 2 h out of the face, never in
         // the system (c = 1 there), and Ψ_f doubles.
         let h = 2.5e-4;
-        let face: Vec<usize> = (0..sim.parts.len()).filter(|&p| sim.parts.x[p][0] < h / 3.0).collect();
+        let face: Vec<usize> = (0..sim.parts.len())
+            .filter(|&p| sim.parts.x[p][0] < h / 3.0)
+            .collect();
         for &p in &face {
             sim.parts.x[p][0] -= 0.3 * h;
         }
         let near = at(&sim.parts);
-        assert!((near / solved - 1.0).abs() < 0.02, "{near} against {solved}");
+        assert!(
+            (near / solved - 1.0).abs() < 0.02,
+            "{near} against {solved}"
+        );
         for &p in &face {
             sim.parts.x[p][0] -= 0.4 * h;
         }
         let moved = at(&sim.parts);
-        assert!(moved > 1.5 * solved, "measured after the move: {moved} against {solved}");
+        assert!(
+            moved > 1.5 * solved,
+            "measured after the move: {moved} against {solved}"
+        );
         let pf = sim.phase.as_mut().unwrap();
-        assert_eq!(pf.fracture_energies::<K>(&sim.geom, &sim.parts), vec![solved]);
+        assert_eq!(
+            pf.fracture_energies::<K>(&sim.geom, &sim.parts),
+            vec![solved]
+        );
         let densities = pf.fracture_energy_densities::<K>(&sim.geom, &sim.parts);
-        let sum: f64 = (0..sim.parts.len()).map(|p| sim.parts.vol[p] * densities[p]).sum();
+        let sum: f64 = (0..sim.parts.len())
+            .map(|p| sim.parts.vol[p] * densities[p])
+            .sum();
         assert!((sum - solved).abs() < 1e-12 * solved);
         // the next step starts without the record
         let pf = sim.phase.as_mut().unwrap();
         pf.current = true;
-        pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, false).unwrap();
-        assert_eq!(pf.fracture_energies::<K>(&sim.geom, &sim.parts), vec![moved]);
+        pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, false)
+            .unwrap();
+        assert_eq!(
+            pf.fracture_energies::<K>(&sim.geom, &sim.parts),
+            vec![moved]
+        );
     }
 }

@@ -9,14 +9,22 @@ use crate::grid::shape::{self, Kernel};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, MultiField};
 use crate::material::Elastic;
 use crate::particles::Particles;
-use crate::scene::{MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage, StressUpdate, TimeFunction, TransferKind};
+use crate::scene::{
+    MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage, StressUpdate, TimeFunction,
+    TransferKind,
+};
 
 pub(super) fn build(scene: &Scene) -> Simulation {
     let file = &scene.file;
     let mut geom = GridGeom::new(file.grid.min, file.grid.cell_size, scene.cells);
     let b = &file.grid.boundary;
-    geom.walls = [&b.left, &b.right, &b.bottom, &b.top].map(|s| matches!(s, SideCondition::Fixed | SideCondition::Roller));
-    let mats: Vec<Elastic> = scene.materials.iter().map(|m| Elastic::new(m, file.analysis.plane)).collect();
+    geom.walls = [&b.left, &b.right, &b.bottom, &b.top]
+        .map(|s| matches!(s, SideCondition::Fixed | SideCondition::Roller));
+    let mats: Vec<Elastic> = scene
+        .materials
+        .iter()
+        .map(|m| Elastic::new(m, file.analysis.plane))
+        .collect();
     let apic = file.transfer.scheme == TransferKind::Apic;
     let gimp = file.grid.shape_function == ShapeFunctionKind::Gimp;
     let any_linear = mats.iter().any(|m| m.model == MaterialModel::LinearElastic);
@@ -33,7 +41,11 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         let vol = spacing * spacing * thickness;
         let mi = scene.body_material[b];
         let mat = &mats[mi];
-        let group = scene.contact_groups.iter().position(|&g| g == body.contact_group).unwrap_or(0) as u8;
+        let group = scene
+            .contact_groups
+            .iter()
+            .position(|&g| g == body.contact_group)
+            .unwrap_or(0) as u8;
         let first = parts.x.len();
         geometry::seed(&body.shape, &body.holes, &lat, |p| parts.x.push(p));
         let count = parts.x.len() - first;
@@ -108,8 +120,14 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             * thickness,
     };
     for pair in &file.contact.pairs {
-        let ia = scene.contact_groups.iter().position(|&g| g == pair.groups[0]);
-        let ib = scene.contact_groups.iter().position(|&g| g == pair.groups[1]);
+        let ia = scene
+            .contact_groups
+            .iter()
+            .position(|&g| g == pair.groups[0]);
+        let ib = scene
+            .contact_groups
+            .iter()
+            .position(|&g| g == pair.groups[1]);
         if let (Some(a), Some(b)) = (ia, ib) {
             friction.mu[a * groups + b] = pair.friction;
             friction.mu[b * groups + a] = pair.friction;
@@ -125,8 +143,18 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             rebuild_fraction: spec.rebuild_fraction,
             separability: spec.separability,
         };
-        let damaged: Vec<bool> = scene.materials.iter().map(|m| m.damage.is_some() || m.phase_field.is_some()).collect();
-        crate::fracture::dfg::Dfg::new(params, &geom, &parts, spec.self_contact.then_some(spec.surface_threshold), &damaged)
+        let damaged: Vec<bool> = scene
+            .materials
+            .iter()
+            .map(|m| m.damage.is_some() || m.phase_field.is_some())
+            .collect();
+        crate::fracture::dfg::Dfg::new(
+            params,
+            &geom,
+            &parts,
+            spec.self_contact.then_some(spec.surface_threshold),
+            &damaged,
+        )
     });
     let phase = super::phase::PhaseFields::new(scene, &mut parts);
     let tractions = Tractions::new(scene, &parts);
@@ -223,11 +251,18 @@ impl Tractions {
     fn new(scene: &Scene, parts: &Particles) -> Tractions {
         let file = &scene.file;
         let b = &file.grid.boundary;
-        let spacing: Vec<f64> = (0..file.bodies.len()).map(|k| scene.particle_spacing(k)).collect();
+        let spacing: Vec<f64> = (0..file.bodies.len())
+            .map(|k| scene.particle_spacing(k))
+            .collect();
         let finest = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
         let mut sides = Vec::new();
-        for (k, cond) in [&b.left, &b.right, &b.bottom, &b.top].into_iter().enumerate() {
-            let SideCondition::Traction { normal, shear } = cond else { continue };
+        for (k, cond) in [&b.left, &b.right, &b.bottom, &b.top]
+            .into_iter()
+            .enumerate()
+        {
+            let SideCondition::Traction { normal, shear } = cond else {
+                continue;
+            };
             // along = axis running along the side; across = the side's normal axis
             let (along, across, sign) = match k {
                 0 => (1, 0, -1.0),
@@ -235,7 +270,8 @@ impl Tractions {
                 2 => (0, 1, -1.0),
                 _ => (0, 1, 1.0),
             };
-            let mut best: std::collections::BTreeMap<i64, usize> = std::collections::BTreeMap::new();
+            let mut best: std::collections::BTreeMap<i64, usize> =
+                std::collections::BTreeMap::new();
             for p in 0..parts.len() {
                 let key = ((parts.x[p][along] - file.grid.min[along]) / finest).floor() as i64;
                 let e = best.entry(key).or_insert(p);
@@ -249,9 +285,20 @@ impl Tractions {
             tangent[along] = 1.0;
             let particles = best
                 .values()
-                .map(|&p| (p as u32, spacing[parts.body[p] as usize] * file.analysis.thickness))
+                .map(|&p| {
+                    (
+                        p as u32,
+                        spacing[parts.body[p] as usize] * file.analysis.thickness,
+                    )
+                })
                 .collect();
-            sides.push(TractionSide { normal: normal.clone(), shear: shear.clone(), out, tangent, particles });
+            sides.push(TractionSide {
+                normal: normal.clone(),
+                shear: shear.clone(),
+                out,
+                tangent,
+                particles,
+            });
         }
         Tractions { sides }
     }
@@ -275,7 +322,10 @@ impl Tractions {
         for side in &self.sides {
             let sn = side.normal.as_ref().map_or(0.0, |f| f.eval(t));
             let ss = side.shear.as_ref().map_or(0.0, |f| f.eval(t));
-            let tr = [sn * side.out[0] + ss * side.tangent[0], sn * side.out[1] + ss * side.tangent[1]];
+            let tr = [
+                sn * side.out[0] + ss * side.tangent[0],
+                sn * side.out[1] + ss * side.tangent[1],
+            ];
             for &(p, area) in &side.particles {
                 let p = p as usize;
                 let f = [tr[0] * area, tr[1] * area];

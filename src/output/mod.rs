@@ -11,7 +11,9 @@
 mod plot;
 mod vtk;
 
-pub use plot::{plot_crack, plot_energies, plot_log_x, plot_pareto, plot_particle_field, plot_polar};
+pub use plot::{
+    plot_crack, plot_energies, plot_log_x, plot_pareto, plot_particle_field, plot_polar,
+};
 pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
 
 use crate::diagnostics::{Observer, SeriesRow, Snapshot};
@@ -32,7 +34,10 @@ pub struct OutputError {
 
 impl OutputError {
     pub(crate) fn new(path: &Path, source: std::io::Error) -> OutputError {
-        OutputError { path: path.to_path_buf(), source }
+        OutputError {
+            path: path.to_path_buf(),
+            source,
+        }
     }
 }
 
@@ -54,7 +59,10 @@ pub struct OutputPaths {
 /// and opened to append the rows that follow.
 pub(crate) fn reopen_series(path: &Path, bytes: u64) -> Result<File, OutputError> {
     let io = |e| OutputError::new(path, e);
-    let mut file = std::fs::OpenOptions::new().write(true).open(path).map_err(io)?;
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(path)
+        .map_err(io)?;
     let len = file.metadata().map_err(io)?.len();
     if len < bytes {
         let m = format!("{len} bytes, fewer than the {bytes} it had at the checkpoint");
@@ -143,7 +151,8 @@ impl OutputWriter {
             snapshots: self.snapshots.clone(),
             series_bytes: bytes,
         };
-        postcard::to_stdvec(&state).map_err(|e| OutputError::new(&self.series_path, std::io::Error::other(e)))
+        postcard::to_stdvec(&state)
+            .map_err(|e| OutputError::new(&self.series_path, std::io::Error::other(e)))
     }
 
     /// Where [`Observer::checkpoint`] saves a run's checkpoint in its
@@ -160,7 +169,10 @@ impl OutputWriter {
         let path = Self::checkpoint_path(dir);
         Checkpoint::load(&path).map_err(|e| match e {
             CheckpointError::Io(e) => OutputError::new(&path, e),
-            e => OutputError::new(&path, std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string())),
+            e => OutputError::new(
+                &path,
+                std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string()),
+            ),
         })
     }
 
@@ -173,8 +185,14 @@ impl OutputWriter {
     /// them.
     pub fn resume(dir: &Path, state: &[u8]) -> Result<OutputWriter, OutputError> {
         let series_path = dir.join("series.csv");
-        let bad = |m: String| OutputError::new(&series_path, std::io::Error::new(std::io::ErrorKind::InvalidData, m));
-        let s: WriterState = postcard::from_bytes(state).map_err(|e| bad(format!("the checkpoint's output state: {e}")))?;
+        let bad = |m: String| {
+            OutputError::new(
+                &series_path,
+                std::io::Error::new(std::io::ErrorKind::InvalidData, m),
+            )
+        };
+        let s: WriterState = postcard::from_bytes(state)
+            .map_err(|e| bad(format!("the checkpoint's output state: {e}")))?;
         let file = reopen_series(&series_path, s.series_bytes)?;
         Ok(OutputWriter {
             dir: dir.to_path_buf(),
@@ -190,7 +208,9 @@ impl OutputWriter {
 
     /// Flushes the series and writes the `.pvd` collections and the plot.
     pub fn finish(mut self) -> Result<OutputPaths, OutputError> {
-        self.series.flush().map_err(|e| OutputError::new(&self.series_path, e))?;
+        self.series
+            .flush()
+            .map_err(|e| OutputError::new(&self.series_path, e))?;
         let mut paths = OutputPaths {
             dir: self.dir.clone(),
             series_csv: self.series_path.clone(),
@@ -222,7 +242,8 @@ impl OutputWriter {
 impl Observer for OutputWriter {
     fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
         self.columns = columns.to_vec();
-        writeln!(self.series, "{}", columns.join(",")).map_err(|e| OutputError::new(&self.series_path, e).to_string())
+        writeln!(self.series, "{}", columns.join(","))
+            .map_err(|e| OutputError::new(&self.series_path, e).to_string())
     }
 
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
@@ -272,9 +293,15 @@ impl Observer for OutputWriter {
 
 /// The fragments of one snapshot, largest first: one row per fragment
 /// (its number is the `fragment` label of its particles in the snapshot).
-pub fn write_fragments_csv(path: &Path, list: &[crate::diagnostics::fragments::Fragment]) -> Result<(), OutputError> {
+pub fn write_fragments_csv(
+    path: &Path,
+    list: &[crate::diagnostics::fragments::Fragment],
+) -> Result<(), OutputError> {
     write_atomic(path, |w| {
-        writeln!(w, "fragment,particles,mass,volume,speed,centroid_x,centroid_y")?;
+        writeln!(
+            w,
+            "fragment,particles,mass,volume,speed,centroid_x,centroid_y"
+        )?;
         for (k, f) in list.iter().enumerate() {
             writeln!(
                 w,
@@ -297,7 +324,11 @@ pub(crate) fn write_series_line(w: &mut impl Write, row: &SeriesRow) -> std::io:
 }
 
 /// Writes a whole series to `path` (atomically), as [`OutputWriter`] does.
-pub fn write_series_csv(path: &Path, columns: &[String], rows: &[SeriesRow]) -> Result<(), OutputError> {
+pub fn write_series_csv(
+    path: &Path,
+    columns: &[String],
+    rows: &[SeriesRow],
+) -> Result<(), OutputError> {
     write_atomic(path, |w| {
         writeln!(w, "{}", columns.join(","))?;
         for r in rows {
@@ -311,7 +342,12 @@ pub fn write_series_csv(path: &Path, columns: &[String], rows: &[SeriesRow]) -> 
 /// a series is an `InvalidData` error naming the path.
 pub fn read_series(path: &Path) -> Result<(Vec<String>, Vec<SeriesRow>), OutputError> {
     let text = std::fs::read_to_string(path).map_err(|e| OutputError::new(path, e))?;
-    parse_series(&text).map_err(|m| OutputError::new(path, std::io::Error::new(std::io::ErrorKind::InvalidData, m)))
+    parse_series(&text).map_err(|m| {
+        OutputError::new(
+            path,
+            std::io::Error::new(std::io::ErrorKind::InvalidData, m),
+        )
+    })
 }
 
 /// Reads a `series.csv` back: its columns (the core ones of
@@ -321,15 +357,24 @@ pub fn read_series(path: &Path) -> Result<(Vec<String>, Vec<SeriesRow>), OutputE
 pub fn parse_series(text: &str) -> Result<(Vec<String>, Vec<SeriesRow>), String> {
     let mut lines = text.lines();
     let Some(header) = lines.next() else {
-        return Ok((SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect(), Vec::new()));
+        return Ok((
+            SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect(),
+            Vec::new(),
+        ));
     };
     let columns: Vec<String> = header.split(',').map(str::to_string).collect();
-    if columns.len() < SeriesRow::COLUMNS.len() || columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS {
+    if columns.len() < SeriesRow::COLUMNS.len()
+        || columns[..SeriesRow::COLUMNS.len()] != SeriesRow::COLUMNS
+    {
         return Err(format!("unexpected columns {header:?}"));
     }
     let mut rows = Vec::new();
     for line in lines {
-        let v: Vec<f64> = match line.split(',').map(|x| x.parse::<f64>()).collect::<Result<_, _>>() {
+        let v: Vec<f64> = match line
+            .split(',')
+            .map(|x| x.parse::<f64>())
+            .collect::<Result<_, _>>()
+        {
             Ok(v) => v,
             Err(_) => break,
         };
@@ -390,7 +435,12 @@ mod tests {
             let parsed: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
             let want = row.values();
             assert_eq!(parsed.len(), 14);
-            assert_eq!(SeriesRow::from_values(&parsed).as_ref().map(|r| r.extra.len()), Some(2));
+            assert_eq!(
+                SeriesRow::from_values(&parsed)
+                    .as_ref()
+                    .map(|r| r.extra.len()),
+                Some(2)
+            );
             for (a, b) in parsed.iter().zip(want.iter()) {
                 assert_eq!(a.to_bits(), b.to_bits());
             }

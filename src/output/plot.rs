@@ -74,8 +74,18 @@ fn time_unit(t_max: f64) -> (f64, &'static str) {
 
 /// Draws one chart of `lines` against time (seconds) into `area`, with the
 /// time axis in µs, ms or s as fits the range.
-fn chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str, y_desc: &str, lines: &[Line]) -> Result<(), String> {
-    let pts = || lines.iter().flat_map(|l| l.2.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
+fn chart<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    y_desc: &str,
+    lines: &[Line],
+) -> Result<(), String> {
+    let pts = || {
+        lines
+            .iter()
+            .flat_map(|l| l.2.iter())
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+    };
     let t_end = pts().map(|p| p.0).fold(0.0f64, f64::max);
     let (scale, unit) = time_unit(t_end);
     let t_max = (scale * t_end).max(f64::MIN_POSITIVE);
@@ -101,7 +111,11 @@ fn chart<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, title: &str, y_desc:
         .draw()
         .map_err(|e| e.to_string())?;
     for (name, colour, points) in lines {
-        let p: Vec<(f64, f64)> = points.iter().map(|p| (scale * p.0, p.1)).filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+        let p: Vec<(f64, f64)> = points
+            .iter()
+            .map(|p| (scale * p.0, p.1))
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .collect();
         draw_line(&mut chart, name, *colour, p)?;
     }
     chart
@@ -121,7 +135,9 @@ fn draw(path: &Path, charts: &[(&str, &str, Vec<Line>)]) -> Result<(), OutputErr
     {
         let root = BitMapBackend::new(&tmp, (900, 520 * charts.len() as u32)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        for (area, (title, y_desc, lines)) in root.split_evenly((charts.len(), 1)).iter().zip(charts) {
+        for (area, (title, y_desc, lines)) in
+            root.split_evenly((charts.len(), 1)).iter().zip(charts)
+        {
             chart(area, title, y_desc, lines).map_err(err)?;
         }
         root.present().map_err(|e| err(e.to_string()))?;
@@ -133,11 +149,24 @@ fn draw(path: &Path, charts: &[(&str, &str, Vec<Line>)]) -> Result<(), OutputErr
 /// shared y range (e.g. cumulative fragment-size distributions): each
 /// panel is (title, lines as (name, points)); `x_desc`, `y_desc` label the
 /// axes. Points with x <= 0 or non-finite values are skipped.
-pub fn plot_log_x(path: &Path, x_desc: &str, y_desc: &str, panels: &[(String, Vec<(String, Vec<(f64, f64)>)>)]) -> Result<(), OutputError> {
+pub fn plot_log_x(
+    path: &Path,
+    x_desc: &str,
+    y_desc: &str,
+    panels: &[(String, Vec<(String, Vec<(f64, f64)>)>)],
+) -> Result<(), OutputError> {
     let err = |e: String| OutputError::new(path, std::io::Error::other(e));
     let ok = |p: &&(f64, f64)| p.0 > 0.0 && p.0.is_finite() && p.1.is_finite();
-    let all = || panels.iter().flat_map(|p| p.1.iter()).flat_map(|l| l.1.iter()).filter(ok);
-    let (mut x0, mut x1) = all().fold((f64::INFINITY, 0.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
+    let all = || {
+        panels
+            .iter()
+            .flat_map(|p| p.1.iter())
+            .flat_map(|l| l.1.iter())
+            .filter(ok)
+    };
+    let (mut x0, mut x1) = all().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.0), b.max(p.0))
+    });
     if !(x0 < x1) {
         (x0, x1) = (1.0, 10.0);
     }
@@ -148,9 +177,14 @@ pub fn plot_log_x(path: &Path, x_desc: &str, y_desc: &str, panels: &[(String, Ve
     let colours = [BLUE_, ORANGE, GREEN_, PURPLE, GREY];
     let tmp = path.with_extension("png.tmp.png");
     {
-        let root = BitMapBackend::new(&tmp, (620 * panels.len().max(1) as u32, 520)).into_drawing_area();
+        let root =
+            BitMapBackend::new(&tmp, (620 * panels.len().max(1) as u32, 520)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        for (area, (title, lines)) in root.split_evenly((1, panels.len().max(1))).iter().zip(panels) {
+        for (area, (title, lines)) in root
+            .split_evenly((1, panels.len().max(1)))
+            .iter()
+            .zip(panels)
+        {
             let mut chart = ChartBuilder::on(area)
                 .caption(title, ("sans-serif", 22))
                 .margin(12)
@@ -187,7 +221,14 @@ pub fn plot_log_x(path: &Path, x_desc: &str, y_desc: &str, panels: &[(String, Ve
 /// time): every point as a circle with its label, the points of the
 /// Pareto front filled and joined. Points that are not positive and
 /// finite on both axes are left out; Ok(false) when none is left.
-pub fn plot_pareto(path: &Path, title: &str, x_desc: &str, y_desc: &str, points: &[(f64, f64, String)], front: &[bool]) -> Result<bool, OutputError> {
+pub fn plot_pareto(
+    path: &Path,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    points: &[(f64, f64, String)],
+    front: &[bool],
+) -> Result<bool, OutputError> {
     let err = |e: String| OutputError::new(path, std::io::Error::other(e));
     let ok = |p: &(f64, f64)| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite();
     let shown: Vec<(f64, f64, &str, bool)> = points
@@ -202,7 +243,10 @@ pub fn plot_pareto(path: &Path, title: &str, x_desc: &str, y_desc: &str, points:
     let range = |v: &mut dyn Iterator<Item = f64>, right: f64| {
         let (lo, hi) = v.fold((f64::INFINITY, 0.0f64), |(a, b), x| (a.min(x), b.max(x)));
         // whole decades, so that the log axes have labelled ticks
-        (0.99 * 10f64.powf((lo / 1.2).log10().floor()), 1.01 * 10f64.powf((hi * right).log10().ceil()))
+        (
+            0.99 * 10f64.powf((lo / 1.2).log10().floor()),
+            1.01 * 10f64.powf((hi * right).log10().ceil()),
+        )
     };
     // room on the right for the labels
     let (x0, x1) = range(&mut shown.iter().map(|p| p.0), 5.0);
@@ -233,7 +277,11 @@ pub fn plot_pareto(path: &Path, title: &str, x_desc: &str, y_desc: &str, points:
         draw_line(&mut chart, "Pareto front", ORANGE, line).map_err(err)?;
         chart
             .draw_series(shown.iter().map(|p| {
-                let style = if p.3 { ORANGE.filled() } else { BLUE_.stroke_width(2) };
+                let style = if p.3 {
+                    ORANGE.filled()
+                } else {
+                    BLUE_.stroke_width(2)
+                };
                 EmptyElement::at((p.0, p.1))
                     + Circle::new((0, 0), 5, style)
                     + Text::new(p.2.to_string(), (8, -6), ("sans-serif", 13).into_font())
@@ -260,11 +308,19 @@ pub fn plot_energies(path: &Path, rows: &[SeriesRow]) -> Result<bool, OutputErro
     if rows.len() < 2 {
         return Ok(false);
     }
-    let line = |name: &str, colour, f: fn(&SeriesRow) -> f64| -> Line { (name.to_string(), colour, rows.iter().map(|r| (r.time, f(r))).collect()) };
+    let line = |name: &str, colour, f: fn(&SeriesRow) -> f64| -> Line {
+        (
+            name.to_string(),
+            colour,
+            rows.iter().map(|r| (r.time, f(r))).collect(),
+        )
+    };
     let mut lines = vec![
         line("kinetic", BLUE_, |r| r.kinetic_energy),
         line("strain", ORANGE, |r| r.strain_energy),
-        line("kinetic + strain", GREEN_, |r| r.kinetic_energy + r.strain_energy),
+        line("kinetic + strain", GREEN_, |r| {
+            r.kinetic_energy + r.strain_energy
+        }),
         line("external work", GREY, |r| r.external_work),
     ];
     if rows.iter().any(|r| r.fracture_energy != 0.0) {
@@ -280,24 +336,50 @@ pub fn plot_energies(path: &Path, rows: &[SeriesRow]) -> Result<bool, OutputErro
 /// Draws `crack.png` from a series with the crack-tip columns: crack
 /// length (mm) and tip speed (m/s) against time, one line per tracked body.
 /// Returns Ok(false) and writes nothing without such columns.
-pub fn plot_crack(path: &Path, columns: &[String], rows: &[SeriesRow]) -> Result<bool, OutputError> {
+pub fn plot_crack(
+    path: &Path,
+    columns: &[String],
+    rows: &[SeriesRow],
+) -> Result<bool, OutputError> {
     if rows.len() < 2 {
         return Ok(false);
     }
     let colours = [BLUE_, ORANGE, GREEN_, PURPLE, GREY];
     let (mut length, mut speed) = (Vec::new(), Vec::new());
-    for (k, name) in columns.iter().filter(|c| c.starts_with("crack_length")).enumerate() {
+    for (k, name) in columns
+        .iter()
+        .filter(|c| c.starts_with("crack_length"))
+        .enumerate()
+    {
         let suffix = &name["crack_length".len()..];
-        let label = if suffix.is_empty() { "tip".to_string() } else { format!("tip{suffix}") };
+        let label = if suffix.is_empty() {
+            "tip".to_string()
+        } else {
+            format!("tip{suffix}")
+        };
         let colour = colours[k % colours.len()];
-        let at = |col: &str, scale: f64| -> Vec<(f64, f64)> { rows.iter().filter_map(|r| Some((r.time, scale * r.get(columns, col)?))).collect() };
+        let at = |col: &str, scale: f64| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter_map(|r| Some((r.time, scale * r.get(columns, col)?)))
+                .collect()
+        };
         length.push((label.clone(), colour, at(name, 1e3)));
         speed.push((label, colour, at(&format!("crack_speed{suffix}"), 1.0)));
     }
     if length.is_empty() {
         return Ok(false);
     }
-    draw(path, &[("Crack length (tip distance from the crack origin)", "length in mm", length), ("Crack-tip speed", "speed in m/s", speed)])?;
+    draw(
+        path,
+        &[
+            (
+                "Crack length (tip distance from the crack origin)",
+                "length in mm",
+                length,
+            ),
+            ("Crack-tip speed", "speed in m/s", speed),
+        ],
+    )?;
     Ok(true)
 }
 
@@ -312,7 +394,13 @@ pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(),
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let areas = root.split_evenly((1, panels.len().max(1)));
         for (area, (title, pts)) in areas.iter().zip(panels) {
-            let rmax = pts.iter().map(|p| p.1).filter(|r| r.is_finite()).fold(0.0f64, f64::max).max(f64::MIN_POSITIVE) * 1.1;
+            let rmax = pts
+                .iter()
+                .map(|p| p.1)
+                .filter(|r| r.is_finite())
+                .fold(0.0f64, f64::max)
+                .max(f64::MIN_POSITIVE)
+                * 1.1;
             let mut chart = ChartBuilder::on(area)
                 .caption(*title, ("sans-serif", 20))
                 .margin(10)
@@ -337,7 +425,10 @@ pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(),
                 curve.push(first);
             }
             chart
-                .draw_series(LineSeries::new(curve, RGBColor(31, 119, 180).stroke_width(2)))
+                .draw_series(LineSeries::new(
+                    curve,
+                    RGBColor(31, 119, 180).stroke_width(2),
+                ))
                 .map_err(|e| err(e.to_string()))?;
         }
         root.present().map_err(|e| err(e.to_string()))?;
@@ -355,32 +446,53 @@ pub fn plot_particle_field(
     lo: f64,
     hi: f64,
 ) -> Result<bool, OutputError> {
-    let Some(values) = snap.fields.iter().find(|f| f.name == field && f.components == 1).and_then(|f| match &f.data {
-        crate::diagnostics::FieldData::F64(v) => Some(v),
-        _ => None,
-    }) else {
+    let Some(values) = snap
+        .fields
+        .iter()
+        .find(|f| f.name == field && f.components == 1)
+        .and_then(|f| match &f.data {
+            crate::diagnostics::FieldData::F64(v) => Some(v),
+            _ => None,
+        })
+    else {
         return Ok(false);
     };
     if snap.positions.is_empty() {
         return Ok(false);
     }
     let err = |e: String| OutputError::new(path, std::io::Error::other(e));
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
     for p in &snap.positions {
         x0 = x0.min(p[0]);
         x1 = x1.max(p[0]);
         y0 = y0.min(p[1]);
         y1 = y1.max(p[1]);
     }
-    let (w, h) = ((x1 - x0).max(f64::MIN_POSITIVE), (y1 - y0).max(f64::MIN_POSITIVE));
+    let (w, h) = (
+        (x1 - x0).max(f64::MIN_POSITIVE),
+        (y1 - y0).max(f64::MIN_POSITIVE),
+    );
     // at most 1000 × 2000 pixels, in the particles' aspect ratio
-    let (width, height) = if h > 2.0 * w { (((2000.0 * w / h).round() as u32).max(50), 2000) } else { (1000, ((1000.0 * h / w).round() as u32).max(50)) };
+    let (width, height) = if h > 2.0 * w {
+        (((2000.0 * w / h).round() as u32).max(50), 2000)
+    } else {
+        (1000, ((1000.0 * h / w).round() as u32).max(50))
+    };
     let tmp = path.with_extension("png.tmp.png");
     {
         let root = BitMapBackend::new(&tmp, (width, height + 30)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        root.draw(&Text::new(format!("{field} at t = {:.3e} s", snap.time), (10, 5), ("sans-serif", 18)))
-            .map_err(|e| err(e.to_string()))?;
+        root.draw(&Text::new(
+            format!("{field} at t = {:.3e} s", snap.time),
+            (10, 5),
+            ("sans-serif", 18),
+        ))
+        .map_err(|e| err(e.to_string()))?;
         // one square of about a particle's spacing
         let per = (snap.positions.len() as f64 / (w * h)).sqrt();
         let size = ((width as f64 / w / per).ceil() as i32).max(1);
@@ -396,7 +508,11 @@ pub fn plot_particle_field(
             };
             let px = ((p[0] - x0) / w * (width as f64 - size as f64)) as i32;
             let py = 30 + ((y1 - p[1]) / h * (height as f64 - size as f64)) as i32;
-            root.draw(&Rectangle::new([(px, py), (px + size, py + size)], colour.filled())).map_err(|e| err(e.to_string()))?;
+            root.draw(&Rectangle::new(
+                [(px, py), (px + size, py + size)],
+                colour.filled(),
+            ))
+            .map_err(|e| err(e.to_string()))?;
         }
         root.present().map_err(|e| err(e.to_string()))?;
     }

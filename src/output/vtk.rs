@@ -53,11 +53,21 @@ struct Appended<'a> {
 
 impl<'a> Appended<'a> {
     fn new() -> Self {
-        Appended { offset: 0, blocks: Vec::new() }
+        Appended {
+            offset: 0,
+            blocks: Vec::new(),
+        }
     }
 
     /// The `<DataArray .../>` element for `values`.
-    fn array(&mut self, xml: &mut String, ty: &str, name: Option<&str>, comps: usize, values: Values<'a>) {
+    fn array(
+        &mut self,
+        xml: &mut String,
+        ty: &str,
+        name: Option<&str>,
+        comps: usize,
+        values: Values<'a>,
+    ) {
         let name = name.map(|n| format!(" Name=\"{n}\"")).unwrap_or_default();
         let _ = writeln!(
             xml,
@@ -70,8 +80,12 @@ impl<'a> Appended<'a> {
 
     fn field(&mut self, xml: &mut String, f: &'a Field) {
         match &f.data {
-            FieldData::F64(v) => self.array(xml, "Float64", Some(&f.name), f.components, Values::F64(v)),
-            FieldData::U32(v) => self.array(xml, "UInt32", Some(&f.name), f.components, Values::U32(v)),
+            FieldData::F64(v) => {
+                self.array(xml, "Float64", Some(&f.name), f.components, Values::F64(v))
+            }
+            FieldData::U32(v) => {
+                self.array(xml, "UInt32", Some(&f.name), f.components, Values::U32(v))
+            }
         }
     }
 
@@ -107,7 +121,13 @@ pub fn write_particles_vtp(path: &Path, snap: &Snapshot) -> Result<(), OutputErr
     }
     let _ = writeln!(xml, "      </PointData>");
     let _ = writeln!(xml, "      <Points>");
-    app.array(&mut xml, "Float64", Some("position"), 3, Values::Points(&snap.positions));
+    app.array(
+        &mut xml,
+        "Float64",
+        Some("position"),
+        3,
+        Values::Points(&snap.positions),
+    );
     let _ = writeln!(xml, "      </Points>");
     let _ = writeln!(xml, "      <Verts>");
     app.array(&mut xml, "Int64", Some("connectivity"), 1, Values::Iota(n));
@@ -147,7 +167,10 @@ pub fn write_pvd(path: &Path, entries: &[(f64, String)]) -> Result<(), OutputErr
     let mut xml = String::from(HEADER);
     xml.push_str("<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n");
     for (t, file) in entries {
-        let _ = writeln!(xml, "    <DataSet timestep=\"{t:?}\" group=\"\" part=\"0\" file=\"{file}\"/>");
+        let _ = writeln!(
+            xml,
+            "    <DataSet timestep=\"{t:?}\" group=\"\" part=\"0\" file=\"{file}\"/>"
+        );
     }
     xml.push_str("  </Collection>\n</VTKFile>\n");
     write_atomic(path, |w| w.write_all(xml.as_bytes()))
@@ -164,14 +187,26 @@ mod tests {
             time: 1.5e-6,
             positions: vec![[0.1, 0.2], [0.3, -0.4], [1e-300, 7.0]],
             fields: vec![
-                Field { name: "velocity".into(), components: 2, data: FieldData::F64(vec![1.0, 2.0, 3.0, 4.0, 5.0, f64::NAN]) },
-                Field { name: "particle_id".into(), components: 1, data: FieldData::U32(vec![7, 8, 9]) },
+                Field {
+                    name: "velocity".into(),
+                    components: 2,
+                    data: FieldData::F64(vec![1.0, 2.0, 3.0, 4.0, 5.0, f64::NAN]),
+                },
+                Field {
+                    name: "particle_id".into(),
+                    components: 1,
+                    data: FieldData::U32(vec![7, 8, 9]),
+                },
             ],
             grid: Some(GridSnapshot {
                 origin: [-0.2, -0.2],
                 spacing: 0.1,
                 dims: [2, 2],
-                fields: vec![Field { name: "mass".into(), components: 1, data: FieldData::F64(vec![0.0, 1.0, 2.0, 3.0]) }],
+                fields: vec![Field {
+                    name: "mass".into(),
+                    components: 1,
+                    data: FieldData::F64(vec![0.0, 1.0, 2.0, 3.0]),
+                }],
             }),
         }
     }
@@ -183,7 +218,14 @@ mod tests {
         let underscore = bytes[start..].iter().position(|&b| b == b'_').unwrap() + start + 1;
         let mut offsets: Vec<usize> = text
             .match_indices("offset=\"")
-            .map(|(i, m)| text[i + m.len()..].split('"').next().unwrap().parse().unwrap())
+            .map(|(i, m)| {
+                text[i + m.len()..]
+                    .split('"')
+                    .next()
+                    .unwrap()
+                    .parse()
+                    .unwrap()
+            })
             .collect();
         offsets.sort();
         offsets
@@ -197,7 +239,9 @@ mod tests {
     }
 
     fn f64s(b: &[u8]) -> Vec<f64> {
-        b.chunks(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect()
+        b.chunks(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect()
     }
 
     #[test]
@@ -213,11 +257,17 @@ mod tests {
         let v = f64s(&b[0]);
         assert_eq!(v[..5], [1.0, 2.0, 3.0, 4.0, 5.0]);
         assert!(v[5].is_nan());
-        let ids: Vec<u32> = b[1].chunks(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect();
+        let ids: Vec<u32> = b[1]
+            .chunks(4)
+            .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
         assert_eq!(ids, [7, 8, 9]);
         let pts = f64s(&b[2]);
         assert_eq!(pts, [0.1, 0.2, 0.0, 0.3, -0.4, 0.0, 1e-300, 7.0, 0.0]);
-        let offs: Vec<i64> = b[4].chunks(8).map(|c| i64::from_le_bytes(c.try_into().unwrap())).collect();
+        let offs: Vec<i64> = b[4]
+            .chunks(8)
+            .map(|c| i64::from_le_bytes(c.try_into().unwrap()))
+            .collect();
         assert_eq!(offs, [1, 2, 3]);
         // deterministic bytes
         let q = dir.path().join("q.vtp");
@@ -239,7 +289,9 @@ mod tests {
         write_pvd(&c, &[(0.0, "a.vtp".into()), (2.5e-7, "b.vtp".into())]).unwrap();
         let text = std::fs::read_to_string(&c).unwrap();
         let a = text.find("file=\"a.vtp\"").unwrap();
-        let b = text.find("timestep=\"2.5e-7\" group=\"\" part=\"0\" file=\"b.vtp\"").unwrap();
+        let b = text
+            .find("timestep=\"2.5e-7\" group=\"\" part=\"0\" file=\"b.vtp\"")
+            .unwrap();
         assert!(a < b);
     }
 }

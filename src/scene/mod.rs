@@ -45,7 +45,12 @@ pub struct SceneError {
 
 impl SceneError {
     pub fn single(path: impl Into<String>, reason: impl Into<String>) -> Self {
-        SceneError { errors: vec![FieldError { path: path.into(), reason: reason.into() }] }
+        SceneError {
+            errors: vec![FieldError {
+                path: path.into(),
+                reason: reason.into(),
+            }],
+        }
     }
 }
 
@@ -83,8 +88,12 @@ impl Scene {
     /// Reads, parses and validates a scene file (`.json` is JSON, anything
     /// else is sniffed).
     pub fn from_path(path: &Path) -> Result<Scene, SceneError> {
-        let bytes = std::fs::read(path)
-            .map_err(|e| SceneError::single("", format!("cannot read scene file {}: {e}", path.display())))?;
+        let bytes = std::fs::read(path).map_err(|e| {
+            SceneError::single(
+                "",
+                format!("cannot read scene file {}: {e}", path.display()),
+            )
+        })?;
         let format = match path.extension().and_then(|e| e.to_str()) {
             Some("json") => Some(Format::Json),
             Some("toml") => Some(Format::Toml),
@@ -98,7 +107,10 @@ impl Scene {
         let text = std::str::from_utf8(bytes).map_err(|e| {
             SceneError::single(
                 "",
-                format!("the scene is not UTF-8 text (invalid byte at offset {})", e.valid_up_to()),
+                format!(
+                    "the scene is not UTF-8 text (invalid byte at offset {})",
+                    e.valid_up_to()
+                ),
             )
         })?;
         Scene::from_text(text, format)
@@ -115,14 +127,21 @@ impl Scene {
 /// any type error, unknown key or missing key.
 pub fn parse(text: &str, format: Format) -> Result<SceneFile, SceneError> {
     if text.trim().is_empty() {
-        return Err(SceneError::single("", "the scene is empty (it needs at least [grid], [time] and [[bodies]])"));
+        return Err(SceneError::single(
+            "",
+            "the scene is empty (it needs at least [grid], [time] and [[bodies]])",
+        ));
     }
     if text.contains('\0') {
-        return Err(SceneError::single("", "the scene contains NUL bytes: it is not a text file"));
+        return Err(SceneError::single(
+            "",
+            "the scene contains NUL bytes: it is not a text file",
+        ));
     }
     match format {
         Format::Toml => {
-            let de = toml::Deserializer::parse(text).map_err(|e| SceneError::single("", toml_message(&e, text)))?;
+            let de = toml::Deserializer::parse(text)
+                .map_err(|e| SceneError::single("", toml_message(&e, text)))?;
             serde_path_to_error::deserialize(de).map_err(|e| {
                 let path = clean_path(&e.path().to_string());
                 SceneError::single(path, toml_message(e.inner(), text))
@@ -134,7 +153,9 @@ pub fn parse(text: &str, format: Format) -> Result<SceneFile, SceneError> {
                 let path = clean_path(&e.path().to_string());
                 SceneError::single(path, e.inner().to_string())
             })?;
-            de.end().map_err(|e| SceneError::single("", format!("trailing characters after the scene: {e}")))?;
+            de.end().map_err(|e| {
+                SceneError::single("", format!("trailing characters after the scene: {e}"))
+            })?;
             Ok(file)
         }
     }

@@ -275,7 +275,9 @@ fn side_condition<'de, D: Deserializer<'de>>(d: D) -> Result<SideCondition, D::E
                 "velocity" | "traction" => Err(E::custom(format!(
                     "`{s}` needs parameters: write it as a table, e.g. {{ type = \"{s}\", ... }}"
                 ))),
-                _ => SideCondition::deserialize(de::value::MapDeserializer::new(std::iter::once(("type", s)))),
+                _ => SideCondition::deserialize(de::value::MapDeserializer::new(std::iter::once(
+                    ("type", s),
+                ))),
             }
         }
         fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<SideCondition, A::Error> {
@@ -379,7 +381,10 @@ pub struct AnalysisSpec {
 
 impl Default for AnalysisSpec {
     fn default() -> Self {
-        AnalysisSpec { plane: PlaneKind::PlaneStrain, thickness: 1.0 }
+        AnalysisSpec {
+            plane: PlaneKind::PlaneStrain,
+            thickness: 1.0,
+        }
     }
 }
 
@@ -445,7 +450,11 @@ pub struct TransferSpec {
 
 impl Default for TransferSpec {
     fn default() -> Self {
-        TransferSpec { scheme: TransferKind::Flip, flip_blend: default_flip_blend(), stress_update: StressUpdate::Usl }
+        TransferSpec {
+            scheme: TransferKind::Flip,
+            flip_blend: default_flip_blend(),
+            stress_update: StressUpdate::Usl,
+        }
     }
 }
 
@@ -599,7 +608,8 @@ impl<'de> Deserialize<'de> for MaterialRef {
                 Ok(MaterialRef::Name(s.to_string()))
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<MaterialRef, A::Error> {
-                MaterialSpec::deserialize(de::value::MapAccessDeserializer::new(map)).map(MaterialRef::Inline)
+                MaterialSpec::deserialize(de::value::MapAccessDeserializer::new(map))
+                    .map(MaterialRef::Inline)
             }
         }
         d.deserialize_any(V)
@@ -611,14 +621,30 @@ impl<'de> Deserialize<'de> for MaterialRef {
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeSpec {
     /// Axis-aligned rectangle.
-    Box { min: [f64; 2], max: [f64; 2] },
-    Disk { center: [f64; 2], radius: f64 },
-    Ring { center: [f64; 2], inner_radius: f64, outer_radius: f64 },
+    Box {
+        min: [f64; 2],
+        max: [f64; 2],
+    },
+    Disk {
+        center: [f64; 2],
+        radius: f64,
+    },
+    Ring {
+        center: [f64; 2],
+        inner_radius: f64,
+        outer_radius: f64,
+    },
     /// Simple polygon, vertices in order (either orientation).
-    Polygon { vertices: Vec<[f64; 2]> },
+    Polygon {
+        vertices: Vec<[f64; 2]>,
+    },
     /// A straight slot of the given width from `start` to `end` (a notch
     /// when subtracted from a body).
-    Slot { start: [f64; 2], end: [f64; 2], width: f64 },
+    Slot {
+        start: [f64; 2],
+        end: [f64; 2],
+        width: f64,
+    },
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -781,7 +807,10 @@ pub struct GuardSpec {
 
 impl Default for GuardSpec {
     fn default() -> Self {
-        GuardSpec { energy_growth: default_energy_factor(), min_node_mass_fraction: default_mass_fraction() }
+        GuardSpec {
+            energy_growth: default_energy_factor(),
+            min_node_mass_fraction: default_mass_fraction(),
+        }
     }
 }
 

@@ -78,7 +78,11 @@ impl Scene {
 
     /// The seeding lattice of body `b`.
     pub fn lattice(&self, b: usize) -> Lattice {
-        lattice_of(&self.file.grid, self.cells, self.file.bodies[b].particles_per_cell)
+        lattice_of(
+            &self.file.grid,
+            self.cells,
+            self.file.bodies[b].particles_per_cell,
+        )
     }
 
     /// The distance between neighbouring particles of body `b` as seeded.
@@ -116,7 +120,10 @@ impl Scene {
             }
         }
         if file.bodies.is_empty() {
-            c.err("bodies", "the scene has no bodies: add at least one [[bodies]] entry");
+            c.err(
+                "bodies",
+                "the scene has no bodies: add at least one [[bodies]] entry",
+            );
         }
         let mut body_material = Vec::with_capacity(file.bodies.len());
         let mut particle_counts = Vec::with_capacity(file.bodies.len());
@@ -200,7 +207,13 @@ impl Scene {
                     c.err(&format!("{path}.cracks[{k}].profile"), "the borden profile is an initial history field: it is for phase-field materials, not damage");
                 }
                 if crack.points.len() < 2 {
-                    c.err(&format!("{path}.cracks[{k}].points"), format!("a crack needs at least 2 points, got {}", crack.points.len()));
+                    c.err(
+                        &format!("{path}.cracks[{k}].points"),
+                        format!(
+                            "a crack needs at least 2 points, got {}",
+                            crack.points.len()
+                        ),
+                    );
                 }
                 for (q, pt) in crack.points.iter().enumerate() {
                     c.point(&format!("{path}.cracks[{k}].points[{q}]"), *pt);
@@ -211,11 +224,20 @@ impl Scene {
             particle_counts.push(check_body(&mut c, &path, body, &file.grid, cells));
         }
         if groups.len() > MAX_CONTACT_GROUPS {
-            c.err("bodies", format!("{} contact groups; at most {MAX_CONTACT_GROUPS} are supported", groups.len()));
+            c.err(
+                "bodies",
+                format!(
+                    "{} contact groups; at most {MAX_CONTACT_GROUPS} are supported",
+                    groups.len()
+                ),
+            );
         }
         let total: usize = particle_counts.iter().sum();
         if total > MAX_PARTICLES {
-            c.err("bodies", format!("{total} particles in all; at most {MAX_PARTICLES} are supported"));
+            c.err(
+                "bodies",
+                format!("{total} particles in all; at most {MAX_PARTICLES} are supported"),
+            );
         }
         check_contact(&mut c, &file.contact, &groups);
         if let Some(dfg) = &file.dfg {
@@ -234,10 +256,9 @@ impl Scene {
                     ),
                 );
             }
-            let any_damage = file
-                .bodies
-                .iter()
-                .any(|b| has_damage(&file, &b.material) || phase_field_of(&file, &b.material).is_some());
+            let any_damage = file.bodies.iter().any(|b| {
+                has_damage(&file, &b.material) || phase_field_of(&file, &b.material).is_some()
+            });
             if !any_damage && !dfg.self_contact {
                 c.err("dfg", "partitioning needs a material with damage or a phase field, or dfg.self_contact = true: nothing would be partitioned");
             }
@@ -248,7 +269,15 @@ impl Scene {
         }
         let contact_groups: Vec<u32> = groups.into_iter().collect();
         let plan = Plan::build(&file, &contact_groups);
-        Ok(Scene { file, materials, body_material, cells, particle_counts, contact_groups, plan })
+        Ok(Scene {
+            file,
+            materials,
+            body_material,
+            cells,
+            particle_counts,
+            contact_groups,
+            plan,
+        })
     }
 
     /// The effective time step limit factor: `time.cfl`, or 0.5 by default.
@@ -260,7 +289,14 @@ impl Scene {
 /// The anisotropy tensor of a phase-field spec (not yet rotated).
 pub fn phase_field_gamma(pf: &PhaseFieldSpec) -> crate::fracture::phase_field::anisotropy::Gamma {
     let g = |k: usize| pf.gamma.get(k).copied().unwrap_or(0.0);
-    crate::fracture::phase_field::anisotropy::Gamma { g1111: g(0), g2222: g(1), g1122: g(2), g1212: g(3), g1112: g(4), g2212: g(5) }
+    crate::fracture::phase_field::anisotropy::Gamma {
+        g1111: g(0),
+        g2222: g(1),
+        g1122: g(2),
+        g1212: g(3),
+        g1112: g(4),
+        g2212: g(5),
+    }
 }
 
 /// Particles per direction for a per-cell count (a perfect square).
@@ -270,7 +306,12 @@ pub fn per_dir(ppc: u32) -> usize {
 
 /// The seeding lattice of a body with `ppc` particles per cell on the grid.
 fn lattice_of(grid: &GridSpec, cells: [usize; 2], ppc: u32) -> Lattice {
-    Lattice { origin: grid.min, h: grid.cell_size, cells, per_dir: per_dir(ppc) }
+    Lattice {
+        origin: grid.min,
+        h: grid.cell_size,
+        cells,
+        per_dir: per_dir(ppc),
+    }
 }
 
 /// Whether a body's material has a damage model.
@@ -298,7 +339,10 @@ struct Checker {
 
 impl Checker {
     fn err(&mut self, path: &str, reason: impl Into<String>) {
-        self.errors.push(FieldError { path: path.to_string(), reason: reason.into() });
+        self.errors.push(FieldError {
+            path: path.to_string(),
+            reason: reason.into(),
+        });
     }
     fn finite(&mut self, path: &str, v: f64) -> bool {
         if v.is_finite() {
@@ -342,14 +386,21 @@ impl Checker {
             }
             TimeFunction::Table { table } => {
                 if table.is_empty() {
-                    self.err(&format!("{path}.table"), "must have at least one [time, value] pair");
+                    self.err(
+                        &format!("{path}.table"),
+                        "must have at least one [time, value] pair",
+                    );
                 }
                 for (k, pair) in table.iter().enumerate() {
                     self.point(&format!("{path}.table[{k}]"), *pair);
                     if k > 0 && pair[0] < table[k - 1][0] {
                         self.err(
                             &format!("{path}.table[{k}]"),
-                            format!("times must not decrease, got {} after {}", pair[0], table[k - 1][0]),
+                            format!(
+                                "times must not decrease, got {} after {}",
+                                pair[0],
+                                table[k - 1][0]
+                            ),
                         );
                     }
                 }
@@ -381,7 +432,10 @@ fn check_grid(c: &mut Checker, g: &GridSpec) -> [usize; 2] {
         }
         let n = (len / g.cell_size - 1e-9).ceil();
         if n > 1e8 {
-            c.err("grid.cell_size", format!("{n} cells along {} is too many", axis[d]));
+            c.err(
+                "grid.cell_size",
+                format!("{n} cells along {} is too many", axis[d]),
+            );
             return [0, 0];
         }
         cells[d] = n as usize;
@@ -389,11 +443,19 @@ fn check_grid(c: &mut Checker, g: &GridSpec) -> [usize; 2] {
     if (cells[0] + 1) * (cells[1] + 1) > MAX_NODES {
         c.err(
             "grid.cell_size",
-            format!("{} × {} cells is more than the {MAX_NODES}-node limit", cells[0], cells[1]),
+            format!(
+                "{} × {} cells is more than the {MAX_NODES}-node limit",
+                cells[0], cells[1]
+            ),
         );
         return [0, 0];
     }
-    let sides = [("left", &g.boundary.left), ("right", &g.boundary.right), ("bottom", &g.boundary.bottom), ("top", &g.boundary.top)];
+    let sides = [
+        ("left", &g.boundary.left),
+        ("right", &g.boundary.right),
+        ("bottom", &g.boundary.bottom),
+        ("top", &g.boundary.top),
+    ];
     for (name, side) in sides {
         let path = format!("grid.boundary.{name}");
         match side {
@@ -442,7 +504,13 @@ fn check_time(c: &mut Checker, t: &TimeSpec) {
                 let steps = (t.end / dt).ceil();
                 let cap = t.max_steps.unwrap_or(10_000_000) as f64;
                 if steps > cap {
-                    c.err("time.dt", format!("{dt} s over {} s is {steps} steps, more than max_steps = {cap}", t.end));
+                    c.err(
+                        "time.dt",
+                        format!(
+                            "{dt} s over {} s is {steps} steps, more than max_steps = {cap}",
+                            t.end
+                        ),
+                    );
                 }
             }
         }
@@ -455,34 +523,64 @@ fn check_time(c: &mut Checker, t: &TimeSpec) {
 
 fn check_output_and_guards(c: &mut Checker, file: &SceneFile) {
     let pf = &file.phase_field_solver;
-    if c.finite("phase_field_solver.tolerance", pf.tolerance) && !(pf.tolerance > 0.0 && pf.tolerance < 1.0) {
-        c.err("phase_field_solver.tolerance", format!("must be in (0, 1), got {}", pf.tolerance));
+    if c.finite("phase_field_solver.tolerance", pf.tolerance)
+        && !(pf.tolerance > 0.0 && pf.tolerance < 1.0)
+    {
+        c.err(
+            "phase_field_solver.tolerance",
+            format!("must be in (0, 1), got {}", pf.tolerance),
+        );
     }
     if pf.max_iterations == 0 {
         c.err("phase_field_solver.max_iterations", "must be >= 1, got 0");
     }
     if !(1..=100).contains(&pf.max_staggers) {
-        c.err("phase_field_solver.max_staggers", format!("must be in [1, 100], got {}", pf.max_staggers));
+        c.err(
+            "phase_field_solver.max_staggers",
+            format!("must be in [1, 100], got {}", pf.max_staggers),
+        );
     }
-    if c.finite("phase_field_solver.stagger_tolerance", pf.stagger_tolerance) && !(pf.stagger_tolerance > 0.0) {
-        c.err("phase_field_solver.stagger_tolerance", format!("must be > 0, got {}", pf.stagger_tolerance));
+    if c.finite("phase_field_solver.stagger_tolerance", pf.stagger_tolerance)
+        && !(pf.stagger_tolerance > 0.0)
+    {
+        c.err(
+            "phase_field_solver.stagger_tolerance",
+            format!("must be > 0, got {}", pf.stagger_tolerance),
+        );
     }
     if file.output.series_rows < 2 || file.output.series_rows > 10_000_000 {
-        c.err("output.series_rows", format!("must be in [2, 10000000], got {}", file.output.series_rows));
+        c.err(
+            "output.series_rows",
+            format!("must be in [2, 10000000], got {}", file.output.series_rows),
+        );
     }
     let fd = file.output.fragment_damage;
     if !(fd > 0.0 && fd <= 1.0) {
-        c.err("output.fragment_damage", format!("must be in (0, 1], got {fd}"));
+        c.err(
+            "output.fragment_damage",
+            format!("must be in (0, 1], got {fd}"),
+        );
     }
     if file.output.snapshots > 100_000 {
-        c.err("output.snapshots", format!("must be <= 100000, got {}", file.output.snapshots));
+        c.err(
+            "output.snapshots",
+            format!("must be <= 100000, got {}", file.output.snapshots),
+        );
     }
-    if c.finite("guards.energy_growth", file.guards.energy_growth) && file.guards.energy_growth <= 1.0 {
-        c.err("guards.energy_growth", format!("must be > 1, got {}", file.guards.energy_growth));
+    if c.finite("guards.energy_growth", file.guards.energy_growth)
+        && file.guards.energy_growth <= 1.0
+    {
+        c.err(
+            "guards.energy_growth",
+            format!("must be > 1, got {}", file.guards.energy_growth),
+        );
     }
     let f = file.guards.min_node_mass_fraction;
     if c.finite("guards.min_node_mass_fraction", f) && !(0.0..1.0).contains(&f) {
-        c.err("guards.min_node_mass_fraction", format!("must be in [0, 1), got {f}"));
+        c.err(
+            "guards.min_node_mass_fraction",
+            format!("must be in [0, 1), got {f}"),
+        );
     }
 }
 
@@ -499,26 +597,46 @@ fn resolve_material(
     c.positive(&format!("{path}.youngs_modulus"), m.youngs_modulus);
     let nu = m.poissons_ratio;
     if c.finite(&format!("{path}.poissons_ratio"), nu) && !(nu > -1.0 && nu < 0.5) {
-        c.err(&format!("{path}.poissons_ratio"), format!("must be in (-1, 0.5), got {nu}"));
+        c.err(
+            &format!("{path}.poissons_ratio"),
+            format!("must be in (-1, 0.5), got {nu}"),
+        );
     }
     if let Some(pf) = &m.phase_field {
         let q = format!("{path}.phase_field");
         c.positive(&format!("{q}.gc"), pf.gc);
         c.positive(&format!("{q}.l0"), pf.l0);
         if c.finite(&format!("{q}.k_f"), pf.k_f) && !(0.0..1.0).contains(&pf.k_f) {
-            c.err(&format!("{q}.k_f"), format!("must be in [0, 1), got {}", pf.k_f));
+            c.err(
+                &format!("{q}.k_f"),
+                format!("must be in [0, 1), got {}", pf.k_f),
+            );
         }
         c.finite(&format!("{q}.angle"), pf.angle);
         if !(pf.gamma.is_empty() || pf.gamma.len() == 4 || pf.gamma.len() == 6) {
-            c.err(&format!("{q}.gamma"), format!("give 4 or 6 numbers [g1111, g2222, g1122, g1212, (g1112, g2212)], got {}", pf.gamma.len()));
-        } else if pf.gamma.iter().enumerate().all(|(k, g)| c.finite(&format!("{q}.gamma[{k}]"), *g)) {
+            c.err(
+                &format!("{q}.gamma"),
+                format!(
+                    "give 4 or 6 numbers [g1111, g2222, g1122, g1212, (g1112, g2212)], got {}",
+                    pf.gamma.len()
+                ),
+            );
+        } else if pf
+            .gamma
+            .iter()
+            .enumerate()
+            .all(|(k, g)| c.finite(&format!("{q}.gamma[{k}]"), *g))
+        {
             let g = phase_field_gamma(pf);
             if g.min_along() < 0.0 {
                 c.err(&format!("{q}.gamma"), "the crack-profile coefficient a(n) is negative for some direction: the functional is unbounded below");
             }
         }
         if m.model != MaterialModel::LinearElastic {
-            c.err(&format!("{path}.model"), "phase-field fracture is implemented for linear_elastic materials");
+            c.err(
+                &format!("{path}.model"),
+                "phase-field fracture is implemented for linear_elastic materials",
+            );
         }
         if pf.plane_stress_split != PlaneStressSplit::WithZz && plane != PlaneKind::PlaneStress {
             c.err(&format!("{q}.plane_stress_split"), "applies to analysis.plane = \"plane_stress\" only (plane strain has no thickness strain)");
@@ -661,30 +779,55 @@ fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec) -> bool {
     let before = c.errors.len();
     match s {
         ShapeSpec::Box { min, max } => {
-            if c.point(&format!("{path}.min"), *min) && c.point(&format!("{path}.max"), *max) && (max[0] <= min[0] || max[1] <= min[1]) {
-                c.err(path, format!("max must exceed min in x and y, got min {min:?} max {max:?}"));
+            if c.point(&format!("{path}.min"), *min)
+                && c.point(&format!("{path}.max"), *max)
+                && (max[0] <= min[0] || max[1] <= min[1])
+            {
+                c.err(
+                    path,
+                    format!("max must exceed min in x and y, got min {min:?} max {max:?}"),
+                );
             }
         }
         ShapeSpec::Disk { center, radius } => {
             c.point(&format!("{path}.center"), *center);
             c.positive(&format!("{path}.radius"), *radius);
         }
-        ShapeSpec::Ring { center, inner_radius, outer_radius } => {
+        ShapeSpec::Ring {
+            center,
+            inner_radius,
+            outer_radius,
+        } => {
             c.point(&format!("{path}.center"), *center);
             let a = c.finite(&format!("{path}.inner_radius"), *inner_radius);
             let b = c.positive(&format!("{path}.outer_radius"), *outer_radius);
             if a && *inner_radius < 0.0 {
-                c.err(&format!("{path}.inner_radius"), format!("must be >= 0, got {inner_radius}"));
+                c.err(
+                    &format!("{path}.inner_radius"),
+                    format!("must be >= 0, got {inner_radius}"),
+                );
             }
             if a && b && inner_radius >= outer_radius {
-                c.err(&format!("{path}.inner_radius"), format!("must be less than outer_radius {outer_radius}, got {inner_radius}"));
+                c.err(
+                    &format!("{path}.inner_radius"),
+                    format!("must be less than outer_radius {outer_radius}, got {inner_radius}"),
+                );
             }
         }
         ShapeSpec::Polygon { vertices } => {
             if vertices.len() < 3 {
-                c.err(&format!("{path}.vertices"), format!("a polygon needs at least 3 vertices, got {}", vertices.len()));
+                c.err(
+                    &format!("{path}.vertices"),
+                    format!(
+                        "a polygon needs at least 3 vertices, got {}",
+                        vertices.len()
+                    ),
+                );
             } else {
-                let ok = vertices.iter().enumerate().all(|(k, v)| c.point(&format!("{path}.vertices[{k}]"), *v));
+                let ok = vertices
+                    .iter()
+                    .enumerate()
+                    .all(|(k, v)| c.point(&format!("{path}.vertices[{k}]"), *v));
                 if ok && geometry::polygon_area2(vertices).abs() <= 0.0 {
                     c.err(&format!("{path}.vertices"), "the polygon has zero area");
                 }
@@ -702,10 +845,20 @@ fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec) -> bool {
     c.errors.len() == before
 }
 
-fn check_body(c: &mut Checker, path: &str, body: &BodySpec, grid: &GridSpec, cells: [usize; 2]) -> usize {
+fn check_body(
+    c: &mut Checker,
+    path: &str,
+    body: &BodySpec,
+    grid: &GridSpec,
+    cells: [usize; 2],
+) -> usize {
     let before = c.errors.len();
     let shape_ok = check_shape(c, &format!("{path}.shape"), &body.shape);
-    let holes_ok = body.holes.iter().enumerate().all(|(k, h)| check_shape(c, &format!("{path}.holes[{k}]"), h));
+    let holes_ok = body
+        .holes
+        .iter()
+        .enumerate()
+        .all(|(k, h)| check_shape(c, &format!("{path}.holes[{k}]"), h));
     let ppc = body.particles_per_cell;
     let n = per_dir(ppc);
     if ppc == 0 || n * n != ppc as usize || n > 8 {
@@ -751,7 +904,10 @@ fn check_body(c: &mut Checker, path: &str, body: &BodySpec, grid: &GridSpec, cel
     if count == 0 {
         c.err(
             &format!("{path}.shape"),
-            format!("holds no particle at cell size {} with {ppc} particles per cell", grid.cell_size),
+            format!(
+                "holds no particle at cell size {} with {ppc} particles per cell",
+                grid.cell_size
+            ),
         );
     }
     count
@@ -759,19 +915,31 @@ fn check_body(c: &mut Checker, path: &str, body: &BodySpec, grid: &GridSpec, cel
 
 fn check_contact(c: &mut Checker, contact: &ContactSpec, groups: &std::collections::BTreeSet<u32>) {
     if c.finite("contact.friction", contact.friction) && contact.friction < 0.0 {
-        c.err("contact.friction", format!("must be >= 0, got {}", contact.friction));
+        c.err(
+            "contact.friction",
+            format!("must be >= 0, got {}", contact.friction),
+        );
     }
     for (k, pair) in contact.pairs.iter().enumerate() {
         let path = format!("contact.pairs[{k}]");
         if c.finite(&format!("{path}.friction"), pair.friction) && pair.friction < 0.0 {
-            c.err(&format!("{path}.friction"), format!("must be >= 0, got {}", pair.friction));
+            c.err(
+                &format!("{path}.friction"),
+                format!("must be >= 0, got {}", pair.friction),
+            );
         }
         if pair.groups[0] == pair.groups[1] {
-            c.err(&format!("{path}.groups"), format!("the two groups must differ, got {:?}", pair.groups));
+            c.err(
+                &format!("{path}.groups"),
+                format!("the two groups must differ, got {:?}", pair.groups),
+            );
         }
         for g in pair.groups {
             if !groups.contains(&g) {
-                c.err(&format!("{path}.groups"), format!("no body is in contact group {g}"));
+                c.err(
+                    &format!("{path}.groups"),
+                    format!("no body is in contact group {g}"),
+                );
             }
         }
     }

@@ -113,7 +113,10 @@ fn event_to_proto(sequence: u64, e: &JobEvent) -> proto::JobEvent {
         JobEvent::Progress(p) => Event::Progress(progress_to_proto(p)),
         JobEvent::Summary(s) => Event::Summary(summary_to_proto(s)),
     };
-    proto::JobEvent { sequence, event: Some(event) }
+    proto::JobEvent {
+        sequence,
+        event: Some(event),
+    }
 }
 
 fn dtype_to_proto(d: jobs::snapfile::Dtype) -> proto::DataType {
@@ -124,7 +127,11 @@ fn dtype_to_proto(d: jobs::snapfile::Dtype) -> proto::DataType {
 }
 
 fn field_info(a: &jobs::snapfile::ArrayInfo) -> proto::FieldInfo {
-    proto::FieldInfo { name: a.name.clone(), dtype: dtype_to_proto(a.dtype) as i32, components: a.components as u32 }
+    proto::FieldInfo {
+        name: a.name.clone(),
+        dtype: dtype_to_proto(a.dtype) as i32,
+        components: a.components as u32,
+    }
 }
 
 fn snapshot_to_proto(h: &jobs::SnapshotHeader) -> proto::SnapshotInfo {
@@ -146,8 +153,13 @@ fn snapshot_to_proto(h: &jobs::SnapshotHeader) -> proto::SnapshotInfo {
 }
 
 /// Runs a blocking job-manager call off the async runtime.
-async fn blocking<T: Send + 'static>(f: impl FnOnce() -> Result<T, JobError> + Send + 'static) -> Result<T, Status> {
-    tokio::task::spawn_blocking(f).await.map_err(|e| Status::internal(format!("worker: {e}")))?.map_err(status)
+async fn blocking<T: Send + 'static>(
+    f: impl FnOnce() -> Result<T, JobError> + Send + 'static,
+) -> Result<T, Status> {
+    tokio::task::spawn_blocking(f)
+        .await
+        .map_err(|e| Status::internal(format!("worker: {e}")))?
+        .map_err(status)
 }
 
 /// The `cleave.v1.Cleave` service.
@@ -160,27 +172,47 @@ type ChunkStream = Pin<Box<dyn Stream<Item = Result<proto::FieldChunk, Status>> 
 
 #[tonic::async_trait]
 impl Cleave for CleaveService {
-    async fn submit_job(&self, req: Request<proto::SubmitJobRequest>) -> Result<Response<proto::Job>, Status> {
+    async fn submit_job(
+        &self,
+        req: Request<proto::SubmitJobRequest>,
+    ) -> Result<Response<proto::Job>, Status> {
         let r = req.into_inner();
         let jobs = self.jobs.clone();
         let job = blocking(move || jobs.submit(&r.scene, format(r.format), &r.label)).await?;
         Ok(Response::new(job_to_proto(job)))
     }
 
-    async fn get_job(&self, req: Request<proto::GetJobRequest>) -> Result<Response<proto::Job>, Status> {
+    async fn get_job(
+        &self,
+        req: Request<proto::GetJobRequest>,
+    ) -> Result<Response<proto::Job>, Status> {
         let id = req.into_inner().job_id;
         let jobs = self.jobs.clone();
-        Ok(Response::new(job_to_proto(blocking(move || jobs.get(&id)).await?)))
+        Ok(Response::new(job_to_proto(
+            blocking(move || jobs.get(&id)).await?,
+        )))
     }
 
-    async fn list_jobs(&self, req: Request<proto::ListJobsRequest>) -> Result<Response<proto::ListJobsResponse>, Status> {
+    async fn list_jobs(
+        &self,
+        req: Request<proto::ListJobsRequest>,
+    ) -> Result<Response<proto::ListJobsResponse>, Status> {
         let r = req.into_inner();
         let state = match proto::JobState::try_from(r.state) {
             Ok(proto::JobState::Unspecified) => None,
             Ok(s) => JobState::parse(s.as_str_name()),
-            Err(_) => return Err(Status::invalid_argument(format!("state: unknown job state {}", r.state))),
+            Err(_) => {
+                return Err(Status::invalid_argument(format!(
+                    "state: unknown job state {}",
+                    r.state
+                )))
+            }
         };
-        let size = if r.page_size == 0 { 50 } else { r.page_size as usize };
+        let size = if r.page_size == 0 {
+            50
+        } else {
+            r.page_size as usize
+        };
         let jobs = self.jobs.clone();
         let (list, next) = blocking(move || jobs.list(size, &r.page_token, state)).await?;
         Ok(Response::new(proto::ListJobsResponse {
@@ -189,15 +221,23 @@ impl Cleave for CleaveService {
         }))
     }
 
-    async fn cancel_job(&self, req: Request<proto::CancelJobRequest>) -> Result<Response<proto::Job>, Status> {
+    async fn cancel_job(
+        &self,
+        req: Request<proto::CancelJobRequest>,
+    ) -> Result<Response<proto::Job>, Status> {
         let id = req.into_inner().job_id;
         let jobs = self.jobs.clone();
-        Ok(Response::new(job_to_proto(blocking(move || jobs.cancel(&id)).await?)))
+        Ok(Response::new(job_to_proto(
+            blocking(move || jobs.cancel(&id)).await?,
+        )))
     }
 
     type WatchJobStream = EventStream;
 
-    async fn watch_job(&self, req: Request<proto::WatchJobRequest>) -> Result<Response<EventStream>, Status> {
+    async fn watch_job(
+        &self,
+        req: Request<proto::WatchJobRequest>,
+    ) -> Result<Response<EventStream>, Status> {
         let id = req.into_inner().job_id;
         let jobs = self.jobs.clone();
         let bus = blocking(move || jobs.watch(&id)).await?;
@@ -221,7 +261,9 @@ impl Cleave for CleaveService {
                 }
             }
         });
-        Ok(Response::new(Box::pin(tokio_stream::wrappers::ReceiverStream::new(rx))))
+        Ok(Response::new(Box::pin(
+            tokio_stream::wrappers::ReceiverStream::new(rx),
+        )))
     }
 
     async fn list_snapshots(
@@ -231,21 +273,32 @@ impl Cleave for CleaveService {
         let id = req.into_inner().job_id;
         let jobs = self.jobs.clone();
         let heads = blocking(move || jobs.snapshots(&id)).await?;
-        Ok(Response::new(proto::ListSnapshotsResponse { snapshots: heads.iter().map(snapshot_to_proto).collect() }))
+        Ok(Response::new(proto::ListSnapshotsResponse {
+            snapshots: heads.iter().map(snapshot_to_proto).collect(),
+        }))
     }
 
     type FetchFieldsStream = ChunkStream;
 
-    async fn fetch_fields(&self, req: Request<proto::FetchFieldsRequest>) -> Result<Response<ChunkStream>, Status> {
+    async fn fetch_fields(
+        &self,
+        req: Request<proto::FetchFieldsRequest>,
+    ) -> Result<Response<ChunkStream>, Status> {
         let r = req.into_inner();
         let jobs = self.jobs.clone();
         let (id, index) = (r.job_id.clone(), r.snapshot);
         let mut reader = blocking(move || jobs.open_snapshot(&id, index)).await?;
         let header = reader.header.clone();
-        let available: Vec<jobs::snapfile::ArrayInfo> = match proto::Location::try_from(r.location) {
+        let available: Vec<jobs::snapfile::ArrayInfo> = match proto::Location::try_from(r.location)
+        {
             Ok(proto::Location::Grid) => match &header.grid {
                 Some(g) => g.fields.clone(),
-                None => return Err(Status::failed_precondition(format!("snapshot {index} of {} has no grid fields", r.job_id))),
+                None => {
+                    return Err(Status::failed_precondition(format!(
+                        "snapshot {index} of {} has no grid fields",
+                        r.job_id
+                    )))
+                }
             },
             _ => header.fields.clone(),
         };
@@ -303,10 +356,15 @@ impl Cleave for CleaveService {
                 }
             }
         });
-        Ok(Response::new(Box::pin(tokio_stream::wrappers::ReceiverStream::new(rx))))
+        Ok(Response::new(Box::pin(
+            tokio_stream::wrappers::ReceiverStream::new(rx),
+        )))
     }
 
-    async fn fetch_series(&self, req: Request<proto::FetchSeriesRequest>) -> Result<Response<proto::FetchSeriesResponse>, Status> {
+    async fn fetch_series(
+        &self,
+        req: Request<proto::FetchSeriesRequest>,
+    ) -> Result<Response<proto::FetchSeriesResponse>, Status> {
         let id = req.into_inner().job_id;
         let jobs = self.jobs.clone();
         let (columns, rows) = blocking(move || jobs.series(&id)).await?;
@@ -322,9 +380,11 @@ impl Cleave for CleaveService {
         req: Request<proto::ValidateSceneRequest>,
     ) -> Result<Response<proto::ValidateSceneResponse>, Status> {
         let r = req.into_inner();
-        let resp = match tokio::task::spawn_blocking(move || JobManager::validate(&r.scene, format(r.format)))
-            .await
-            .map_err(|e| Status::internal(e.to_string()))?
+        let resp = match tokio::task::spawn_blocking(move || {
+            JobManager::validate(&r.scene, format(r.format))
+        })
+        .await
+        .map_err(|e| Status::internal(e.to_string()))?
         {
             Ok(scene) => proto::ValidateSceneResponse {
                 valid: true,
@@ -336,7 +396,14 @@ impl Cleave for CleaveService {
             },
             Err(e) => proto::ValidateSceneResponse {
                 valid: false,
-                errors: e.errors.iter().map(|f| proto::FieldError { path: f.path.clone(), reason: f.reason.clone() }).collect(),
+                errors: e
+                    .errors
+                    .iter()
+                    .map(|f| proto::FieldError {
+                        path: f.path.clone(),
+                        reason: f.reason.clone(),
+                    })
+                    .collect(),
                 ..Default::default()
             },
         };
@@ -347,14 +414,25 @@ impl Cleave for CleaveService {
 /// Checks the bearer token of a request.
 fn check_token(expected: &Option<String>, req: &Request<()>) -> Result<(), Status> {
     let Some(token) = expected else { return Ok(()) };
-    let given = req.metadata().get("authorization").and_then(|v| v.to_str().ok()).unwrap_or("");
+    let given = req
+        .metadata()
+        .get("authorization")
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("");
     // constant-time comparison of the token
     let want = format!("Bearer {token}");
-    let ok = given.len() == want.len() && given.bytes().zip(want.bytes()).fold(0u8, |a, (x, y)| a | (x ^ y)) == 0;
+    let ok = given.len() == want.len()
+        && given
+            .bytes()
+            .zip(want.bytes())
+            .fold(0u8, |a, (x, y)| a | (x ^ y))
+            == 0;
     if ok {
         Ok(())
     } else {
-        Err(Status::unauthenticated("missing or wrong bearer token (authorization: Bearer <token>)"))
+        Err(Status::unauthenticated(
+            "missing or wrong bearer token (authorization: Bearer <token>)",
+        ))
     }
 }
 
@@ -371,13 +449,14 @@ pub async fn serve(config: ServerConfig) -> anyhow::Result<()> {
         let ctrl_c = tokio::signal::ctrl_c();
         #[cfg(unix)]
         {
-            let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-                Ok(t) => t,
-                Err(_) => {
-                    let _ = ctrl_c.await;
-                    return;
-                }
-            };
+            let mut term =
+                match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+                    Ok(t) => t,
+                    Err(_) => {
+                        let _ = ctrl_c.await;
+                        return;
+                    }
+                };
             tokio::select! { _ = ctrl_c => {}, _ = term.recv() => {} }
         }
         #[cfg(not(unix))]
@@ -410,15 +489,19 @@ pub async fn serve_on(
     let token = config.token.clone();
     let auth = move |req: Request<()>| check_token(&token, &req).map(|_| req);
     let cleave = tonic::service::interceptor::InterceptedService::new(
-        CleaveServer::new(CleaveService { jobs: jobs.clone() }).max_decoding_message_size(config.max_request_bytes),
+        CleaveServer::new(CleaveService { jobs: jobs.clone() })
+            .max_decoding_message_size(config.max_request_bytes),
         auth.clone(),
     );
     let reflection = tonic::service::interceptor::InterceptedService::new(reflection, auth.clone());
-    let reflection_alpha = tonic::service::interceptor::InterceptedService::new(reflection_alpha, auth);
+    let reflection_alpha =
+        tonic::service::interceptor::InterceptedService::new(reflection_alpha, auth);
     let mut builder = tonic::transport::Server::builder();
     if let Some((cert, key)) = &config.tls {
-        let identity = tonic::transport::Identity::from_pem(std::fs::read(cert)?, std::fs::read(key)?);
-        builder = builder.tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))?;
+        let identity =
+            tonic::transport::Identity::from_pem(std::fs::read(cert)?, std::fs::read(key)?);
+        builder =
+            builder.tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))?;
     }
     tracing::info!(%addr, data_dir = %config.jobs.data_dir.display(), "serving");
     builder
@@ -426,13 +509,19 @@ pub async fn serve_on(
         .add_service(reflection)
         .add_service(reflection_alpha)
         .add_service(cleave)
-        .serve_with_incoming_shutdown(tokio_stream::wrappers::TcpListenerStream::new(listener), shutdown)
+        .serve_with_incoming_shutdown(
+            tokio_stream::wrappers::TcpListenerStream::new(listener),
+            shutdown,
+        )
         .await?;
     jobs.shutdown();
     // the running jobs' last step and checkpoint (a minute is ample for
     // the largest scenes' checkpoint: P1 at the paper's size writes ~0.4 GB)
     let j = jobs.clone();
-    let stopped = tokio::task::spawn_blocking(move || j.wait_stopped(std::time::Duration::from_secs(60))).await.unwrap_or(false);
+    let stopped =
+        tokio::task::spawn_blocking(move || j.wait_stopped(std::time::Duration::from_secs(60)))
+            .await
+            .unwrap_or(false);
     if !stopped {
         tracing::warn!("stopped with jobs still running; without a checkpoint they are marked FAILED at the next start");
     }

@@ -143,22 +143,25 @@ fn scatter_hot<K: Kernel>(
     f: impl Fn(usize, usize, f64) + Sync,
 ) {
     for colour in &bins.colours {
-        colour.par_iter().filter(|&&t| hot[t as usize]).for_each(|&tile| {
-            for &p in bins.particles_of(tile) {
-                let p = p as usize;
-                if !take(p) {
-                    continue;
-                }
-                let (_, wx, wy) = weights::<K>(geom, parts, p);
-                for j in 0..K::N {
-                    for i in 0..K::N {
-                        let node = (wx.base + i as isize) as usize
-                            + (wy.base + j as isize) as usize * geom.nodes[0];
-                        f(p, node, wx.w[i] * wy.w[j] * parts.mass[p]);
+        colour
+            .par_iter()
+            .filter(|&&t| hot[t as usize])
+            .for_each(|&tile| {
+                for &p in bins.particles_of(tile) {
+                    let p = p as usize;
+                    if !take(p) {
+                        continue;
+                    }
+                    let (_, wx, wy) = weights::<K>(geom, parts, p);
+                    for j in 0..K::N {
+                        for i in 0..K::N {
+                            let node = (wx.base + i as isize) as usize
+                                + (wy.base + j as isize) as usize * geom.nodes[0];
+                            f(p, node, wx.w[i] * wy.w[j] * parts.mass[p]);
+                        }
                     }
                 }
-            }
-        });
+            });
     }
 }
 
@@ -270,10 +273,13 @@ impl Neighbours {
             return true;
         }
         let l2 = limit * limit;
-        x.par_iter().zip(&self.x_built).enumerate().any(|(p, (a, b))| {
-            let d = [a[0] - b[0], a[1] - b[1]];
-            self.start[p + 1] > self.start[p] && d[0] * d[0] + d[1] * d[1] > l2
-        })
+        x.par_iter()
+            .zip(&self.x_built)
+            .enumerate()
+            .any(|(p, (a, b))| {
+                let d = [a[0] - b[0], a[1] - b[1]];
+                self.start[p + 1] > self.start[p] && d[0] * d[0] + d[1] * d[1] > l2
+            })
     }
 }
 
@@ -405,10 +411,22 @@ impl Dfg {
     /// `threshold` times the body's largest (section 2.4).
     /// `takes_part[m]` says whether particles of material m can be damaged
     /// (all particles take part with self-contact).
-    pub fn new(params: DfgParams, geom: &GridGeom, parts: &Particles, self_contact: Option<f64>, takes_part: &[bool]) -> Dfg {
+    pub fn new(
+        params: DfgParams,
+        geom: &GridGeom,
+        parts: &Particles,
+        self_contact: Option<f64>,
+        takes_part: &[bool],
+    ) -> Dfg {
         let n = parts.len();
         let key = (0..n)
-            .map(|p| if self_contact.is_some() || takes_part[parts.material[p] as usize] { parts.group[p] as u16 } else { Neighbours::NONE })
+            .map(|p| {
+                if self_contact.is_some() || takes_part[parts.material[p] as usize] {
+                    parts.group[p] as u16
+                } else {
+                    Neighbours::NONE
+                }
+            })
             .collect();
         let mut surface = Vec::new();
         let mut normal0 = Vec::new();
@@ -500,7 +518,13 @@ impl Dfg {
     /// The neighbour lists of a checkpoint ([`Dfg::neighbour_state`]):
     /// built again at the same positions, so that they and the rebuild
     /// rule are as the run left them.
-    pub fn restore_neighbours(&mut self, geom: &GridGeom, parts: &Particles, x_built: &[[f64; 2]], builds: u64) {
+    pub fn restore_neighbours(
+        &mut self,
+        geom: &GridGeom,
+        parts: &Particles,
+        x_built: &[[f64; 2]],
+        builds: u64,
+    ) {
         self.neighbours = Neighbours::default();
         if !x_built.is_empty() {
             self.build_neighbours(geom, parts, x_built);
@@ -514,7 +538,8 @@ impl Dfg {
         let r = self.params.radius;
         let skin = self.params.rebuild_fraction * r;
         let groups: Vec<u16> = parts.group.iter().map(|&g| g as u16).collect();
-        self.neighbours.build(x, &groups, r + 2.0 * skin, geom.domain_min, geom.domain_max);
+        self.neighbours
+            .build(x, &groups, r + 2.0 * skin, geom.domain_min, geom.domain_max);
     }
 
     pub fn stats(&self) -> DfgStats {
@@ -576,7 +601,14 @@ impl Dfg {
             }
         }
         debug_assert!(r < TILE as f64 * geom.h);
-        let (x, d, nb, hot, tile_of, key) = (&parts.x, &self.d, &self.neighbours, &self.hot, &bins.tile_of, &self.key);
+        let (x, d, nb, hot, tile_of, key) = (
+            &parts.x,
+            &self.d,
+            &self.neighbours,
+            &self.hot,
+            &bins.tile_of,
+            &self.key,
+        );
         self.grad[..n]
             .par_iter_mut()
             .enumerate()
@@ -622,20 +654,30 @@ impl Dfg {
         self.written.clone_from(&bins.active);
         let ng = SyncPtr::new(&mut self.node_grad);
         let grad = &self.grad;
-        scatter_hot::<K>(geom, parts, bins, &self.hot, |p| grad[p] != [0.0; 2], |p, node, _| {
-            let g = grad[p];
-            // SAFETY: coloured scatter (see `scatter_coloured`).
-            let gi = unsafe { ng.at(node) };
-            if g[0] * g[0] + g[1] * g[1] > gi[0] * gi[0] + gi[1] * gi[1] {
-                *gi = g;
-            }
-        });
+        scatter_hot::<K>(
+            geom,
+            parts,
+            bins,
+            &self.hot,
+            |p| grad[p] != [0.0; 2],
+            |p, node, _| {
+                let g = grad[p];
+                // SAFETY: coloured scatter (see `scatter_coloured`).
+                let gi = unsafe { ng.at(node) };
+                if g[0] * g[0] + g[1] * g[1] > gi[0] * gi[0] + gi[1] * gi[1] {
+                    *gi = g;
+                }
+            },
+        );
         if !self.normal0.is_empty() && !parts.def_grad.is_empty() {
             // n ∝ F⁻ᵀ N = cof(F) N / det F
             self.normal.clear();
-            self.normal.extend(self.normal0.iter().zip(&parts.def_grad).map(|(n, f)| {
-                [f[3] * n[0] - f[2] * n[1], -f[1] * n[0] + f[0] * n[1]]
-            }));
+            self.normal.extend(
+                self.normal0
+                    .iter()
+                    .zip(&parts.def_grad)
+                    .map(|(n, f)| [f[3] * n[0] - f[2] * n[1], -f[1] * n[0] + f[0] * n[1]]),
+            );
         }
         // Without self-contact the paper's Algorithm 1 stands as it is: the
         // balance is for surfaces that touch (see the module docs).
@@ -673,33 +715,40 @@ impl Dfg {
         // within the cone of ±u_p: those within two of the nearest one
         // (2 · 11.25° < acos 0.9 = 25.8° < 3 · 11.25°), the same for the
         // particle's nine nodes.
-        let normal: &[[f64; 2]] = if self.normal.is_empty() { &self.normal0 } else { &self.normal };
+        let normal: &[[f64; 2]] = if self.normal.is_empty() {
+            &self.normal0
+        } else {
+            &self.normal
+        };
         let (grad, hot, tile_of) = (&self.grad, &self.hot, &bins.tile_of);
         self.shares.resize(parts.len(), [(0, 0.0); CONE_K]);
-        self.shares.par_iter_mut().enumerate().for_each(|(p, share)| {
-            *share = [(NONE_SLOT, 0.0); CONE_K];
-            if !hot[tile_of[p] as usize] {
-                return;
-            }
-            let Some(g) = unit(grad[p]).or_else(|| normal.get(p).copied().and_then(unit)) else {
-                return;
-            };
-            let theta = g[1].atan2(g[0]).rem_euclid(std::f64::consts::PI);
-            let k0 = (theta * NDIR as f64 / std::f64::consts::PI).round() as usize;
-            for (e, dk) in share.iter_mut().zip(0..CONE_K) {
-                let k = (k0 + NDIR + dk - CONE_K / 2) % NDIR;
-                let n = cand[k];
-                let c = n[0] * g[0] + n[1] * g[1];
-                if c.abs() > CONE_COS {
-                    *e = ((2 * k + usize::from(c < 0.0)) as u8, c * c);
+        self.shares
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(p, share)| {
+                *share = [(NONE_SLOT, 0.0); CONE_K];
+                if !hot[tile_of[p] as usize] {
+                    return;
                 }
-            }
-        });
+                let Some(g) = unit(grad[p]).or_else(|| normal.get(p).copied().and_then(unit))
+                else {
+                    return;
+                };
+                let theta = g[1].atan2(g[0]).rem_euclid(std::f64::consts::PI);
+                let k0 = (theta * NDIR as f64 / std::f64::consts::PI).round() as usize;
+                for (e, dk) in share.iter_mut().zip(0..CONE_K) {
+                    let k = (k0 + NDIR + dk - CONE_K / 2) % NDIR;
+                    let n = cand[k];
+                    let c = n[0] * g[0] + n[1] * g[1];
+                    if c.abs() > CONE_COS {
+                        *e = ((2 * k + usize::from(c < 0.0)) as u8, c * c);
+                    }
+                }
+            });
         let dirs = SyncPtr::new(&mut self.dirs);
         let shares = &self.shares;
-        let has_direction = |p: usize| {
-            grad[p] != [0.0; 2] || normal.get(p).is_some_and(|n| *n != [0.0; 2])
-        };
+        let has_direction =
+            |p: usize| grad[p] != [0.0; 2] || normal.get(p).is_some_and(|n| *n != [0.0; 2]);
         scatter_hot::<K>(geom, parts, bins, &self.hot, has_direction, |p, node, w| {
             if shares[p][CONE_K / 2].0 == NONE_SLOT && shares[p].iter().all(|e| e.0 == NONE_SLOT) {
                 return;
@@ -737,16 +786,23 @@ impl Dfg {
         }
         let dirs = SyncPtr::new(&mut self.dirs);
         let (ng, d) = (&self.node_grad, &self.d);
-        scatter_hot::<K>(geom, parts, bins, &self.hot, |p| d[p] != 0.0, |p, node, w| {
-            // SAFETY: coloured scatter (see `scatter_coloured`).
-            let a = unsafe { dirs.at(node) };
-            if a[2 * NDIR] != 0.0 {
-                let (n, x) = (ng[node], parts.x[p]);
-                let w = w * d[p];
-                a[0] += w;
-                a[1] += w * (n[0] * x[0] + n[1] * x[1]);
-            }
-        });
+        scatter_hot::<K>(
+            geom,
+            parts,
+            bins,
+            &self.hot,
+            |p| d[p] != 0.0,
+            |p, node, w| {
+                // SAFETY: coloured scatter (see `scatter_coloured`).
+                let a = unsafe { dirs.at(node) };
+                if a[2 * NDIR] != 0.0 {
+                    let (n, x) = (ng[node], parts.x[p]);
+                    let w = w * d[p];
+                    a[0] += w;
+                    a[1] += w * (n[0] * x[0] + n[1] * x[1]);
+                }
+            },
+        );
         for r in &self.written {
             for n in r.clone() {
                 let a = &mut self.dirs[n];
@@ -801,7 +857,11 @@ impl Dfg {
                         + (wy.base + j as isize) as usize * geom.nodes[0];
                     let gi = ngrad[node];
                     // (a node without a direction has everything on side 0)
-                    let side = if gi == [0.0; 2] { 0 } else { side_at(paper, gp, op, gi, xp, cut[node]) as usize };
+                    let side = if gi == [0.0; 2] {
+                        0
+                    } else {
+                        side_at(paper, gp, op, gi, xp, cut[node]) as usize
+                    };
                     // SAFETY: coloured scatter; every write is to `node`.
                     unsafe {
                         *mask.at(node) |= 1 << (base + side as u32);
@@ -866,7 +926,15 @@ impl FieldSlots for DfgFields<'_> {
             _ => {
                 let (gp, gi) = (self.grad[particle], self.node_grad[node]);
                 let op = self.normal.get(particle).copied().unwrap_or([0.0; 2]);
-                let mut field = base + side_at(self.normal.is_empty(), gp, op, gi, self.x[particle], self.cut[node]);
+                let mut field = base
+                    + side_at(
+                        self.normal.is_empty(),
+                        gp,
+                        op,
+                        gi,
+                        self.x[particle],
+                        self.cut[node],
+                    );
                 if self.multi.mask[node] & (1 << field) == 0 {
                     field ^= 1;
                 }

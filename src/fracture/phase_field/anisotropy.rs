@@ -35,7 +35,11 @@ pub struct Gamma {
 impl Gamma {
     /// γ = 0: the 2nd-order isotropic model.
     pub fn is_zero(&self) -> bool {
-        [self.g1111, self.g2222, self.g1122, self.g1212, self.g1112, self.g2212].iter().all(|&g| g == 0.0)
+        [
+            self.g1111, self.g2222, self.g1122, self.g1212, self.g1112, self.g2212,
+        ]
+        .iter()
+        .all(|&g| g == 0.0)
     }
 
     /// The 3×3 Voigt matrix acting on `[c,11, c,22, c,12]`.
@@ -51,7 +55,9 @@ impl Gamma {
     pub fn along(&self, n: [f64; 2]) -> f64 {
         let v = [n[0] * n[0], n[1] * n[1], n[0] * n[1]];
         let m = self.voigt();
-        (0..3).map(|i| (0..3).map(|j| v[i] * m[i][j] * v[j]).sum::<f64>()).sum()
+        (0..3)
+            .map(|i| (0..3).map(|j| v[i] * m[i][j] * v[j]).sum::<f64>())
+            .sum()
     }
 
     /// The full 4th-order tensor T with Σ T_ijkl c,ij c,kl = vᵀ M v for the
@@ -109,11 +115,12 @@ impl Gamma {
     /// The smallest a(n) over directions (sampled every 0.1°); the
     /// functional is bounded below only if it is ≥ 0.
     pub fn min_along(&self) -> f64 {
-        (0..1800).map(|k| {
-            let t = k as f64 * PI / 1800.0;
-            self.along([t.cos(), t.sin()])
-        })
-        .fold(f64::INFINITY, f64::min)
+        (0..1800)
+            .map(|k| {
+                let t = k as f64 * PI / 1800.0;
+                self.along([t.cos(), t.sin()])
+            })
+            .fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -133,12 +140,18 @@ impl C {
     }
     fn div(self, o: C) -> C {
         let d = o.0 * o.0 + o.1 * o.1;
-        C((self.0 * o.0 + self.1 * o.1) / d, (self.1 * o.0 - self.0 * o.1) / d)
+        C(
+            (self.0 * o.0 + self.1 * o.1) / d,
+            (self.1 * o.0 - self.0 * o.1) / d,
+        )
     }
     fn sqrt(self) -> C {
         let r = (self.0 * self.0 + self.1 * self.1).sqrt();
         let re = ((r + self.0) / 2.0).max(0.0).sqrt();
-        let im = ((r - self.0) / 2.0).max(0.0).sqrt().copysign(if self.1 == 0.0 { 1.0 } else { self.1 });
+        let im = ((r - self.0) / 2.0)
+            .max(0.0)
+            .sqrt()
+            .copysign(if self.1 == 0.0 { 1.0 } else { self.1 });
         C(re, im)
     }
     fn re(x: f64) -> C {
@@ -240,7 +253,10 @@ mod tests {
         assert!((profile_factor(1.0) - 2f64.sqrt()).abs() < 1e-12);
         for a in [0.01, 0.3, 0.999, 1.001, 2.0, 19.0, 80.0, 2900.0] {
             let (c, q) = (profile_factor(a), quadrature(a));
-            assert!((c - q).abs() < 1e-4 * c, "a = {a}: closed form {c}, quadrature {q}");
+            assert!(
+                (c - q).abs() < 1e-4 * c,
+                "a = {a}: closed form {c}, quadrature {q}"
+            );
         }
         // continuous through the double root
         assert!((profile_factor(1.0 - 2e-7) - profile_factor(1.0 + 2e-7)).abs() < 1e-6);
@@ -254,35 +270,85 @@ mod tests {
             let max = p.iter().map(|x| x.1).fold(0.0, f64::max);
             (min, max)
         };
-        let cubic = Gamma { g1111: 1.0, g2222: 1.0, g1212: 74.0, ..Default::default() };
+        let cubic = Gamma {
+            g1111: 1.0,
+            g2222: 1.0,
+            g1212: 74.0,
+            ..Default::default()
+        };
         let (lo, hi) = extremes(cubic, 0.002121);
-        assert!((lo / 0.003 - 1.0).abs() < 0.01 && (hi / 0.0049 - 1.0).abs() < 0.01, "cubic {lo} {hi}");
-        let ortho = Gamma { g1111: 1.0, g2222: 80.0, g1212: 74.0, ..Default::default() };
+        assert!(
+            (lo / 0.003 - 1.0).abs() < 0.01 && (hi / 0.0049 - 1.0).abs() < 0.01,
+            "cubic {lo} {hi}"
+        );
+        let ortho = Gamma {
+            g1111: 1.0,
+            g2222: 80.0,
+            g1212: 74.0,
+            ..Default::default()
+        };
         let (lo, hi) = extremes(ortho, 0.002121);
-        assert!((lo / 0.003 - 1.0).abs() < 0.01 && (hi / 0.0067 - 1.0).abs() < 0.01, "orthotropic {lo} {hi}");
-        let composite = Gamma { g1111: 1.0, g2222: 2900.0, g1212: 74.0, ..Default::default() };
+        assert!(
+            (lo / 0.003 - 1.0).abs() < 0.01 && (hi / 0.0067 - 1.0).abs() < 0.01,
+            "orthotropic {lo} {hi}"
+        );
+        let composite = Gamma {
+            g1111: 1.0,
+            g2222: 2900.0,
+            g1212: 74.0,
+            ..Default::default()
+        };
         let (lo, hi) = extremes(composite, 4.175);
-        assert!((lo / 5.9067 - 1.0).abs() < 0.01 && (hi / 30.9044 - 1.0).abs() < 0.01, "composite {lo} {hi}");
+        assert!(
+            (lo / 5.9067 - 1.0).abs() < 0.01 && (hi / 30.9044 - 1.0).abs() < 0.01,
+            "composite {lo} {hi}"
+        );
     }
 
     #[test]
     fn rotation_turns_the_polar_plot() {
-        let g = Gamma { g1111: 1.0, g2222: 80.0, g1122: 3.0, g1212: 74.0, g1112: 5.0, g2212: -2.0 };
+        let g = Gamma {
+            g1111: 1.0,
+            g2222: 80.0,
+            g1122: 3.0,
+            g1212: 74.0,
+            g1112: 5.0,
+            g2212: -2.0,
+        };
         let phi = 0.7;
         let r = g.rotated(phi);
         // a full turn and the identity give the tensor back
         let back = g.rotated(2.0 * PI);
-        for (x, y) in [(back.g1111, g.g1111), (back.g1122, g.g1122), (back.g1212, g.g1212), (back.g2212, g.g2212)] {
+        for (x, y) in [
+            (back.g1111, g.g1111),
+            (back.g1122, g.g1122),
+            (back.g1212, g.g1212),
+            (back.g2212, g.g2212),
+        ] {
             assert!((x - y).abs() < 1e-9);
         }
         // the 4th-order isotropic tensor is invariant
-        let iso = Gamma { g1111: 1.0, g2222: 1.0, g1212: 2.0, ..Default::default() }.rotated(0.3);
-        assert!((iso.g1111 - 1.0).abs() < 1e-12 && iso.g1122.abs() < 1e-12 && (iso.g1212 - 2.0).abs() < 1e-12 && iso.g1112.abs() < 1e-12);
+        let iso = Gamma {
+            g1111: 1.0,
+            g2222: 1.0,
+            g1212: 2.0,
+            ..Default::default()
+        }
+        .rotated(0.3);
+        assert!(
+            (iso.g1111 - 1.0).abs() < 1e-12
+                && iso.g1122.abs() < 1e-12
+                && (iso.g1212 - 2.0).abs() < 1e-12
+                && iso.g1112.abs() < 1e-12
+        );
         for k in 0..36 {
             let t = k as f64 * 0.17;
             let want = g.along([(t - phi).cos(), (t - phi).sin()]);
             let got = r.along([t.cos(), t.sin()]);
-            assert!((want - got).abs() < 1e-9 * want.abs().max(1.0), "t = {t}: {got} vs {want}");
+            assert!(
+                (want - got).abs() < 1e-9 * want.abs().max(1.0),
+                "t = {t}: {got} vs {want}"
+            );
         }
     }
 }

@@ -81,7 +81,9 @@ impl Csr {
     #[inline]
     fn row_dot(&self, i: usize, x: &[f64]) -> f64 {
         let (c, v) = self.row(i);
-        c.iter().zip(v).fold(0.0, |s, (&j, &a)| s + a * x[j as usize])
+        c.iter()
+            .zip(v)
+            .fold(0.0, |s, (&j, &a)| s + a * x[j as usize])
     }
 
     /// y = A x, or y += A x with `add`, row by row (in parallel for large
@@ -92,7 +94,10 @@ impl Csr {
             *yi = if add { *yi + v } else { v };
         };
         if y.len() >= PAR_ROWS {
-            y.par_iter_mut().enumerate().with_min_len(2048).for_each(row);
+            y.par_iter_mut()
+                .enumerate()
+                .with_min_len(2048)
+                .for_each(row);
         } else {
             y.iter_mut().enumerate().for_each(row);
         }
@@ -128,7 +133,12 @@ impl Csr {
                 *at += 1;
             }
         }
-        Csr { cols: self.rows(), ptr, col, val }
+        Csr {
+            cols: self.rows(),
+            ptr,
+            col,
+            val,
+        }
     }
 
     /// self · b, row by row (Gustavson), in parallel blocks of rows.
@@ -162,7 +172,12 @@ impl Csr {
                 },
             )
             .collect();
-        let mut out = Csr { cols: b.cols, ptr: vec![0], col: Vec::new(), val: Vec::new() };
+        let mut out = Csr {
+            cols: b.cols,
+            ptr: vec![0],
+            col: Vec::new(),
+            val: Vec::new(),
+        };
         for (len, col, val) in blocks {
             for l in len {
                 out.ptr.push(out.ptr.last().copied().unwrap_or(0) + l);
@@ -176,7 +191,11 @@ impl Csr {
     /// Position of each row's diagonal entry (usize::MAX where it has none).
     fn diagonal_positions(&self) -> Vec<usize> {
         (0..self.rows())
-            .map(|i| (self.ptr[i]..self.ptr[i + 1]).find(|&k| self.col[k] as usize == i).unwrap_or(usize::MAX))
+            .map(|i| {
+                (self.ptr[i]..self.ptr[i + 1])
+                    .find(|&k| self.col[k] as usize == i)
+                    .unwrap_or(usize::MAX)
+            })
             .collect()
     }
 }
@@ -206,7 +225,15 @@ impl Level {
     fn new(a: Csr) -> Result<Level, String> {
         let n = a.rows();
         let diag = a.diagonal_positions();
-        let mut lv = Level { a, diag, b: vec![0.0; n], x: vec![0.0; n], res: vec![0.0; n], d: vec![0.0; n], ..Default::default() };
+        let mut lv = Level {
+            a,
+            diag,
+            b: vec![0.0; n],
+            x: vec![0.0; n],
+            res: vec![0.0; n],
+            d: vec![0.0; n],
+            ..Default::default()
+        };
         lv.refresh()?;
         Ok(lv)
     }
@@ -219,7 +246,9 @@ impl Level {
         for (i, &k) in self.diag.iter().enumerate() {
             let d = if k == usize::MAX { 0.0 } else { self.a.val[k] };
             if !(d > 0.0 && d.is_finite()) {
-                return Err(format!("multigrid: diagonal entry {i} is {d}, not positive"));
+                return Err(format!(
+                    "multigrid: diagonal entry {i} is {d}, not positive"
+                ));
             }
             self.inv_diag.push(1.0 / d);
             self.sqrt_inv_diag.push(1.0 / d.sqrt());
@@ -242,7 +271,10 @@ impl Level {
         self.lambda = (0..a.rows())
             .map(|i| {
                 let (c, v) = a.row(i);
-                c.iter().zip(v).fold(0.0, |s, (&j, x)| s + x.abs() * d[j as usize]) * d[i]
+                c.iter()
+                    .zip(v)
+                    .fold(0.0, |s, (&j, x)| s + x.abs() * d[j as usize])
+                    * d[i]
             })
             .fold(0.0, f64::max);
     }
@@ -314,7 +346,9 @@ impl Dense {
                 d -= l[j * n + k] * l[j * n + k];
             }
             if !(d > 0.0) {
-                return Err(format!("multigrid: the coarsest matrix ({n} unknowns) is not positive definite"));
+                return Err(format!(
+                    "multigrid: the coarsest matrix ({n} unknowns) is not positive definite"
+                ));
             }
             let d = d.sqrt();
             l[j * n + j] = d;
@@ -363,9 +397,19 @@ impl Multigrid {
     /// nodes `dofs` (ascending; node = i + j·nodes[0]) and whose matrix is
     /// the lower triangle `col_ptr`/`row_idx`/`values` (compressed columns),
     /// with the kernel's two-scale `mask` ([`Kernel::REFINE`]).
-    pub fn build(mask: &[f64], nodes: [usize; 2], dofs: &[u32], col_ptr: &[usize], row_idx: &[usize], values: &[f64]) -> Result<Multigrid, String> {
+    pub fn build(
+        mask: &[f64],
+        nodes: [usize; 2],
+        dofs: &[u32],
+        col_ptr: &[usize],
+        row_idx: &[usize],
+        values: &[f64],
+    ) -> Result<Multigrid, String> {
         if mask.len() < 2 {
-            return Err(format!("multigrid: a two-scale mask of {} weights", mask.len()));
+            return Err(format!(
+                "multigrid: a two-scale mask of {} weights",
+                mask.len()
+            ));
         }
         let n = dofs.len();
         // the finest level's rows from the lower triangle
@@ -404,18 +448,28 @@ impl Multigrid {
                 map.push([at_r as u32, at_c as u32]);
             }
         }
-        let fine = Csr { cols: n, ptr, col, val };
+        let fine = Csr {
+            cols: n,
+            ptr,
+            col,
+            val,
+        };
         // coarsen
         let mut levels = Vec::new();
         let mut a = fine;
         let mut dims = nodes;
-        let mut at: Vec<[u32; 2]> = dofs.iter().map(|&d| [d % nodes[0] as u32, d / nodes[0] as u32]).collect();
+        let mut at: Vec<[u32; 2]> = dofs
+            .iter()
+            .map(|&d| [d % nodes[0] as u32, d / nodes[0] as u32])
+            .collect();
         loop {
             let rows = a.rows();
             if rows <= COARSEST {
                 break;
             }
-            let Some((p, coarse_at, coarse_dims)) = prolongation(mask, dims, &at) else { break };
+            let Some((p, coarse_at, coarse_dims)) = prolongation(mask, dims, &at) else {
+                break;
+            };
             if p.cols * 10 > rows * 7 {
                 break; // coarsening stalls (a body a node or two thick)
             }
@@ -430,11 +484,18 @@ impl Multigrid {
             dims = coarse_dims;
         }
         if a.rows() > 4 * COARSEST {
-            return Err(format!("multigrid: coarsening stopped at {} unknowns", a.rows()));
+            return Err(format!(
+                "multigrid: coarsening stopped at {} unknowns",
+                a.rows()
+            ));
         }
         let coarsest = Dense::factor(&a)?;
         levels.push(Level::new(a)?);
-        Ok(Multigrid { levels, coarsest, map })
+        Ok(Multigrid {
+            levels,
+            coarsest,
+            map,
+        })
     }
 
     /// Unknowns per level, finest first.
@@ -445,7 +506,9 @@ impl Multigrid {
     /// Takes the system's present matrix (same pattern as at the build) as
     /// the finest level's operator.
     pub fn refresh(&mut self, values: &[f64]) -> Result<(), String> {
-        let Some(fine) = self.levels.first_mut() else { return Ok(()) };
+        let Some(fine) = self.levels.first_mut() else {
+            return Ok(());
+        };
         for (&[a, b], &v) in self.map.iter().zip(values) {
             fine.a.val[a as usize] = v;
             fine.a.val[b as usize] = v;
@@ -502,7 +565,11 @@ impl Multigrid {
 /// nodes under them mostly outside the body) are left out; they would only
 /// add near-dependent columns. Returns P, the coarse unknowns' positions
 /// and the coarse grid's size, or None if no coarse node is kept.
-fn prolongation(mask: &[f64], dims: [usize; 2], at: &[[u32; 2]]) -> Option<(Csr, Vec<[u32; 2]>, [usize; 2])> {
+fn prolongation(
+    mask: &[f64],
+    dims: [usize; 2],
+    at: &[[u32; 2]],
+) -> Option<(Csr, Vec<[u32; 2]>, [usize; 2])> {
     let m = mask.len();
     let cdims = [(dims[0] + m - 2) / 2 + 1, (dims[1] + m - 2) / 2 + 1];
     let parents = |i: u32| {
@@ -529,7 +596,12 @@ fn prolongation(mask: &[f64], dims: [usize; 2], at: &[[u32; 2]]) -> Option<(Csr,
     if coarse_at.is_empty() {
         return None;
     }
-    let mut p = Csr { cols: coarse_at.len(), ptr: vec![0], col: Vec::new(), val: Vec::new() };
+    let mut p = Csr {
+        cols: coarse_at.len(),
+        ptr: vec![0],
+        col: Vec::new(),
+        val: Vec::new(),
+    };
     for &[ix, iy] in at {
         for (cy, wy) in parents(iy) {
             for (cx, wx) in parents(ix) {
@@ -561,8 +633,16 @@ mod tests {
             for big in -1..4isize {
                 let centre = 2.0 * big as f64 - (m as f64 - 1.0) / 2.0;
                 let coarse = value_centred::<K>((x - centre) / 2.0);
-                let fine: f64 = (0..m).map(|k| K::REFINE[k as usize] * value_centred::<K>(x - (2 * big + k - (m - 1)) as f64)).sum();
-                assert!((coarse - fine).abs() < 1e-12, "x = {x}, I = {big}: coarse {coarse}, masked fine {fine}");
+                let fine: f64 = (0..m)
+                    .map(|k| {
+                        K::REFINE[k as usize]
+                            * value_centred::<K>(x - (2 * big + k - (m - 1)) as f64)
+                    })
+                    .sum();
+                assert!(
+                    (coarse - fine).abs() < 1e-12,
+                    "x = {x}, I = {big}: coarse {coarse}, masked fine {fine}"
+                );
             }
         }
     }
@@ -571,7 +651,11 @@ mod tests {
     fn value_centred<K: Kernel>(t: f64) -> f64 {
         let w = K::eval(t, 0.0);
         let k = -w.base;
-        if (0..K::N as isize).contains(&k) { w.w[k as usize] } else { 0.0 }
+        if (0..K::N as isize).contains(&k) {
+            w.w[k as usize]
+        } else {
+            0.0
+        }
     }
 
     /// A 5-point Laplacian plus a small reaction term on the nodes of a
@@ -580,7 +664,10 @@ mod tests {
     fn disk_system() -> (Vec<u32>, Vec<usize>, Vec<usize>, Vec<f64>) {
         let n = 96usize;
         let inside = |i: usize, j: usize| (i as f64 - 47.3).hypot(j as f64 - 48.1) < 43.0;
-        let dofs: Vec<u32> = (0..n * n).filter(|&k| inside(k % n, k / n)).map(|k| k as u32).collect();
+        let dofs: Vec<u32> = (0..n * n)
+            .filter(|&k| inside(k % n, k / n))
+            .map(|k| k as u32)
+            .collect();
         let index = |i: usize, j: usize| dofs.binary_search(&((i + j * n) as u32)).ok();
         let (mut col_ptr, mut row_idx, mut values) = (vec![0], Vec::new(), Vec::new());
         for &d in &dofs {
@@ -605,17 +692,32 @@ mod tests {
     #[test]
     fn the_v_cycle_is_symmetric_positive_definite_and_converges() {
         let (dofs, col_ptr, row_idx, values) = disk_system();
-        let mut mg = Multigrid::build(&[0.5, 1.0, 0.5], [96, 96], &dofs, &col_ptr, &row_idx, &values).unwrap();
+        let mut mg = Multigrid::build(
+            &[0.5, 1.0, 0.5],
+            [96, 96],
+            &dofs,
+            &col_ptr,
+            &row_idx,
+            &values,
+        )
+        .unwrap();
         let n = dofs.len();
         assert!(mg.sizes().len() >= 3, "levels {:?}", mg.sizes());
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-        let vector = |seed: usize| (0..n).map(|i| ((i * 7919 + seed * 104729) % 1000) as f64 / 500.0 - 1.0).collect::<Vec<f64>>();
+        let vector = |seed: usize| {
+            (0..n)
+                .map(|i| ((i * 7919 + seed * 104729) % 1000) as f64 / 500.0 - 1.0)
+                .collect::<Vec<f64>>()
+        };
         let (u, v) = (vector(1), vector(2));
         let (mut mu, mut mv) = (u.clone(), v.clone());
         mg.apply(&mut mu);
         mg.apply(&mut mv);
         let (a, b) = (dot(&u, &mv), dot(&v, &mu));
-        assert!((a - b).abs() <= 1e-12 * a.abs().max(b.abs()), "uᵀMv = {a}, vᵀMu = {b}");
+        assert!(
+            (a - b).abs() <= 1e-12 * a.abs().max(b.abs()),
+            "uᵀMv = {a}, vᵀMu = {b}"
+        );
         assert!(dot(&u, &mu) > 0.0 && dot(&v, &mv) > 0.0);
         // CG with the V-cycle on A x = 1
         let b: Vec<f64> = vec![1.0; n];
@@ -627,7 +729,10 @@ mod tests {
         let mut iterations = 0;
         while dot(&r, &r).sqrt() > 1e-10 * dot(&b, &b).sqrt() {
             iterations += 1;
-            assert!(iterations <= 12, "CG with the V-cycle did not converge in 12 iterations");
+            assert!(
+                iterations <= 12,
+                "CG with the V-cycle did not converge in 12 iterations"
+            );
             mg.multiply(&p, &mut ap);
             let alpha = rz / dot(&p, &ap);
             for i in 0..n {

@@ -16,17 +16,19 @@
 //! matrix, so the node set itself is compared before every reuse.
 
 use super::anisotropy::Gamma;
-use crate::grid::shape::{Kernel, MAX_SUPPORT};
-use crate::grid::{Bins, GridGeom, SyncPtr};
-use rayon::prelude::*;
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::LltRegularization;
 use super::multigrid::Multigrid;
 use super::trisolve::{SolveScratch, SupernodalSolve};
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering};
+use crate::grid::shape::{Kernel, MAX_SUPPORT};
+use crate::grid::{Bins, GridGeom, SyncPtr};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering,
+};
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Par, Side};
+use rayon::prelude::*;
 use std::time::Instant;
 
 /// Fresh multigrid hierarchies in a row that must each take more than
@@ -54,7 +56,9 @@ pub struct PhaseFieldParams {
 /// What can go wrong in a solve.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PhaseFieldError {
-    #[error("the phase-field matrix is not positive definite ({0}); check the anisotropy tensor and l0")]
+    #[error(
+        "the phase-field matrix is not positive definite ({0}); check the anisotropy tensor and l0"
+    )]
     NotPositiveDefinite(String),
     #[error("phase-field solver: {0}")]
     Solver(String),
@@ -89,14 +93,22 @@ pub enum SolveMethod {
     /// factorization or does not converge within `2·refactor_after`
     /// iterations, and falls back to a direct solve after `max_iterations`.
     /// Converged when ‖F − Kc‖ ≤ tolerance·‖F‖.
-    Pcg { tolerance: f64, max_iterations: usize, refactor_after: usize },
+    Pcg {
+        tolerance: f64,
+        max_iterations: usize,
+        refactor_after: usize,
+    },
     /// Conjugate gradients from the last solution, preconditioned by one
     /// V-cycle of geometric multigrid ([`super::multigrid`]); the hierarchy
     /// is rebuilt by the same rule as `Pcg`'s factor (a build counts as
     /// `rebuild_after` iterations) and whenever the active nodes change,
     /// with no symbolic analysis. Falls back to a direct solve after
     /// `max_iterations`.
-    Multigrid { tolerance: f64, max_iterations: usize, rebuild_after: usize },
+    Multigrid {
+        tolerance: f64,
+        max_iterations: usize,
+        rebuild_after: usize,
+    },
 }
 
 /// The particles of one discrete field, as the assembly reads them.
@@ -117,7 +129,13 @@ pub struct FieldParticles<'a> {
 impl<'a> FieldParticles<'a> {
     /// All of the given particles, visited serially.
     pub fn all(x: &'a [[f64; 2]], vol: &'a [f64], history: &'a [f64]) -> Self {
-        FieldParticles { x, vol, history, body: None, bins: None }
+        FieldParticles {
+            x,
+            vol,
+            history,
+            body: None,
+            bins: None,
+        }
     }
 
     #[inline]
@@ -140,7 +158,13 @@ struct Support {
 /// 2nd-order system needs none, and they are left zero).
 fn support<K: Kernel, const HESS: bool>(geom: &GridGeom, x: [f64; 2]) -> Support {
     let xi = geom.xi(x);
-    let eval = |xi: f64| if HESS { K::eval2(xi, 0.0) } else { (K::eval(xi, 0.0), [0.0; MAX_SUPPORT]) };
+    let eval = |xi: f64| {
+        if HESS {
+            K::eval2(xi, 0.0)
+        } else {
+            (K::eval(xi, 0.0), [0.0; MAX_SUPPORT])
+        }
+    };
     let (wx, d2x) = eval(xi[0]);
     let (wy, d2y) = eval(xi[1]);
     let (ih, ih2) = (geom.inv_h, geom.inv_h * geom.inv_h);
@@ -154,11 +178,16 @@ fn support<K: Kernel, const HESS: bool>(geom: &GridGeom, x: [f64; 2]) -> Support
     for j in 0..K::N {
         for i in 0..K::N {
             let k = i + j * K::N;
-            s.node[k] = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+            s.node[k] =
+                (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
             s.w[k] = wx.w[i] * wy.w[j];
             s.g[k] = [wx.dw[i] * wy.w[j] * ih, wx.w[i] * wy.dw[j] * ih];
             if HESS {
-                s.hess[k] = [d2x[i] * wy.w[j] * ih2, wx.w[i] * d2y[j] * ih2, wx.dw[i] * wy.dw[j] * ih2];
+                s.hess[k] = [
+                    d2x[i] * wy.w[j] * ih2,
+                    wx.w[i] * d2y[j] * ih2,
+                    wx.dw[i] * wy.dw[j] * ih2,
+                ];
             }
         }
     }
@@ -199,7 +228,11 @@ impl CellBlock {
     const S: usize = MAX_SUPPORT * MAX_SUPPORT;
 
     fn new() -> Self {
-        CellBlock { base: usize::MAX, k: [0.0; Self::S * Self::S], f: [0.0; Self::S] }
+        CellBlock {
+            base: usize::MAX,
+            k: [0.0; Self::S * Self::S],
+            f: [0.0; Self::S],
+        }
     }
 }
 
@@ -255,9 +288,14 @@ impl Accumulate<'_> {
             blk.f[a] += v * s.w[a];
             let row = &mut blk.k[a * CellBlock::S..a * CellBlock::S + a + 1];
             for (b, kab) in row.iter_mut().enumerate() {
-                let mut t = reaction * s.w[a] * s.w[b] + v * c2 * (s.g[a][0] * s.g[b][0] + s.g[a][1] * s.g[b][1]);
+                let mut t = reaction * s.w[a] * s.w[b]
+                    + v * c2 * (s.g[a][0] * s.g[b][0] + s.g[a][1] * s.g[b][1]);
                 if FOURTH {
-                    t += v * c4 * (s.hess[b][0] * mh[a][0] + s.hess[b][1] * mh[a][1] + s.hess[b][2] * mh[a][2]);
+                    t += v
+                        * c4
+                        * (s.hess[b][0] * mh[a][0]
+                            + s.hess[b][1] * mh[a][1]
+                            + s.hess[b][2] * mh[a][2]);
                 }
                 *kab += t;
             }
@@ -451,7 +489,12 @@ impl PhaseFieldSystem {
     /// with 3 × 3 per cell). Without such a node the Hessians at the
     /// particle do not sum to zero, c = 1 stops solving the undamaged
     /// system, and c drops near a body's edge with no history at all.
-    fn update_keys<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, fourth: bool) -> bool {
+    fn update_keys<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        parts: &FieldParticles,
+        fourth: bool,
+    ) -> bool {
         let n = parts.x.len();
         let fresh = self.keys.len() != n || self.dof_of.len() != geom.node_count();
         if fresh {
@@ -576,7 +619,12 @@ impl PhaseFieldSystem {
     }
 
     /// Assembles K and F (eq. 57) from the particles.
-    pub fn assemble<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, p: &PhaseFieldParams) {
+    pub fn assemble<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        parts: &FieldParticles,
+        p: &PhaseFieldParams,
+    ) {
         let t0 = Instant::now();
         self.refine = K::REFINE;
         self.grid_nodes = geom.nodes;
@@ -631,7 +679,11 @@ impl PhaseFieldSystem {
         // contact). The penalty δ(c_I − 1) with δ = PIVOT_FLOOR·max K_II
         // holds such nodes at the undamaged c = 1 and changes c at
         // well-supported nodes by a relative 1e-12.
-        let max_diag = self.diag.iter().map(|&k| self.values[k as usize]).fold(0.0, f64::max);
+        let max_diag = self
+            .diag
+            .iter()
+            .map(|&k| self.values[k as usize])
+            .fold(0.0, f64::max);
         let delta = PIVOT_FLOOR * max_diag;
         for (d, &k) in self.diag.iter().enumerate() {
             self.values[k as usize] += delta;
@@ -647,8 +699,18 @@ impl PhaseFieldSystem {
     /// zero where H did not grow). ‖F‖ is that of the last assembly; 0 if
     /// there was none. Scattered over the bins' colours when `parts` has
     /// bins, serially otherwise.
-    pub fn history_residual<K: Kernel>(&mut self, geom: &GridGeom, parts: &FieldParticles, w: &[f64]) -> f64 {
-        let norm_f = self.rhs.iter().map(|f| f * f).fold(0.0, |a, b| a + b).sqrt();
+    pub fn history_residual<K: Kernel>(
+        &mut self,
+        geom: &GridGeom,
+        parts: &FieldParticles,
+        w: &[f64],
+    ) -> f64 {
+        let norm_f = self
+            .rhs
+            .iter()
+            .map(|f| f * f)
+            .fold(0.0, |a, b| a + b)
+            .sqrt();
         if norm_f == 0.0 {
             return 0.0;
         }
@@ -668,7 +730,11 @@ impl PhaseFieldSystem {
             Some(bins) => {
                 for colour in &bins.colours {
                     // particles of same-colour tiles share no node
-                    colour.par_iter().for_each(|&tile| bins.particles_of(tile).iter().for_each(|&q| add(q as usize)));
+                    colour.par_iter().for_each(|&tile| {
+                        bins.particles_of(tile)
+                            .iter()
+                            .for_each(|&q| add(q as usize))
+                    });
                 }
             }
             None => (0..parts.x.len()).for_each(add),
@@ -713,7 +779,11 @@ impl PhaseFieldSystem {
 
     /// Solves for c with the given method; c at every grid node (1 where
     /// inactive).
-    pub fn solve_with(&mut self, nodes: usize, method: SolveMethod) -> Result<Vec<f64>, PhaseFieldError> {
+    pub fn solve_with(
+        &mut self,
+        nodes: usize,
+        method: SolveMethod,
+    ) -> Result<Vec<f64>, PhaseFieldError> {
         let mut c = Vec::new();
         self.solve_into(nodes, method, &mut c)?;
         Ok(c)
@@ -725,7 +795,12 @@ impl PhaseFieldSystem {
     /// When the node set has changed since the last solve, PCG starts from
     /// the `c` the caller kept (last step's, at every grid node) rather than
     /// from zero.
-    pub fn solve_into(&mut self, nodes: usize, method: SolveMethod, c: &mut Vec<f64>) -> Result<(), PhaseFieldError> {
+    pub fn solve_into(
+        &mut self,
+        nodes: usize,
+        method: SolveMethod,
+        c: &mut Vec<f64>,
+    ) -> Result<(), PhaseFieldError> {
         let n = self.dofs.len();
         if self.last.len() != n && c.len() == nodes && n > 0 {
             // A body whose edges cross the grid changes its node set every
@@ -740,15 +815,29 @@ impl PhaseFieldSystem {
             return Ok(());
         }
         let method = match method {
-            SolveMethod::Multigrid { tolerance, max_iterations, rebuild_after } if self.multigrid_declined => {
-                SolveMethod::Pcg { tolerance, max_iterations, refactor_after: rebuild_after }
-            }
+            SolveMethod::Multigrid {
+                tolerance,
+                max_iterations,
+                rebuild_after,
+            } if self.multigrid_declined => SolveMethod::Pcg {
+                tolerance,
+                max_iterations,
+                refactor_after: rebuild_after,
+            },
             m => m,
         };
         self.use_multigrid = matches!(method, SolveMethod::Multigrid { .. });
         match method {
-            SolveMethod::Multigrid { tolerance, max_iterations, rebuild_after } => self.multigrid_solve(tolerance, max_iterations, rebuild_after)?,
-            SolveMethod::Pcg { tolerance, max_iterations, refactor_after } if self.factored && self.last.len() == n && !self.refactor_next => {
+            SolveMethod::Multigrid {
+                tolerance,
+                max_iterations,
+                rebuild_after,
+            } => self.multigrid_solve(tolerance, max_iterations, rebuild_after)?,
+            SolveMethod::Pcg {
+                tolerance,
+                max_iterations,
+                refactor_after,
+            } if self.factored && self.last.len() == n && !self.refactor_next => {
                 // With the old factor PCG may spend up to two
                 // factorizations' worth of iterations before a fresh
                 // factor is made.
@@ -772,7 +861,11 @@ impl PhaseFieldSystem {
                     self.renew(tolerance, max_iterations, refactor_after)?;
                 }
             }
-            SolveMethod::Pcg { tolerance, max_iterations, refactor_after } => self.renew(tolerance, max_iterations, refactor_after)?,
+            SolveMethod::Pcg {
+                tolerance,
+                max_iterations,
+                refactor_after,
+            } => self.renew(tolerance, max_iterations, refactor_after)?,
             SolveMethod::Direct => self.direct()?,
         }
         // the solution is in `x`
@@ -788,7 +881,12 @@ impl PhaseFieldSystem {
     /// preconditioned by it, from the last solution. Should the f32
     /// factorization fail or PCG not converge even so, a direct solve in f64.
     /// The solution is left in `x`.
-    fn renew(&mut self, tolerance: f64, max_iterations: usize, refactor_after: usize) -> Result<(), PhaseFieldError> {
+    fn renew(
+        &mut self,
+        tolerance: f64,
+        max_iterations: usize,
+        refactor_after: usize,
+    ) -> Result<(), PhaseFieldError> {
         let (converged, iterations) = match self.factorize(true) {
             Ok(()) => self.timed_pcg(tolerance, max_iterations),
             // f32 may lose definiteness where f64 keeps it
@@ -834,14 +932,24 @@ impl PhaseFieldSystem {
     /// hierarchy every step, Gauss-Seidel smoothing no better; the module
     /// doc of [`super::multigrid`] and `docs/phase-field-performance.md`,
     /// "Multigrid").
-    fn multigrid_solve(&mut self, tolerance: f64, max_iterations: usize, rebuild_after: usize) -> Result<(), PhaseFieldError> {
+    fn multigrid_solve(
+        &mut self,
+        tolerance: f64,
+        max_iterations: usize,
+        rebuild_after: usize,
+    ) -> Result<(), PhaseFieldError> {
         let n = self.dofs.len();
-        if let Some(mg) = self.multigrid.as_mut().filter(|_| self.last.len() == n && !self.refactor_next) {
+        if let Some(mg) = self
+            .multigrid
+            .as_mut()
+            .filter(|_| self.last.len() == n && !self.refactor_next)
+        {
             let t0 = Instant::now();
             let refreshed = mg.refresh(&self.values);
             self.stats.solve += t0.elapsed().as_secs_f64();
             if refreshed.is_ok() {
-                let (converged, iterations) = self.timed_pcg(tolerance, max_iterations.min(2 * rebuild_after.max(1)));
+                let (converged, iterations) =
+                    self.timed_pcg(tolerance, max_iterations.min(2 * rebuild_after.max(1)));
                 self.count_cycle(iterations);
                 if converged {
                     return Ok(());
@@ -850,7 +958,14 @@ impl PhaseFieldSystem {
         }
         let warm = self.last.len() == n;
         let t0 = Instant::now();
-        let built = Multigrid::build(self.refine, self.grid_nodes, &self.dofs, &self.col_ptr, &self.row_idx, &self.values);
+        let built = Multigrid::build(
+            self.refine,
+            self.grid_nodes,
+            &self.dofs,
+            &self.col_ptr,
+            &self.row_idx,
+            &self.values,
+        );
         self.stats.factorization += t0.elapsed().as_secs_f64();
         self.stats.factorizations += 1;
         self.refactor_next = false;
@@ -871,7 +986,11 @@ impl PhaseFieldSystem {
         self.cycle_cost = (rebuild_after + iterations.max(1)) as f64;
         self.cycle_solves = 1;
         if warm {
-            self.multigrid_poor = if iterations > rebuild_after { self.multigrid_poor + 1 } else { 0 };
+            self.multigrid_poor = if iterations > rebuild_after {
+                self.multigrid_poor + 1
+            } else {
+                0
+            };
         }
         if self.multigrid_poor >= POOR_BUILDS {
             tracing::info!(unknowns = n, iterations, "phase-field multigrid: fresh hierarchies took more iterations than they cost; PCG goes on with the factor");
@@ -914,34 +1033,64 @@ impl PhaseFieldSystem {
     /// if `single`.
     fn factorize(&mut self, single: bool) -> Result<(), PhaseFieldError> {
         let n = self.dofs.len();
-        let pattern = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let pattern =
+            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let t0 = Instant::now();
         if self.symbolic.as_ref().is_none_or(|s| s.nrows() != n) {
             // supernodal always, for the solves of `trisolve`
-            let params = CholeskySymbolicParams { supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL, ..Default::default() };
-            let sym = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
-                .map_err(|e| PhaseFieldError::Solver(format!("symbolic analysis: {e:?}")))?;
+            let params = CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            };
+            let sym =
+                factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
+                    .map_err(|e| PhaseFieldError::Solver(format!("symbolic analysis: {e:?}")))?;
             let req = sym
                 .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
                 .or(sym.factorize_numeric_llt_scratch::<f32>(Par::Seq, Default::default()));
-            self.mem = MemBuffer::try_new(req).map_err(|e| PhaseFieldError::Solver(format!("workspace: {e:?}")))?;
-            let tri = SupernodalSolve::new(&sym).ok_or_else(|| PhaseFieldError::Solver("the analysis is not supernodal".into()))?;
+            self.mem = MemBuffer::try_new(req)
+                .map_err(|e| PhaseFieldError::Solver(format!("workspace: {e:?}")))?;
+            let tri = SupernodalSolve::new(&sym)
+                .ok_or_else(|| PhaseFieldError::Solver("the analysis is not supernodal".into()))?;
             let [top, g0, g1] = tri.share_work();
-            tracing::debug!(unknowns = n, factor_values = tri.len_val(), top, group0 = g0, group1 = g1, "phase-field analysis: the triangular solves' shares");
+            tracing::debug!(
+                unknowns = n,
+                factor_values = tri.len_val(),
+                top,
+                group0 = g0,
+                group1 = g1,
+                "phase-field analysis: the triangular solves' shares"
+            );
             self.trisolve = Some(tri);
             self.symbolic = Some(sym);
             self.stats.analyses += 1;
         }
         let t1 = Instant::now();
         self.stats.analysis += (t1 - t0).as_secs_f64();
-        let sym = self.symbolic.as_ref().ok_or_else(|| PhaseFieldError::Solver("no analysis".into()))?;
+        let sym = self
+            .symbolic
+            .as_ref()
+            .ok_or_else(|| PhaseFieldError::Solver("no analysis".into()))?;
         self.factored = false;
         if single {
             self.values_single.clear();
-            self.values_single.extend(self.values.iter().map(|&v| v as f32));
-            numeric_llt(sym, pattern, &self.values_single, &mut self.l_single, &mut self.mem)?;
+            self.values_single
+                .extend(self.values.iter().map(|&v| v as f32));
+            numeric_llt(
+                sym,
+                pattern,
+                &self.values_single,
+                &mut self.l_single,
+                &mut self.mem,
+            )?;
         } else {
-            numeric_llt(sym, pattern, &self.values, &mut self.l_values, &mut self.mem)?;
+            numeric_llt(
+                sym,
+                pattern,
+                &self.values,
+                &mut self.l_values,
+                &mut self.mem,
+            )?;
         }
         self.single = single;
         self.factored = true;
@@ -959,7 +1108,9 @@ impl PhaseFieldSystem {
                 return;
             }
         }
-        let Some(tri) = self.trisolve.as_ref() else { return };
+        let Some(tri) = self.trisolve.as_ref() else {
+            return;
+        };
         if self.single {
             tri.solve(&self.l_single, x, &mut self.scratch_single);
         } else {
@@ -1006,9 +1157,16 @@ impl PhaseFieldSystem {
         result
     }
 
-    fn pcg_iterate(&mut self, x: &mut [f64], w: &mut PcgWork, tolerance: f64, max_iterations: usize) -> (bool, usize) {
+    fn pcg_iterate(
+        &mut self,
+        x: &mut [f64],
+        w: &mut PcgWork,
+        tolerance: f64,
+        max_iterations: usize,
+    ) -> (bool, usize) {
         let n = x.len();
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).fold(0.0, |s, t| s + t);
+        let dot =
+            |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).fold(0.0, |s, t| s + t);
         let norm_b = dot(&self.rhs, &self.rhs).sqrt();
         let PcgWork { ap, r, z, p } = w;
         for v in [&mut *ap, &mut *r, &mut *z, &mut *p] {
@@ -1083,9 +1241,17 @@ fn numeric_llt<T: faer::traits::ComplexField>(
 ) -> Result<(), PhaseFieldError> {
     l.resize(sym.len_val(), T::zero_impl());
     let a = SparseColMatRef::new(pattern, values);
-    sym.factorize_numeric_llt::<T>(l, a, Side::Lower, LltRegularization::default(), Par::Seq, MemStack::new(mem), Default::default())
-        .map(|_| ())
-        .map_err(|e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}")))
+    sym.factorize_numeric_llt::<T>(
+        l,
+        a,
+        Side::Lower,
+        LltRegularization::default(),
+        Par::Seq,
+        MemStack::new(mem),
+        Default::default(),
+    )
+    .map(|_| ())
+    .map_err(|e| PhaseFieldError::NotPositiveDefinite(format!("{e:?}")))
 }
 
 /// c at a point from nodal values (what the particles take after a solve;
@@ -1097,7 +1263,8 @@ pub fn value_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> f64 {
     let mut v = 0.0;
     for j in 0..K::N {
         for i in 0..K::N {
-            let node = (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
+            let node =
+                (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
             v += wx.w[i] * wy.w[j] * c[node];
         }
     }
@@ -1124,13 +1291,20 @@ pub fn field_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> (f64, [f6
 /// (c−1)²/(4l₀) + l₀|∇c|² + l₀³ (∇²c)ᵀ M (∇²c).
 pub fn crack_density(p: &PhaseFieldParams, c: f64, g: [f64; 2], h: [f64; 3]) -> f64 {
     let m = p.gamma.voigt();
-    let quad: f64 = (0..3).map(|i| (0..3).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>()).sum();
+    let quad: f64 = (0..3)
+        .map(|i| (0..3).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>())
+        .sum();
     (c - 1.0).powi(2) / (4.0 * p.l0) + p.l0 * (g[0] * g[0] + g[1] * g[1]) + p.l0.powi(3) * quad
 }
 
 /// The fracture energy density Ḡc·Z (eq. 4) of the nodal field `c` at
 /// `x`, J/m³: the integrand of Ψ_f.
-pub fn fracture_energy_density<K: Kernel>(geom: &GridGeom, c: &[f64], p: &PhaseFieldParams, x: [f64; 2]) -> f64 {
+pub fn fracture_energy_density<K: Kernel>(
+    geom: &GridGeom,
+    c: &[f64],
+    p: &PhaseFieldParams,
+    x: [f64; 2],
+) -> f64 {
     let (cv, g, h) = field_at::<K>(geom, c, x);
     p.gc_bar * crack_density(p, cv, g, h)
 }

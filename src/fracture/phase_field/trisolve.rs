@@ -20,7 +20,18 @@ use std::collections::BinaryHeap;
 use std::ops::{Add, Div, Mul, Sub};
 
 /// The two floating-point types a factor is kept in.
-pub trait Real: Copy + Send + Sync + Default + PartialEq + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + 'static {
+pub trait Real:
+    Copy
+    + Send
+    + Sync
+    + Default
+    + PartialEq
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + 'static
+{
     fn of(v: f64) -> Self;
     fn to(self) -> f64;
 }
@@ -82,7 +93,9 @@ impl SupernodalSolve {
     /// Reads the structure of faer's analysis; None if it is not
     /// supernodal (the analysis must ask for `SupernodalThreshold::FORCE_SUPERNODAL`).
     pub fn new(sym: &SymbolicCholesky<usize>) -> Option<Self> {
-        let SymbolicCholeskyRaw::Supernodal(s) = sym.raw() else { return None };
+        let SymbolicCholeskyRaw::Supernodal(s) = sym.raw() else {
+            return None;
+        };
         let n = s.nrows();
         let ns = s.n_supernodes();
         let (perm, inv) = match sym.perm() {
@@ -94,7 +107,18 @@ impl SupernodalSolve {
         let val = s.col_ptr_for_val().to_vec();
         let row_ptr = s.col_ptr_for_row_idx()[..ns].to_vec();
         let rows = s.row_idx().to_vec();
-        let mut this = SupernodalSolve { n, perm, inv, begin, val, row_ptr, rows, top: Vec::new(), groups: [Vec::new(), Vec::new()], max_pattern: 0 };
+        let mut this = SupernodalSolve {
+            n,
+            perm,
+            inv,
+            begin,
+            val,
+            row_ptr,
+            rows,
+            top: Vec::new(),
+            groups: [Vec::new(), Vec::new()],
+            max_pattern: 0,
+        };
         this.max_pattern = (0..ns).map(|k| this.pattern(k).len()).max().unwrap_or(0);
         this.share_out();
         Some(this)
@@ -162,8 +186,14 @@ impl SupernodalSolve {
                 work[parent[s]] += work[s];
             }
         }
-        let total: usize = (0..ns).filter(|&s| parent[s] == usize::MAX).map(|s| work[s]).sum();
-        let mut frontier: BinaryHeap<(usize, usize)> = (0..ns).filter(|&s| parent[s] == usize::MAX).map(|s| (work[s], s)).collect();
+        let total: usize = (0..ns)
+            .filter(|&s| parent[s] == usize::MAX)
+            .map(|s| work[s])
+            .sum();
+        let mut frontier: BinaryHeap<(usize, usize)> = (0..ns)
+            .filter(|&s| parent[s] == usize::MAX)
+            .map(|s| (work[s], s))
+            .collect();
         let mut top_work = 0usize;
         let mut opened: Vec<usize> = Vec::new();
         let mut best = (usize::MAX, 0usize);
@@ -194,7 +224,9 @@ impl SupernodalSolve {
         for &s in opened {
             is_top[s] = true;
         }
-        let mut roots: Vec<usize> = (0..ns).filter(|&s| !is_top[s] && (parent[s] == usize::MAX || is_top[parent[s]])).collect();
+        let mut roots: Vec<usize> = (0..ns)
+            .filter(|&s| !is_top[s] && (parent[s] == usize::MAX || is_top[parent[s]]))
+            .collect();
         roots.sort_by_key(|&s| std::cmp::Reverse(work[s]));
         let mut group_of = vec![usize::MAX; ns];
         let mut loads = [0usize; 2];
@@ -211,7 +243,10 @@ impl SupernodalSolve {
             }
         }
         self.top = (0..ns).filter(|&s| is_top[s]).collect();
-        self.groups = [(0..ns).filter(|&s| group_of[s] == 0).collect(), (0..ns).filter(|&s| group_of[s] == 1).collect()];
+        self.groups = [
+            (0..ns).filter(|&s| group_of[s] == 0).collect(),
+            (0..ns).filter(|&s| group_of[s] == 1).collect(),
+        ];
     }
 
     /// x ← A⁻¹ x with the factor `l` (values laid out as faer's supernodal
@@ -236,8 +271,16 @@ impl SupernodalSolve {
             other[self.begin[s]..self.begin[s + 1]].fill(T::default());
         }
         rayon::join(
-            || self.groups[0].iter().for_each(|&s| self.forward(s, l, xp, tmp0)),
-            || self.groups[1].iter().for_each(|&s| self.forward(s, l, other, tmp1)),
+            || {
+                self.groups[0]
+                    .iter()
+                    .for_each(|&s| self.forward(s, l, xp, tmp0))
+            },
+            || {
+                self.groups[1]
+                    .iter()
+                    .for_each(|&s| self.forward(s, l, other, tmp1))
+            },
         );
         self.take_group(xp, other);
         for &s in &self.top {
@@ -254,8 +297,18 @@ impl SupernodalSolve {
         }
         other.copy_from_slice(xp);
         rayon::join(
-            || self.groups[0].iter().rev().for_each(|&s| self.backward(s, l, xp, tmp0)),
-            || self.groups[1].iter().rev().for_each(|&s| self.backward(s, l, other, tmp1)),
+            || {
+                self.groups[0]
+                    .iter()
+                    .rev()
+                    .for_each(|&s| self.backward(s, l, xp, tmp0))
+            },
+            || {
+                self.groups[1]
+                    .iter()
+                    .rev()
+                    .for_each(|&s| self.backward(s, l, other, tmp1))
+            },
         );
         self.take_group(xp, other);
         for (v, &i) in x.iter_mut().zip(&self.inv) {
@@ -275,7 +328,12 @@ impl SupernodalSolve {
     /// values in `l` (column-major, `width + pattern` rows).
     #[inline]
     fn supernode<'a, T>(&'a self, s: usize, l: &'a [T]) -> (usize, usize, &'a [usize], &'a [T]) {
-        (self.begin[s], self.width(s), self.pattern(s), &l[self.val[s]..self.val[s + 1]])
+        (
+            self.begin[s],
+            self.width(s),
+            self.pattern(s),
+            &l[self.val[s]..self.val[s + 1]],
+        )
     }
 
     /// Supernode s of the forward substitution L y = b: its columns in
@@ -350,7 +408,9 @@ mod tests {
     use super::*;
     use faer::dyn_stack::{MemBuffer, MemStack};
     use faer::linalg::cholesky::llt::factor::LltRegularization;
-    use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymmetricOrdering};
+    use faer::sparse::linalg::cholesky::{
+        factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymmetricOrdering,
+    };
     use faer::sparse::linalg::SupernodalThreshold;
     use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
     use faer::{Conj, MatMut, Par, Side};
@@ -376,7 +436,8 @@ mod tests {
                         continue;
                     }
                     // diagonally dominant: 30 on the diagonal, up to 24 off it
-                    let off = -1.0 / (1.0 + (di * di + dj * dj) as f64) - 0.01 * ((r * 7 + c * 3) % 5) as f64;
+                    let off = -1.0 / (1.0 + (di * di + dj * dj) as f64)
+                        - 0.01 * ((r * 7 + c * 3) % 5) as f64;
                     col.push((r, if r == c { 30.0 } else { off }));
                 }
             }
@@ -397,18 +458,33 @@ mod tests {
         v: &[f64],
     ) -> (SymbolicCholesky<usize>, Vec<T>) {
         let pattern = SymbolicSparseColMatRef::new_checked(n, n, cp, None, ri);
-        let params = CholeskySymbolicParams { supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL, ..Default::default() };
-        let sym = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params).unwrap();
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let sym = factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
+            .unwrap();
         let vt: Vec<T> = v.iter().map(|&x| T::of(x)).collect();
         let mut l = vec![T::of(0.0); sym.len_val()];
-        let mut mem = MemBuffer::new(sym.factorize_numeric_llt_scratch::<T>(Par::Seq, Default::default()));
-        sym.factorize_numeric_llt::<T>(&mut l, SparseColMatRef::new(pattern, &vt), Side::Lower, LltRegularization::default(), Par::Seq, MemStack::new(&mut mem), Default::default())
-            .unwrap();
+        let mut mem =
+            MemBuffer::new(sym.factorize_numeric_llt_scratch::<T>(Par::Seq, Default::default()));
+        sym.factorize_numeric_llt::<T>(
+            &mut l,
+            SparseColMatRef::new(pattern, &vt),
+            Side::Lower,
+            LltRegularization::default(),
+            Par::Seq,
+            MemStack::new(&mut mem),
+            Default::default(),
+        )
+        .unwrap();
         (sym, l)
     }
 
     fn rhs(n: usize) -> Vec<f64> {
-        (0..n).map(|i| ((i * 37 % 101) as f64 - 50.0) / 7.0).collect()
+        (0..n)
+            .map(|i| ((i * 37 % 101) as f64 - 50.0) / 7.0)
+            .collect()
     }
 
     #[test]
@@ -424,7 +500,12 @@ mod tests {
         tri.solve(&l, &mut x, &mut SolveScratch::default());
         let mut y = b.clone();
         let mut mem = MemBuffer::new(sym.solve_in_place_scratch::<f64>(1, Par::Seq));
-        LltRef::new(&sym, &l).solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(&mut y, n, 1), Par::Seq, MemStack::new(&mut mem));
+        LltRef::new(&sym, &l).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(&mut y, n, 1),
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
         let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (a, e) in x.iter().zip(&y) {
             assert!((a - e).abs() <= 1e-12 * scale, "{a} vs faer's {e}");
@@ -440,7 +521,12 @@ mod tests {
             }
         }
         let bn = b.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let res = ax.iter().zip(&b).map(|(p, q)| (p - q) * (p - q)).sum::<f64>().sqrt();
+        let res = ax
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| (p - q) * (p - q))
+            .sum::<f64>()
+            .sqrt();
         assert!(res <= 1e-12 * bn, "residual {res}");
         // f32: within f32's accuracy of the f64 solution
         let (sym32, l32) = factor::<f32>(n, &cp, &ri, &v);
@@ -469,7 +555,10 @@ mod tests {
         for (g, other) in [(g0, g1), (g1, g0)] {
             for &s in g {
                 if let Some(&r) = tri.pattern(s).iter().min() {
-                    assert!(!other.contains(&owner(r)), "supernode {s}'s parent is in the other group");
+                    assert!(
+                        !other.contains(&owner(r)),
+                        "supernode {s}'s parent is in the other group"
+                    );
                 }
             }
         }
@@ -477,13 +566,24 @@ mod tests {
         let [wt, w0, w1] = tri.share_work();
         let total = (wt + w0 + w1) as f64;
         assert!((wt as f64) < 0.2 * total, "top {wt} of {total}");
-        assert!((w0 as f64 - w1 as f64).abs() < 0.1 * total, "groups {w0} and {w1}");
+        assert!(
+            (w0 as f64 - w1 as f64).abs() < 0.1 * total,
+            "groups {w0} and {w1}"
+        );
         // the same result on one thread as on two
         let b = rhs(n);
         let mut two = b.clone();
-        rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap().install(|| tri.solve(&l, &mut two, &mut SolveScratch::default()));
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap()
+            .install(|| tri.solve(&l, &mut two, &mut SolveScratch::default()));
         let mut one = b.clone();
-        rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| tri.solve(&l, &mut one, &mut SolveScratch::default()));
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| tri.solve(&l, &mut one, &mut SolveScratch::default()));
         assert_eq!(one, two);
     }
 }
