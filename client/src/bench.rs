@@ -267,7 +267,10 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
                     .into_inner();
                 while s.message().await?.is_some() {}
                 let j = client
-                    .get_job(proto::GetJobRequest { job_id: job.id })
+                    .get_job(proto::GetJobRequest {
+                        job_id: job.id,
+                        view: proto::JobView::Basic as i32,
+                    })
                     .await?
                     .into_inner();
                 anyhow::ensure!(
@@ -315,6 +318,7 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
                     .fetch_fields(proto::FetchFieldsRequest {
                         job_id: job.id.clone(),
                         snapshot: 0,
+                        location: proto::Location::Particles as i32,
                         ..Default::default()
                     })
                     .await?

@@ -11,7 +11,7 @@ mod remote;
 mod study;
 
 use anyhow::Context;
-use clap::{Parser, Subcommand};
+use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
 use cleave::mpm::Simulation;
 use cleave::output::OutputWriter;
@@ -24,29 +24,46 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(name = "cleave", version = cleave::VERSION, about = "Dynamic fracture with the material point method")]
 struct Cli {
-    /// A cleave server (http://HOST:PORT or https://...); without it, `run`
-    /// and `validate` work in this process.
-    #[arg(long, global = true, env = "CLEAVE_SERVER")]
+    /// `cleave --server URL COMMAND` as earlier versions took it (hidden:
+    /// the commands that talk to a server show these options).
+    #[arg(long, hide = true)]
     server: Option<String>,
-    /// Bearer token for the server.
-    #[arg(long, global = true, env = "CLEAVE_TOKEN", hide_env_values = true)]
+    #[arg(long, hide = true)]
     token: Option<String>,
-    /// PEM certificate (or CA) to trust for an https:// server.
-    #[arg(long, global = true, env = "CLEAVE_CA_CERT")]
+    #[arg(long, hide = true)]
     ca_cert: Option<PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
 
+/// Where a command that can talk to a server sends its work.
+#[derive(Args, Debug, Clone, Default)]
+struct ServerArgs {
+    /// A cleave server (http://HOST:PORT or https://...; HOST:PORT means
+    /// http://HOST:PORT). Without it (and without CLEAVE_SERVER), `run`,
+    /// `validate` and `study` work in this process.
+    #[arg(long, env = "CLEAVE_SERVER", value_name = "URL")]
+    server: Option<String>,
+    /// Bearer token for the server.
+    #[arg(long, env = "CLEAVE_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+    /// PEM certificate (or CA) to trust for an https:// server.
+    #[arg(long, env = "CLEAVE_CA_CERT", value_name = "PEM")]
+    ca_cert: Option<PathBuf>,
+}
+
 #[derive(Subcommand)]
 enum Command {
-    /// Run a scene in this process and write series.csv, VTK snapshots and plots.
+    /// Run a scene and write series.csv, VTK snapshots and plots (in this
+    /// process, or as a job on --server).
     Run {
         /// Scene file (TOML or JSON).
         scene: PathBuf,
         /// Output directory (created if missing).
         #[arg(long, default_value = "out")]
         out: PathBuf,
+        #[command(flatten)]
+        server: ServerArgs,
         /// Print one JSON object with the run's summary on stdout.
         #[arg(long)]
         json: bool,
@@ -83,6 +100,7 @@ enum Command {
     /// Measure the overhead of running through a server (in this process)
     /// and the FetchFields throughput.
     BenchService {
+        /// Markdown file for the tables.
         #[arg(long, default_value = "docs/service-performance.md")]
         out: PathBuf,
         /// Runs of each kind (medians are reported).
@@ -94,8 +112,10 @@ enum Command {
     /// and PCG with the multigrid, for a scene with a fixed dt (default: P1
     /// at the paper's resolution).
     BenchPhaseField {
+        /// Scene file with a phase field and a fixed time step.
         #[arg(long, default_value = "scenes/p1_plate.toml")]
         scene: PathBuf,
+        /// Markdown file for the table.
         #[arg(long, default_value = "docs/phase-field-performance.md")]
         out: PathBuf,
         /// Untimed steps first (they include the symbolic analysis).
@@ -114,6 +134,7 @@ enum Command {
     /// Brazilian disk, seed 000 D4/D5) at several cell sizes: wall time per
     /// step, fragments and mean speed, cumulative fragment-size plot.
     BenchDfg {
+        /// Scene file with damage.
         #[arg(long, default_value = "scenes/d4_brazilian.toml")]
         scene: PathBuf,
         /// Cell sizes, m, comma-separated.
@@ -123,8 +144,10 @@ enum Command {
         /// paper: 10 and 15 µs); the runs go to the later one.
         #[arg(long, value_delimiter = ',', default_value = "1e-5,1.5e-5")]
         instants: Vec<f64>,
+        /// Markdown file for the table.
         #[arg(long, default_value = "docs/dfg-brazilian.md")]
         out: PathBuf,
+        /// Where to draw the cumulative fragment-size plot.
         #[arg(long, default_value = "docs/figures/d4_fragments.png")]
         figure: PathBuf,
     },
@@ -168,6 +191,8 @@ enum Command {
         /// that much of it. Runs in this process only.
         #[arg(long, value_name = "SECONDS")]
         checkpoint_every: Option<f64>,
+        #[command(flatten)]
+        server: ServerArgs,
     },
     /// The effective surface energy Gc(θ) of the anisotropic phase field
     /// (eq. 8 of Kakouris & Triantafyllou) as a table and a polar plot.
@@ -181,6 +206,7 @@ enum Command {
         /// Angle step, degrees.
         #[arg(long, default_value_t = 1.0)]
         angle_step: f64,
+        /// Print the table as one JSON object.
         #[arg(long)]
         json: bool,
         /// Where to write the polar plot of Gc and 1/Gc.
@@ -190,6 +216,7 @@ enum Command {
     /// Draw energies.png (and crack.png, with a crack tip) from a
     /// series.csv, e.g. one fetched from a server or cut short.
     Plot {
+        /// The series.csv to plot.
         series: PathBuf,
         /// Directory for the plots (default: the series' directory).
         #[arg(long)]
@@ -201,6 +228,7 @@ enum Command {
     /// propagation_energy the rows it spans. Works on a series still
     /// being written (the rows so far).
     Metric {
+        /// The series.csv to measure.
         series: PathBuf,
         /// As `cleave study --metric` (COLUMN, final:, max:, min:,
         /// arrival:COLUMN=VALUE, crack_angle:X0,Y0,
@@ -217,13 +245,17 @@ enum Command {
     },
     /// Check a scene without running it; prints its plan.
     Validate {
+        /// Scene file (TOML or JSON).
         scene: PathBuf,
         /// Print the result as JSON on stdout.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        server: ServerArgs,
     },
     /// Submit a scene to the server; prints the job id.
     Submit {
+        /// Scene file (TOML or JSON).
         scene: PathBuf,
         /// A label for your own bookkeeping.
         #[arg(long, default_value = "")]
@@ -231,45 +263,93 @@ enum Command {
         /// Wait for the job to end; exit with its outcome.
         #[arg(long)]
         wait: bool,
+        /// Print the job as one JSON object.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        server: ServerArgs,
     },
     /// Follow a job to its end (progress bar, or JSON lines with --json).
     Watch {
+        /// Job id (job-000001), as `submit` printed it.
         job: String,
+        /// One JSON object per event on stdout.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        server: ServerArgs,
     },
     /// Fetch a job's results and write them like `run` does.
     Fetch {
+        /// Job id (job-000001).
         job: String,
+        /// Output directory (created if missing).
         #[arg(long, default_value = "out")]
         out: PathBuf,
+        /// Print the written files as one JSON object.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        server: ServerArgs,
     },
     /// List jobs, newest first.
     List {
         /// Only jobs in this state (queued, running, succeeded, failed, cancelled).
         #[arg(long)]
         state: Option<String>,
+        /// At most this many jobs.
         #[arg(long, default_value_t = 50)]
         limit: u32,
+        /// Print the jobs as one JSON array.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        server: ServerArgs,
     },
     /// Show one job.
     Get {
+        /// Job id (job-000001).
         job: String,
+        /// Print the job as one JSON object.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        server: ServerArgs,
     },
-    /// Cancel a queued or running job.
+    /// Cancel a queued or running job and print its state afterwards.
     Cancel {
+        /// Job id (job-000001).
         job: String,
+        /// Print the job as one JSON object.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        server: ServerArgs,
     },
+}
+
+impl Command {
+    /// The server options of a command that can talk to a server.
+    fn server_args(&self) -> Option<&ServerArgs> {
+        match self {
+            Command::Run { server, .. }
+            | Command::Validate { server, .. }
+            | Command::Study { server, .. }
+            | Command::Submit { server, .. }
+            | Command::Watch { server, .. }
+            | Command::Fetch { server, .. }
+            | Command::List { server, .. }
+            | Command::Get { server, .. }
+            | Command::Cancel { server, .. } => Some(server),
+            Command::Bench { .. }
+            | Command::BenchService { .. }
+            | Command::BenchPhaseField { .. }
+            | Command::BenchDfg { .. }
+            | Command::GcPolar { .. }
+            | Command::Plot { .. }
+            | Command::Metric { .. } => None,
+        }
+    }
 }
 
 const EXIT_FAILED: u8 = 1;
@@ -282,23 +362,66 @@ fn main() -> ExitCode {
         )
         .with_writer(std::io::stderr)
         .init();
-    let cli = match Cli::try_parse() {
-        Ok(c) => c,
+    let matches = match Cli::command().try_get_matches() {
+        Ok(m) => m,
         Err(e) => {
             let code = if e.use_stderr() { EXIT_INVALID } else { 0 };
             let _ = e.print();
             return ExitCode::from(code);
         }
     };
-    if let Some(server) = cli.server.clone() {
-        return remote_main(
-            &server,
-            cli.token.as_deref(),
-            cli.ca_cert.as_deref(),
-            cli.command,
-        );
+    let cli = match Cli::from_arg_matches(&matches) {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return ExitCode::from(EXIT_INVALID);
+        }
+    };
+    let Some(target) = server_target(&cli, &matches) else {
+        return local_main(cli.command);
+    };
+    if cli.command.server_args().is_none() {
+        eprintln!("error: this command runs in this process; drop --server");
+        return ExitCode::from(EXIT_INVALID);
     }
-    match cli.command {
+    remote_main(&target, cli.command)
+}
+
+/// The server a command goes to: its own --server (or the hidden one before
+/// the command, as earlier versions took it), else CLEAVE_SERVER.
+fn server_target(cli: &Cli, matches: &clap::ArgMatches) -> Option<remote::Target> {
+    use clap::parser::ValueSource;
+    let sub = matches.subcommand().map(|(_, m)| m);
+    let source = |name: &str| {
+        sub.filter(|m| m.try_contains_id(name).unwrap_or(false))
+            .and_then(|m| m.value_source(name))
+    };
+    let own = cli.command.server_args().cloned().unwrap_or_default();
+    let explicit = |name: &str| source(name) == Some(ValueSource::CommandLine);
+    let pick = |mine: Option<String>, top: Option<String>, name: &str| {
+        if explicit(name) {
+            mine
+        } else {
+            top.or(mine)
+        }
+    };
+    let url = pick(own.server, cli.server.clone(), "server")?;
+    let from_env = cli.server.is_none() && source("server") == Some(ValueSource::EnvVariable);
+    Some(remote::Target {
+        url: remote::with_scheme(&url),
+        token: pick(own.token, cli.token.clone(), "token"),
+        ca_cert: if explicit("ca_cert") {
+            own.ca_cert
+        } else {
+            cli.ca_cert.clone().or(own.ca_cert)
+        },
+        from_env,
+    })
+}
+
+/// Every command in this process.
+fn local_main(command: Command) -> ExitCode {
+    match command {
         Command::Run {
             scene,
             out,
@@ -306,6 +429,7 @@ fn main() -> ExitCode {
             quiet,
             checkpoint_every,
             resume,
+            ..
         } => run(
             &scene,
             &out,
@@ -316,7 +440,7 @@ fn main() -> ExitCode {
                 resume,
             },
         ),
-        Command::Validate { scene, json } => validate(&scene, json),
+        Command::Validate { scene, json, .. } => validate(&scene, json),
         Command::Submit { .. }
         | Command::Watch { .. }
         | Command::Fetch { .. }
@@ -344,6 +468,7 @@ fn main() -> ExitCode {
             json,
             resume,
             checkpoint_every,
+            ..
         } => study::main_local(study::Options {
             scene,
             vary,
@@ -780,12 +905,7 @@ fn run_valid(
 }
 
 /// Every command against a server.
-fn remote_main(
-    server: &str,
-    token: Option<&str>,
-    ca_cert: Option<&Path>,
-    command: Command,
-) -> ExitCode {
+fn remote_main(target: &remote::Target, command: Command) -> ExitCode {
     let json = match &command {
         Command::Run { json, .. }
         | Command::Validate { json, .. }
@@ -814,102 +934,105 @@ fn remote_main(
             return ExitCode::from(EXIT_FAILED);
         }
     };
-    runtime.block_on(async move {
-        let mut client = match remote::connect(server, token, ca_cert).await {
-            Ok(c) => c,
-            Err(e) => return e.report(json),
-        };
-        let result: Result<ExitCode, remote::RemoteError> = async {
-            match command {
-                Command::Validate { scene, json } => remote::validate(&mut client, &scene, json).await,
-                Command::Study { scene, vary, metric, reference, out, json, resume, checkpoint_every } => {
-                    study::main_remote(&mut client, study::Options { scene, vary, metric, reference, out, json, resume, checkpoint_every }).await
+    let server = target.url.as_str();
+    let result = runtime.block_on(async move {
+        let mut client = remote::connect(target).await?;
+        match command {
+            Command::Validate { scene, json, .. } => remote::validate(&mut client, &scene, json).await,
+            Command::Study { scene, vary, metric, reference, out, json, resume, checkpoint_every, .. } => {
+                study::main_remote(&mut client, study::Options { scene, vary, metric, reference, out, json, resume, checkpoint_every }).await
+            }
+            Command::Run { scene, out, json, quiet, checkpoint_every, resume, .. } => {
+                if checkpoint_every.is_some() || resume {
+                    return Err(remote::RemoteError::new(
+                        EXIT_INVALID,
+                        "--checkpoint-every and --resume work on embedded runs only (without --server)",
+                    ));
                 }
-                Command::Run { scene, out, json, quiet, checkpoint_every, resume } => {
-                    if checkpoint_every.is_some() || resume {
-                        return Err(remote::RemoteError::new(
-                            EXIT_INVALID,
-                            "--checkpoint-every and --resume work on embedded runs only (without --server)",
-                        ));
+                let job = remote::submit(&mut client, &scene, "").await?;
+                if !json {
+                    eprintln!("{}: job {} on {server}; {} particles; plan: {}", scene.display(), job.id, job.particles, job.stages.join(" → "));
+                }
+                let job = remote::watch(&mut client, &job.id, !quiet && !json, false).await?;
+                let paths = remote::fetch(&mut client, &job.id, &out).await?;
+                let summary = job.summary.unwrap_or_default();
+                if json {
+                    let mut v = remote::job_value(&job);
+                    v["status"] = serde_json::json!(match job.state { s if s == cleave::service::proto::JobState::Succeeded as i32 => "succeeded", s if s == cleave::service::proto::JobState::Cancelled as i32 => "cancelled", _ => "failed" });
+                    v["steps"] = serde_json::json!(summary.steps);
+                    v["wall_seconds"] = serde_json::json!(summary.wall_seconds);
+                    v["kinetic_energy"] = serde_json::json!(summary.kinetic_energy);
+                    v["strain_energy"] = serde_json::json!(summary.strain_energy);
+                    v["outputs"] = serde_json::json!(paths);
+                    println!("{v}");
+                } else if job.error.is_empty() {
+                    eprintln!("done: {} steps to t = {:.6e} s in {:.2} s; results in {}", summary.steps, summary.time, summary.wall_seconds, out.display());
+                } else {
+                    eprintln!("job {} {}: {}", job.id, if job.state == cleave::service::proto::JobState::Cancelled as i32 { "cancelled" } else { "failed" }, job.error);
+                }
+                Ok(remote::outcome(&job))
+            }
+            Command::Submit { scene, label, wait, json, .. } => {
+                let job = remote::submit(&mut client, &scene, &label).await?;
+                if !wait {
+                    if json { remote::print_job(&job, true) } else { println!("{}", job.id) }
+                    return Ok(ExitCode::SUCCESS);
+                }
+                if !json {
+                    println!("{}", job.id);
+                }
+                let job = remote::watch(&mut client, &job.id, !json, false).await?;
+                remote::print_job(&job, json);
+                Ok(remote::outcome(&job))
+            }
+            Command::Watch { job, json, .. } => {
+                let job = remote::watch(&mut client, &job, !json, json).await?;
+                if !json {
+                    remote::print_job(&job, false);
+                }
+                Ok(remote::outcome(&job))
+            }
+            Command::Fetch { job, out, json, .. } => {
+                let paths = remote::fetch(&mut client, &job, &out).await?;
+                if json {
+                    println!("{}", serde_json::json!({"status": "fetched", "job_id": job, "outputs": paths}));
+                } else {
+                    eprintln!("{job}: results in {}", out.display());
+                }
+                Ok(ExitCode::SUCCESS)
+            }
+            Command::List { state, limit, json, .. } => {
+                let jobs = remote::list(&mut client, state.as_deref(), limit).await?;
+                if json {
+                    println!("{}", serde_json::Value::Array(jobs.iter().map(remote::job_value).collect()));
+                } else if jobs.is_empty() {
+                    match &state {
+                        Some(s) => println!("no {} jobs", s.to_lowercase()),
+                        None => println!("no jobs"),
                     }
-                    let job = remote::submit(&mut client, &scene, "").await?;
-                    if !json {
-                        eprintln!("{}: job {} on {server}; {} particles; plan: {}", scene.display(), job.id, job.particles, job.stages.join(" → "));
+                } else {
+                    remote::print_job_header();
+                    for j in &jobs {
+                        remote::print_job(j, false);
                     }
-                    let job = remote::watch(&mut client, &job.id, !quiet && !json, false).await?;
-                    let paths = remote::fetch(&mut client, &job.id, &out).await?;
-                    let summary = job.summary.unwrap_or_default();
-                    if json {
-                        let mut v = remote::job_value(&job);
-                        v["status"] = serde_json::json!(match job.state { s if s == cleave::service::proto::JobState::Succeeded as i32 => "succeeded", s if s == cleave::service::proto::JobState::Cancelled as i32 => "cancelled", _ => "failed" });
-                        v["steps"] = serde_json::json!(summary.steps);
-                        v["wall_seconds"] = serde_json::json!(summary.wall_seconds);
-                        v["kinetic_energy"] = serde_json::json!(summary.kinetic_energy);
-                        v["strain_energy"] = serde_json::json!(summary.strain_energy);
-                        v["outputs"] = serde_json::json!(paths);
-                        println!("{v}");
-                    } else if job.error.is_empty() {
-                        eprintln!("done: {} steps to t = {:.6e} s in {:.2} s; results in {}", summary.steps, summary.time, summary.wall_seconds, out.display());
-                    } else {
-                        eprintln!("job {} {}: {}", job.id, if job.state == cleave::service::proto::JobState::Cancelled as i32 { "cancelled" } else { "failed" }, job.error);
-                    }
-                    Ok(remote::outcome(&job))
                 }
-                Command::Submit { scene, label, wait, json } => {
-                    let job = remote::submit(&mut client, &scene, &label).await?;
-                    if !wait {
-                        if json { remote::print_job(&job, true) } else { println!("{}", job.id) }
-                        return Ok(ExitCode::SUCCESS);
-                    }
-                    if !json {
-                        println!("{}", job.id);
-                    }
-                    let job = remote::watch(&mut client, &job.id, !json, false).await?;
-                    remote::print_job(&job, json);
-                    Ok(remote::outcome(&job))
+                Ok(ExitCode::SUCCESS)
+            }
+            Command::Get { job, json, .. } => {
+                let job = remote::get(&mut client, &job).await?;
+                if json {
+                    remote::print_job(&job, true);
+                } else {
+                    remote::print_job_details(&job);
                 }
-                Command::Watch { job, json } => {
-                    let job = remote::watch(&mut client, &job, !json, json).await?;
-                    if !json {
-                        remote::print_job(&job, false);
-                    }
-                    Ok(remote::outcome(&job))
-                }
-                Command::Fetch { job, out, json } => {
-                    let paths = remote::fetch(&mut client, &job, &out).await?;
-                    if json {
-                        println!("{}", serde_json::json!({"status": "fetched", "job_id": job, "outputs": paths}));
-                    } else {
-                        eprintln!("{job}: results in {}", out.display());
-                    }
-                    Ok(ExitCode::SUCCESS)
-                }
-                Command::List { state, limit, json } => {
-                    let jobs = remote::list(&mut client, state.as_deref(), limit).await?;
-                    if json {
-                        println!("{}", serde_json::Value::Array(jobs.iter().map(remote::job_value).collect()));
-                    } else {
-                        for j in &jobs {
-                            remote::print_job(j, false);
-                        }
-                    }
-                    Ok(ExitCode::SUCCESS)
-                }
-                Command::Get { job, json } => {
-                    remote::print_job(&remote::get(&mut client, &job).await?, json);
-                    Ok(ExitCode::SUCCESS)
-                }
-                Command::Cancel { job, json } => {
-                    remote::print_job(&remote::cancel(&mut client, &job).await?, json);
-                    Ok(ExitCode::SUCCESS)
-                }
-                Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } | Command::Metric { .. } => {
-                    eprintln!("error: this command runs in this process; drop --server");
-                    Ok(ExitCode::from(EXIT_INVALID))
-                }
+                Ok(ExitCode::SUCCESS)
+            }
+            Command::Cancel { job, json, .. } => remote::cancel_and_report(&mut client, &job, json).await,
+            Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } | Command::Metric { .. } => {
+                eprintln!("error: this command runs in this process; drop --server");
+                Ok(ExitCode::from(EXIT_INVALID))
             }
         }
-        .await;
-        result.unwrap_or_else(|e| e.report(json))
-    })
+    });
+    result.unwrap_or_else(|e| target.explain(e).report(json))
 }

@@ -48,9 +48,68 @@ fn code_name(c: Code) -> &'static str {
         Code::NotFound => "not found",
         Code::FailedPrecondition => "failed precondition",
         Code::Unauthenticated => "unauthenticated",
+        Code::PermissionDenied => "permission denied",
         Code::ResourceExhausted => "resource exhausted",
         Code::Unavailable => "server unavailable",
-        _ => "error",
+        Code::DeadlineExceeded => "deadline exceeded",
+        Code::Cancelled => "cancelled",
+        Code::Internal => "server error",
+        Code::Unknown => "unknown error",
+        _ => "server error",
+    }
+}
+
+/// An error in the middle of a stream the server had started: unless the
+/// server said why (a status it chose), the connection was lost, and the
+/// job goes on without us. Exit 3, with the command that picks it up again.
+fn lost(s: Status, id: &str) -> RemoteError {
+    match s.code() {
+        Code::InvalidArgument
+        | Code::NotFound
+        | Code::FailedPrecondition
+        | Code::Unauthenticated
+        | Code::PermissionDenied
+        | Code::ResourceExhausted => s.into(),
+        _ => RemoteError::new(
+            EXIT_UNREACHABLE,
+            format!(
+                "lost the connection to the server ({}); the job may still be running: cleave watch {id}",
+                s.message()
+            ),
+        ),
+    }
+}
+
+/// The server a command talks to, and how it was named.
+#[derive(Debug, Clone)]
+pub struct Target {
+    /// With its scheme (see [`with_scheme`]).
+    pub url: String,
+    pub token: Option<String>,
+    pub ca_cert: Option<std::path::PathBuf>,
+    /// Named by CLEAVE_SERVER rather than --server.
+    pub from_env: bool,
+}
+
+impl Target {
+    /// Adds to an unreachable server's error that the environment chose it.
+    pub fn explain(&self, mut e: RemoteError) -> RemoteError {
+        if self.from_env && e.code == EXIT_UNREACHABLE {
+            e.message.push_str(&format!(
+                "\n(the command went to {} because CLEAVE_SERVER is set; unset it, e.g. `env -u CLEAVE_SERVER cleave run ...`, to run in this process)",
+                self.url
+            ));
+        }
+        e
+    }
+}
+
+/// `HOST:PORT` means `http://HOST:PORT`; a URL with a scheme is kept.
+pub fn with_scheme(url: &str) -> String {
+    if url.contains("://") {
+        url.to_string()
+    } else {
+        format!("http://{url}")
     }
 }
 
@@ -90,14 +149,15 @@ impl tonic::service::Interceptor for Auth {
 
 pub type Client = CleaveClient<InterceptedService<Channel, Auth>>;
 
-/// Connects to `url` (http:// or https://). For https, `ca_cert` is a PEM
-/// file of the certificate authority to trust (a self-signed server
-/// certificate itself will do).
-pub async fn connect(
-    url: &str,
-    token: Option<&str>,
-    ca_cert: Option<&Path>,
-) -> Result<Client, RemoteError> {
+/// Connects to the target's URL (http:// or https://). For https, its
+/// `ca_cert` is a PEM file of the certificate authority to trust (a
+/// self-signed server certificate itself will do).
+pub async fn connect(target: &Target) -> Result<Client, RemoteError> {
+    let (url, token, ca_cert) = (
+        target.url.as_str(),
+        target.token.as_deref(),
+        target.ca_cert.as_deref(),
+    );
     let endpoint = Channel::from_shared(url.to_string())
         .map_err(|e| RemoteError::new(EXIT_INVALID, format!("--server {url:?}: {e}")))?;
     let endpoint = if url.starts_with("https://") {
@@ -130,14 +190,56 @@ pub async fn connect(
     Ok(CleaveClient::with_interceptor(channel, Auth(auth)).max_decoding_message_size(usize::MAX))
 }
 
+/// A job state as the CLI shows it: QUEUED, RUNNING, ... (the proto's
+/// name without its JOB_STATE_ prefix).
 fn state_name(s: i32) -> &'static str {
-    proto::JobState::try_from(s).map_or("UNKNOWN", |s| s.as_str_name())
+    proto::JobState::try_from(s).map_or("UNKNOWN", |s| {
+        let n = s.as_str_name();
+        n.strip_prefix("JOB_STATE_").unwrap_or(n)
+    })
+}
+
+fn is_final(state: i32) -> bool {
+    [
+        proto::JobState::Succeeded,
+        proto::JobState::Failed,
+        proto::JobState::Cancelled,
+    ]
+    .iter()
+    .any(|s| *s as i32 == state)
+}
+
+/// Seconds since the Unix epoch as `YYYY-MM-DD HH:MM:SS` UTC; `-` for 0
+/// (a time the job has not reached).
+pub fn utc(t: f64) -> String {
+    if !(t > 0.0) || !t.is_finite() {
+        return "-".to_string();
+    }
+    let secs = t.floor() as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // civil date from days since 1970-01-01 (Howard Hinnant's algorithm)
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02} {:02}:{:02}:{:02}",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
 }
 
 fn job_json(j: &proto::Job) -> serde_json::Value {
     json!({
         "id": j.id,
         "label": j.label,
+        "scene_name": j.scene_name,
         "state": state_name(j.state),
         "created_at": j.created_at,
         "started_at": j.started_at,
@@ -183,7 +285,7 @@ fn scene_format(path: &Path) -> i32 {
     match path.extension().and_then(|e| e.to_str()) {
         Some("json") => proto::SceneFormat::Json as i32,
         Some("toml") => proto::SceneFormat::Toml as i32,
-        _ => proto::SceneFormat::Auto as i32,
+        _ => proto::SceneFormat::Unspecified as i32,
     }
 }
 
@@ -277,7 +379,7 @@ pub async fn watch(
         );
         pb
     });
-    while let Some(ev) = stream.message().await? {
+    while let Some(ev) = stream.message().await.map_err(|e| lost(e, id))? {
         if json_events {
             let body = match &ev.event {
                 Some(Event::State(s)) => {
@@ -302,12 +404,14 @@ pub async fn watch(
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    Ok(client
+    client
         .get_job(proto::GetJobRequest {
             job_id: id.to_string(),
+            view: proto::JobView::Basic as i32,
         })
-        .await?
-        .into_inner())
+        .await
+        .map(|r| r.into_inner())
+        .map_err(|e| lost(e, id))
 }
 
 /// Exit code of a finished job.
@@ -373,12 +477,14 @@ async fn fetch_location(
             snapshot: index,
             location: location as i32,
             fields: vec![],
+            latest: false,
         })
-        .await?
+        .await
+        .map_err(|e| lost(e, id))?
         .into_inner();
     let mut info = None;
     let mut fields: Vec<(Field, Vec<u8>)> = Vec::new();
-    while let Some(c) = stream.message().await? {
+    while let Some(c) = stream.message().await.map_err(|e| lost(e, id))? {
         if let Some(s) = c.snapshot {
             info = Some(s);
         }
@@ -495,6 +601,7 @@ pub async fn get(client: &mut Client, id: &str) -> Result<proto::Job, RemoteErro
     Ok(client
         .get_job(proto::GetJobRequest {
             job_id: id.to_string(),
+            view: proto::JobView::Basic as i32,
         })
         .await?
         .into_inner())
@@ -509,6 +616,55 @@ pub async fn cancel(client: &mut Client, id: &str) -> Result<proto::Job, RemoteE
         .into_inner())
 }
 
+/// `cleave cancel`: cancels a job and prints its state once the cancel
+/// has taken effect (a running job stops within a second), or says that
+/// it had already ended. Exit 0 either way; 1 if it is still running
+/// after the wait.
+pub async fn cancel_and_report(
+    client: &mut Client,
+    id: &str,
+    json_out: bool,
+) -> Result<ExitCode, RemoteError> {
+    let before = get(client, id).await?;
+    if is_final(before.state) {
+        if json_out {
+            let mut v = job_json(&before);
+            v["cancelled"] = json!(false);
+            v["note"] = json!("the job had already ended; nothing to cancel");
+            println!("{v}");
+        } else {
+            println!(
+                "{id} had already ended ({}); nothing to cancel",
+                state_name(before.state)
+            );
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let mut job = cancel(client, id).await?;
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    while !is_final(job.state) && std::time::Instant::now() < deadline {
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+        job = get(client, id).await?;
+    }
+    if json_out {
+        let mut v = job_json(&job);
+        v["cancelled"] = json!(job.state == proto::JobState::Cancelled as i32);
+        println!("{v}");
+    } else if is_final(job.state) {
+        println!("{id}: {}", state_name(job.state));
+    } else {
+        println!(
+            "{id}: still {} 10 s after the cancel; `cleave get {id}` shows when it stops",
+            state_name(job.state)
+        );
+    }
+    Ok(if is_final(job.state) {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(EXIT_FAILED)
+    })
+}
+
 pub async fn list(
     client: &mut Client,
     state: Option<&str>,
@@ -516,14 +672,16 @@ pub async fn list(
 ) -> Result<Vec<proto::Job>, RemoteError> {
     let state = match state {
         None => 0,
-        Some(s) => proto::JobState::from_str_name(&s.to_uppercase()).ok_or_else(|| {
-            RemoteError::new(
-                EXIT_INVALID,
-                format!(
+        Some(s) => proto::JobState::from_str_name(&format!("JOB_STATE_{}", s.to_uppercase()))
+            .filter(|s| *s != proto::JobState::Unspecified)
+            .ok_or_else(|| {
+                RemoteError::new(
+                    EXIT_INVALID,
+                    format!(
                     "--state: unknown state {s:?} (queued, running, succeeded, failed, cancelled)"
                 ),
-            )
-        })? as i32,
+                )
+            })? as i32,
     };
     let mut out = Vec::new();
     let mut token = String::new();
@@ -533,6 +691,7 @@ pub async fn list(
                 page_size: limit.clamp(1, 1000),
                 page_token: token,
                 state,
+                view: proto::JobView::Basic as i32,
             })
             .await?
             .into_inner();
@@ -546,7 +705,15 @@ pub async fn list(
     Ok(out)
 }
 
-/// Prints a job as text or JSON.
+/// The column names above [`print_job`]'s lines.
+pub fn print_job_header() {
+    println!(
+        "{:<12}  {:<9}  {:<20}  {:<19}  {:<19}  {:<19}  {:>10}  label",
+        "id", "state", "scene", "submitted (UTC)", "started", "ended", "particles"
+    );
+}
+
+/// Prints a job as one line of text (under [`print_job_header`]) or JSON.
 pub fn print_job(j: &proto::Job, json_out: bool) {
     if json_out {
         println!("{}", job_json(j));
@@ -556,17 +723,66 @@ pub fn print_job(j: &proto::Job, json_out: bool) {
         } else {
             format!("  {}", j.error)
         };
-        let progress = j
-            .progress
-            .as_ref()
-            .map_or(String::new(), |p| format!("  {:.0} %", 100.0 * p.fraction));
+        let state = match (&j.progress, j.state == proto::JobState::Running as i32) {
+            (Some(p), true) => format!("{} {:.0}%", state_name(j.state), 100.0 * p.fraction),
+            _ => state_name(j.state).to_string(),
+        };
+        let scene = if j.scene_name.is_empty() {
+            "-"
+        } else {
+            &j.scene_name
+        };
         println!(
-            "{}  {:<9}  {} particles  {}{progress}{extra}",
+            "{:<12}  {:<9}  {:<20}  {:<19}  {:<19}  {:<19}  {:>10}  {}{extra}",
             j.id,
-            state_name(j.state),
+            state,
+            scene,
+            utc(j.created_at),
+            utc(j.started_at),
+            utc(j.finished_at),
             j.particles,
             j.label
         );
+    }
+}
+
+/// `cleave get`: one job, a field a line.
+pub fn print_job_details(j: &proto::Job) {
+    println!("id:         {}", j.id);
+    println!("state:      {}", state_name(j.state));
+    println!(
+        "scene:      {}",
+        if j.scene_name.is_empty() {
+            "-"
+        } else {
+            &j.scene_name
+        }
+    );
+    if !j.label.is_empty() {
+        println!("label:      {}", j.label);
+    }
+    println!("submitted:  {} UTC", utc(j.created_at));
+    println!("started:    {}", utc(j.started_at));
+    println!("ended:      {}", utc(j.finished_at));
+    println!("particles:  {}", j.particles);
+    println!("plan:       {}", j.stages.join(" → "));
+    if let Some(p) = &j.progress {
+        println!(
+            "progress:   step {}, t = {:.6e} s of {:.6e} s ({:.1} %)",
+            p.step,
+            p.time,
+            p.end_time,
+            100.0 * p.fraction
+        );
+    }
+    if let Some(s) = &j.summary {
+        println!(
+            "summary:    {} steps to t = {:.6e} s in {:.2} s; {} snapshots",
+            s.steps, s.time, s.wall_seconds, s.snapshots
+        );
+    }
+    if !j.error.is_empty() {
+        println!("error:      {}", j.error);
     }
 }
 

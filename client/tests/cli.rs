@@ -822,3 +822,70 @@ fn metric_measures_a_series_as_a_study_does() {
         stderr(&o)
     );
 }
+
+/// Every argument and option of every command has a help line, and the
+/// server's options are offered only by the commands that talk to one.
+#[test]
+fn every_argument_has_help_and_server_options_only_where_they_apply() {
+    let o = cleave().arg("--help").output().unwrap();
+    let top = String::from_utf8_lossy(&o.stdout).into_owned();
+    let offers_server = |help: &str| help.lines().any(|l| l.trim_start().starts_with("--server"));
+    assert!(!offers_server(&top), "{top}");
+    let commands: Vec<String> = top
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .filter_map(|l| l.split_whitespace().next().map(String::from))
+        .filter(|c| c != "help")
+        .collect();
+    assert!(commands.len() >= 15, "{commands:?}");
+    let remote = [
+        "run", "validate", "study", "submit", "watch", "fetch", "list", "get", "cancel",
+    ];
+    for c in &commands {
+        let o = cleave().args([c.as_str(), "--help"]).output().unwrap();
+        let help = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(o.status.success(), "{c}: {help}");
+        assert_eq!(
+            help.contains("--server"),
+            remote.contains(&c.as_str()),
+            "{c}: {help}"
+        );
+        // an entry's first line: "  <NAME>  text" or "  -x, --name <V>  text"
+        for l in help.lines().filter(|l| {
+            let t = l.trim_start();
+            l.starts_with("  ") && (t.starts_with('<') || t.starts_with('-') || t.starts_with('['))
+        }) {
+            let t = l.trim();
+            let described = t.split("  ").filter(|p| !p.trim().is_empty()).count() >= 2;
+            assert!(described, "{c}: no help for {t:?}");
+        }
+    }
+}
+
+/// A server named by CLEAVE_SERVER that cannot be reached: exit 3, and the
+/// error says the variable sent the command there and how to run locally.
+#[test]
+fn an_unreachable_server_from_the_environment_is_named() {
+    let o = cleave()
+        .args(["validate"])
+        .arg(scenes().join("two_disks.toml"))
+        .env("CLEAVE_SERVER", "127.0.0.1:9")
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("http://127.0.0.1:9") && e.contains("CLEAVE_SERVER is set"),
+        "{e}"
+    );
+    // named on the command line, it is not blamed on the variable
+    let o = cleave()
+        .args(["validate", "--server", "127.0.0.1:9"])
+        .arg(scenes().join("two_disks.toml"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(3));
+    assert!(!stderr(&o).contains("CLEAVE_SERVER"), "{}", stderr(&o));
+}

@@ -150,7 +150,10 @@ async fn wait_state(
     let t0 = Instant::now();
     loop {
         let j = client
-            .get_job(proto::GetJobRequest { job_id: id.into() })
+            .get_job(proto::GetJobRequest {
+                job_id: id.into(),
+                ..Default::default()
+            })
             .await
             .unwrap()
             .into_inner();
@@ -293,6 +296,7 @@ async fn errors_have_the_right_status_codes() {
     let e = c
         .get_job(proto::GetJobRequest {
             job_id: "job-424242".into(),
+            ..Default::default()
         })
         .await
         .unwrap_err();
@@ -307,6 +311,7 @@ async fn errors_have_the_right_status_codes() {
     let e = c
         .fetch_fields(proto::FetchFieldsRequest {
             job_id: "nope".into(),
+            location: proto::Location::Particles as i32,
             ..Default::default()
         })
         .await
@@ -325,6 +330,338 @@ async fn errors_have_the_right_status_codes() {
     let o = server.cli(&["get", "job-424242"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("not found"));
+}
+
+/// `list`, `get` and `cancel` as a person reads them: jobs of one scene
+/// told apart by their times, an empty list said so, a cancel that shows
+/// the state it led to, and one with nothing to cancel.
+#[test]
+fn list_get_and_cancel_say_what_a_person_needs() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &[]);
+    let o = server.cli(&["list"]);
+    assert_eq!(stdout(&o).trim(), "no jobs");
+    let o = server.cli(&["list", "--state", "running"]);
+    assert_eq!(stdout(&o).trim(), "no running jobs");
+    let scene = scenes().join("two_disks.toml");
+    let o = server.cli(&["submit", "--wait", scene.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let done = stdout(&o).lines().next().unwrap().trim().to_string();
+    let slow = dir.path().join("slow.toml");
+    std::fs::write(
+        &slow,
+        format!("[meta]\nname = \"slow_block\"\n{}", slow_scene()),
+    )
+    .unwrap();
+    let o = server.cli(&["submit", slow.to_str().unwrap()]);
+    let running = stdout(&o).trim().to_string();
+    let o = server.cli(&["list"]);
+    let text = stdout(&o);
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 3, "{text}");
+    assert!(lines[0].contains("scene") && lines[0].contains("submitted (UTC)"));
+    assert!(
+        lines[1].starts_with(&running) && lines[1].contains("slow_block"),
+        "{text}"
+    );
+    assert!(
+        lines[2].starts_with(&done) && lines[2].contains("two_disks"),
+        "{text}"
+    );
+    // the submit, start and end times of the finished job
+    let year = &remote_utc_year();
+    assert_eq!(lines[2].matches(year.as_str()).count(), 3, "{text}");
+    let o = server.cli(&["get", &done]);
+    let text = stdout(&o);
+    for want in [
+        "state:      SUCCEEDED",
+        "scene:      two_disks",
+        "submitted:  ",
+        "ended:      ",
+    ] {
+        assert!(text.contains(want), "{want:?} in {text}");
+    }
+    let o = server.cli(&["cancel", &running]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), format!("{running}: CANCELLED"));
+    let o = server.cli(&["cancel", &done]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("had already ended (SUCCEEDED); nothing to cancel"),
+        "{}",
+        stdout(&o)
+    );
+    // the server's address without a scheme is taken as http://
+    let bare = server.url.trim_start_matches("http://").to_string();
+    let o = Command::new(cleave_bin())
+        .args(["get", &done, "--server", &bare])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// The current year as `list` prints it (UTC).
+fn remote_utc_year() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs();
+    // good to the day for any year this test will run in
+    (1970 + (secs as f64 / (365.2425 * 86_400.0)) as u64).to_string()
+}
+
+/// Sends `body` (encoded as it is) to `path` of the server: a request the
+/// generated client could not make.
+async fn raw_call<M: prost::Message + Default + 'static>(
+    url: &str,
+    path: &'static str,
+    body: M,
+) -> tonic::Status {
+    let channel = tonic::transport::Channel::from_shared(url.to_string())
+        .unwrap()
+        .connect()
+        .await
+        .unwrap();
+    let mut grpc = tonic::client::Grpc::new(channel);
+    grpc.ready().await.unwrap();
+    let codec = tonic_prost::ProstCodec::<M, proto::Job>::default();
+    grpc.unary(
+        tonic::Request::new(body),
+        tonic::codegen::http::uri::PathAndQuery::from_static(path),
+        codec,
+    )
+    .await
+    .unwrap_err()
+}
+
+/// The API's conventions (issue 29) and its answers to hostile requests
+/// (issue 30): malformed and oversized messages, unknown enum values, long
+/// ids, repeated field names, the scene text only on request, the latest
+/// snapshot without listing, comments through reflection.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hostile_requests_get_the_promised_status_and_bounded_answers() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &["--max-request-bytes", "65536"]);
+    let mut c = server.client().await;
+    let scene = std::fs::read_to_string(scenes().join("two_disks.toml")).unwrap();
+    // a message that does not decode as the method's request: GetJob's
+    // job_id is a string, here field 1 is a varint
+    let e = raw_call(
+        &server.url,
+        "/cleave.v1.Cleave/GetJob",
+        proto::ListJobsRequest {
+            page_size: 7,
+            ..Default::default()
+        },
+    )
+    .await;
+    assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e:?}");
+    // over --max-request-bytes
+    let e = c
+        .validate_scene(proto::ValidateSceneRequest {
+            scene: "#".repeat(100_000),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::ResourceExhausted, "{e:?}");
+    // unknown enum values name their field
+    for (e, field) in [
+        (
+            c.submit_job(proto::SubmitJobRequest {
+                scene: scene.clone(),
+                format: 99,
+                ..Default::default()
+            })
+            .await
+            .unwrap_err(),
+            "format",
+        ),
+        (
+            c.validate_scene(proto::ValidateSceneRequest {
+                scene: scene.clone(),
+                format: -1,
+            })
+            .await
+            .unwrap_err(),
+            "format",
+        ),
+        (
+            c.list_jobs(proto::ListJobsRequest {
+                state: 17,
+                ..Default::default()
+            })
+            .await
+            .unwrap_err(),
+            "state",
+        ),
+        (
+            c.list_jobs(proto::ListJobsRequest {
+                view: 3,
+                ..Default::default()
+            })
+            .await
+            .unwrap_err(),
+            "view",
+        ),
+    ] {
+        assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e:?}");
+        assert!(e.message().starts_with(&format!("{field}: ")), "{e:?}");
+    }
+    // nothing was queued by those
+    assert!(c
+        .list_jobs(proto::ListJobsRequest::default())
+        .await
+        .unwrap()
+        .into_inner()
+        .jobs
+        .is_empty());
+    // a job id far longer than any is refused without being echoed
+    let e = c
+        .get_job(proto::GetJobRequest {
+            job_id: "x".repeat(10_000),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::InvalidArgument);
+    assert!(e.message().len() < 200, "{}", e.message().len());
+    // a finished job: ListJobs leaves its scene out unless asked
+    let id = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: scene.clone(),
+            format: proto::SceneFormat::Toml as i32,
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner()
+        .id;
+    wait_state(
+        &mut c,
+        &id,
+        proto::JobState::Succeeded,
+        Duration::from_secs(60),
+    )
+    .await;
+    let basic = c
+        .list_jobs(proto::ListJobsRequest::default())
+        .await
+        .unwrap()
+        .into_inner()
+        .jobs;
+    assert_eq!(basic.len(), 1);
+    assert_eq!(basic[0].scene, "");
+    assert_eq!(basic[0].scene_name, "two_disks");
+    let full = c
+        .list_jobs(proto::ListJobsRequest {
+            view: proto::JobView::Full as i32,
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner()
+        .jobs;
+    assert_eq!(full[0].scene, scene);
+    let got = c
+        .get_job(proto::GetJobRequest {
+            job_id: id.clone(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(got.scene, scene, "GetJob's default view is FULL");
+    // FetchFields: a location is required; the latest snapshot without
+    // listing; a name repeated is sent once
+    let e = c
+        .fetch_fields(proto::FetchFieldsRequest {
+            job_id: id.clone(),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::InvalidArgument);
+    assert!(e.message().starts_with("location: "), "{e:?}");
+    let e = c
+        .fetch_fields(proto::FetchFieldsRequest {
+            job_id: id.clone(),
+            location: 7,
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert!(e.message().starts_with("location: "), "{e:?}");
+    let snapshots = c
+        .list_snapshots(proto::ListSnapshotsRequest { job_id: id.clone() })
+        .await
+        .unwrap()
+        .into_inner()
+        .snapshots;
+    assert!(snapshots.len() > 2);
+    let mut stream = c
+        .fetch_fields(proto::FetchFieldsRequest {
+            job_id: id.clone(),
+            location: proto::Location::Particles as i32,
+            latest: true,
+            fields: vec!["mass".to_string(); 10_000],
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    let mut chunks = Vec::new();
+    while let Some(ch) = stream.message().await.unwrap() {
+        chunks.push(ch);
+    }
+    let info = chunks[0].snapshot.clone().unwrap();
+    assert_eq!(info.index, snapshots.last().unwrap().index);
+    let bytes: usize = chunks.iter().map(|c| c.data.len()).sum();
+    assert!(chunks.iter().all(|c| c.field == "mass"));
+    assert_eq!(bytes, 8 * info.particles as usize, "mass is sent once");
+    // the proto's comments come through reflection (no .proto needed)
+    use prost::Message;
+    use tonic_reflection::pb::v1::{
+        server_reflection_client::ServerReflectionClient,
+        server_reflection_request::MessageRequest, server_reflection_response::MessageResponse,
+        ServerReflectionRequest,
+    };
+    let channel = tonic::transport::Channel::from_shared(server.url.clone())
+        .unwrap()
+        .connect()
+        .await
+        .unwrap();
+    let mut refl = ServerReflectionClient::new(channel);
+    let ask = ServerReflectionRequest {
+        host: String::new(),
+        message_request: Some(MessageRequest::FileContainingSymbol(
+            "cleave.v1.Cleave".into(),
+        )),
+    };
+    let mut answers = refl
+        .server_reflection_info(tokio_stream::iter(vec![ask]))
+        .await
+        .unwrap()
+        .into_inner();
+    let Some(MessageResponse::FileDescriptorResponse(files)) =
+        answers.message().await.unwrap().unwrap().message_response
+    else {
+        panic!("no file descriptor")
+    };
+    let comments: Vec<String> = files
+        .file_descriptor_proto
+        .iter()
+        .map(|b| prost_types::FileDescriptorProto::decode(b.as_slice()).unwrap())
+        .filter_map(|f| f.source_code_info)
+        .flat_map(|i| i.location)
+        .filter_map(|l| l.leading_comments)
+        .collect();
+    assert!(
+        comments
+            .iter()
+            .any(|c| c.contains("Validates and queues a scene")),
+        "{comments:?}"
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -529,12 +866,31 @@ async fn a_killed_server_keeps_finished_jobs_and_fails_the_interrupted_one() {
         .unwrap()
         .into_inner();
     wait_running_with_snapshot(&mut c, &slow.id).await;
+    // a watcher of the running job when its server dies: exit 3 (the
+    // connection), not 1 (the job), and how to pick the job up again
+    let watcher = Command::new(cleave_bin())
+        .args(["watch", &slow.id, "--server", &server.url])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
     server.kill(); // SIGKILL in the middle of the run
+    let o = watcher.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(3), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("lost the connection to the server")
+            && stderr(&o).contains(&format!("cleave watch {}", slow.id))
+            && !stderr(&o).starts_with("error: error"),
+        "{}",
+        stderr(&o)
+    );
     let server = Server::start(&data, &[]);
     let mut c = server.client().await;
     let j = c
         .get_job(proto::GetJobRequest {
             job_id: slow.id.clone(),
+            ..Default::default()
         })
         .await
         .unwrap()
@@ -544,6 +900,7 @@ async fn a_killed_server_keeps_finished_jobs_and_fails_the_interrupted_one() {
     let j = c
         .get_job(proto::GetJobRequest {
             job_id: done.clone(),
+            ..Default::default()
         })
         .await
         .unwrap()
@@ -643,6 +1000,7 @@ async fn a_job_resumes_from_its_checkpoint_after_a_kill_and_a_shutdown_with_the_
     let j = c
         .get_job(proto::GetJobRequest {
             job_id: job.id.clone(),
+            ..Default::default()
         })
         .await
         .unwrap()

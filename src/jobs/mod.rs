@@ -116,6 +116,8 @@ pub struct JobRecord {
     pub summary: Option<JobSummary>,
     /// Latest progress (kept in memory while the server runs).
     pub progress: Option<JobProgress>,
+    /// The scene's `meta.name` (empty if it has none).
+    pub scene_name: String,
 }
 
 /// What can go wrong with a request.
@@ -287,10 +289,14 @@ impl JobManager {
             )));
         }
         let stages: Vec<String> = scene.plan.names().into_iter().map(String::from).collect();
-        let id = self
-            .inner
-            .store
-            .insert(label, text, now(), particles, &stages)?;
+        let id = self.inner.store.insert(
+            label,
+            text,
+            &scene.file.meta.name,
+            now(),
+            particles,
+            &stages,
+        )?;
         let bus = Arc::new(JobBus::new());
         bus.push_state(JobState::Queued, None);
         lock(&self.inner.buses).insert(id.clone(), bus);
@@ -315,6 +321,7 @@ impl JobManager {
         page_size: usize,
         token: &str,
         state: Option<JobState>,
+        with_scene: bool,
     ) -> Result<(Vec<JobRecord>, String), JobError> {
         let after = if token.is_empty() {
             None
@@ -325,10 +332,10 @@ impl JobManager {
                     .map_err(|_| JobError::Precondition(format!("invalid page_token {token:?}")))?,
             )
         };
-        let (jobs, next) = self
-            .inner
-            .store
-            .list(page_size.clamp(1, 1000), after, state)?;
+        let (jobs, next) =
+            self.inner
+                .store
+                .list(page_size.clamp(1, 1000), after, state, with_scene)?;
         Ok((jobs, next.map(|n| n.to_string()).unwrap_or_default()))
     }
 
@@ -404,6 +411,22 @@ impl JobManager {
             );
         }
         Ok(out)
+    }
+
+    /// The index of a job's newest snapshot so far.
+    pub fn latest_snapshot(&self, id: &str) -> Result<u32, JobError> {
+        let record = self.inner.store.get(id)?;
+        let dir = self.inner.store.job_dir(id);
+        let count = (0u32..)
+            .take_while(|&k| snapshot_path(&dir, k).exists())
+            .count() as u32;
+        match count.checked_sub(1) {
+            Some(last) => Ok(last),
+            None if record.state == JobState::Queued => Err(JobError::Precondition(format!(
+                "{id} has not started: it has no snapshots yet"
+            ))),
+            None => Err(JobError::NotFound(format!("{id} has no snapshots"))),
+        }
     }
 
     /// Opens one snapshot of a job.

@@ -21,7 +21,11 @@ fn db_err(e: rusqlite::Error) -> JobError {
     JobError::Store(format!("database: {e}"))
 }
 
-const COLUMNS: &str = "id, label, state, scene, created_at, started_at, finished_at, error, particles, stages, summary";
+const COLUMNS: &str = "id, label, state, scene, created_at, started_at, finished_at, error, particles, stages, summary, scene_name";
+
+/// [`COLUMNS`] without the scene text, which may be megabytes a job: a
+/// page of jobs is listed without reading it from the database.
+const COLUMNS_BASIC: &str = "id, label, state, '' AS scene, created_at, started_at, finished_at, error, particles, stages, summary, scene_name";
 
 fn record(row: &rusqlite::Row<'_>) -> rusqlite::Result<JobRecord> {
     let state: String = row.get(2)?;
@@ -44,6 +48,7 @@ fn record(row: &rusqlite::Row<'_>) -> rusqlite::Result<JobRecord> {
             .collect(),
         summary: summary.and_then(|s| serde_json::from_str(&s).ok()),
         progress: None,
+        scene_name: row.get(11)?,
     })
 }
 
@@ -73,6 +78,23 @@ impl Store {
              CREATE INDEX IF NOT EXISTS jobs_state ON jobs(state);",
         )
         .map_err(db_err)?;
+        // Data directories written before jobs had a scene name gain the
+        // column; their jobs show an empty name.
+        let has_name: bool = conn
+            .query_row(
+                "SELECT COUNT(*) FROM pragma_table_info('jobs') WHERE name = 'scene_name'",
+                [],
+                |r| r.get::<_, i64>(0),
+            )
+            .map_err(db_err)?
+            > 0;
+        if !has_name {
+            conn.execute(
+                "ALTER TABLE jobs ADD COLUMN scene_name TEXT NOT NULL DEFAULT ''",
+                [],
+            )
+            .map_err(db_err)?;
+        }
         Ok(Store {
             conn: Mutex::new(conn),
             dir: dir.to_path_buf(),
@@ -95,6 +117,7 @@ impl Store {
         &self,
         label: &str,
         scene: &str,
+        scene_name: &str,
         created_at: f64,
         particles: u64,
         stages: &[String],
@@ -102,8 +125,8 @@ impl Store {
         let conn = self.conn();
         let tx = conn.unchecked_transaction().map_err(db_err)?;
         tx.execute(
-            "INSERT INTO jobs (id, label, state, scene, created_at, particles, stages) VALUES ('', ?1, ?2, ?3, ?4, ?5, ?6)",
-            params![label, JobState::Queued.as_str(), scene, created_at, particles as i64, stages.join(",")],
+            "INSERT INTO jobs (id, label, state, scene, scene_name, created_at, particles, stages) VALUES ('', ?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+            params![label, JobState::Queued.as_str(), scene, scene_name, created_at, particles as i64, stages.join(",")],
         )
         .map_err(db_err)?;
         let seq = tx.last_insert_rowid();
@@ -129,17 +152,20 @@ impl Store {
     }
 
     /// Jobs newest first, after the page token (the sequence number of the
-    /// last job of the previous page), optionally in one state.
+    /// last job of the previous page), optionally in one state; with their
+    /// scene text only if `with_scene`.
     pub fn list(
         &self,
         page_size: usize,
         after: Option<i64>,
         state: Option<JobState>,
+        with_scene: bool,
     ) -> Result<(Vec<JobRecord>, Option<i64>), JobError> {
         let conn = self.conn();
+        let columns = if with_scene { COLUMNS } else { COLUMNS_BASIC };
         let mut stmt = conn
             .prepare(&format!(
-                "SELECT {COLUMNS}, seq FROM jobs WHERE seq < ?1 AND (?2 IS NULL OR state = ?2) ORDER BY seq DESC LIMIT ?3"
+                "SELECT {columns}, seq FROM jobs WHERE seq < ?1 AND (?2 IS NULL OR state = ?2) ORDER BY seq DESC LIMIT ?3"
             ))
             .map_err(db_err)?;
         let rows = stmt
@@ -149,7 +175,7 @@ impl Store {
                     state.map(|s| s.as_str()),
                     page_size as i64 + 1
                 ],
-                |row| Ok((record(row)?, row.get::<_, i64>(11)?)),
+                |row| Ok((record(row)?, row.get::<_, i64>(12)?)),
             )
             .map_err(db_err)?;
         let mut out = Vec::new();

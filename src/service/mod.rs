@@ -10,7 +10,7 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::pin::Pin;
 use tokio_stream::Stream;
-use tonic::{Request, Response, Status};
+use tonic::{Code, Request, Response, Status};
 
 /// Bytes of field data per FetchFields chunk.
 pub const CHUNK_BYTES: usize = 1 << 20;
@@ -41,11 +41,78 @@ fn invalid(e: &SceneError) -> Status {
     Status::invalid_argument(format!("invalid scene: {e}"))
 }
 
-fn format(f: i32) -> Option<Format> {
+/// The longest job id the server ever makes (`job-000001` is 10); a longer
+/// one is refused without being echoed, so that an error stays small.
+pub const MAX_JOB_ID: usize = 64;
+
+/// A request's job id, checked to be one the server could have made.
+fn job_id(id: String) -> Result<String, Status> {
+    if id.is_empty() {
+        return Err(Status::invalid_argument(
+            "job_id: required (ids look like job-000001)",
+        ));
+    }
+    if id.len() > MAX_JOB_ID
+        || !id
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_')
+    {
+        return Err(Status::invalid_argument(format!(
+            "job_id: not a job id ({} bytes; ids look like job-000001, at most {MAX_JOB_ID} letters, digits, '-' or '_')",
+            id.len()
+        )));
+    }
+    Ok(id)
+}
+
+/// An enum field's value that this server does not know.
+fn unknown_enum(field: &str, value: i32, names: &[&str]) -> Status {
+    Status::invalid_argument(format!(
+        "{field}: unknown value {value} (one of {})",
+        names.join(", ")
+    ))
+}
+
+fn format(f: i32) -> Result<Option<Format>, Status> {
     match proto::SceneFormat::try_from(f) {
-        Ok(proto::SceneFormat::Toml) => Some(Format::Toml),
-        Ok(proto::SceneFormat::Json) => Some(Format::Json),
-        _ => None,
+        Ok(proto::SceneFormat::Unspecified) => Ok(None),
+        Ok(proto::SceneFormat::Toml) => Ok(Some(Format::Toml)),
+        Ok(proto::SceneFormat::Json) => Ok(Some(Format::Json)),
+        Err(_) => Err(unknown_enum(
+            "format",
+            f,
+            &[
+                "SCENE_FORMAT_UNSPECIFIED",
+                "SCENE_FORMAT_TOML",
+                "SCENE_FORMAT_JSON",
+            ],
+        )),
+    }
+}
+
+/// Whether a request's `view` asks for the scene text; `full_by_default`
+/// is the method's default for JOB_VIEW_UNSPECIFIED.
+fn full_view(v: i32, full_by_default: bool) -> Result<bool, Status> {
+    match proto::JobView::try_from(v) {
+        Ok(proto::JobView::Unspecified) => Ok(full_by_default),
+        Ok(proto::JobView::Basic) => Ok(false),
+        Ok(proto::JobView::Full) => Ok(true),
+        Err(_) => Err(unknown_enum(
+            "view",
+            v,
+            &["JOB_VIEW_UNSPECIFIED", "JOB_VIEW_BASIC", "JOB_VIEW_FULL"],
+        )),
+    }
+}
+
+fn state_from_proto(s: proto::JobState) -> Option<JobState> {
+    match s {
+        proto::JobState::Unspecified => None,
+        proto::JobState::Queued => Some(JobState::Queued),
+        proto::JobState::Running => Some(JobState::Running),
+        proto::JobState::Succeeded => Some(JobState::Succeeded),
+        proto::JobState::Failed => Some(JobState::Failed),
+        proto::JobState::Cancelled => Some(JobState::Cancelled),
     }
 }
 
@@ -86,7 +153,8 @@ fn summary_to_proto(s: &jobs::JobSummary) -> proto::Summary {
     }
 }
 
-fn job_to_proto(r: jobs::JobRecord) -> proto::Job {
+/// A job as the API shows it; the scene text only when `with_scene`.
+fn job_to_proto(r: jobs::JobRecord, with_scene: bool) -> proto::Job {
     proto::Job {
         id: r.id,
         label: r.label,
@@ -99,7 +167,8 @@ fn job_to_proto(r: jobs::JobRecord) -> proto::Job {
         stages: r.stages,
         progress: r.progress.as_ref().map(progress_to_proto),
         summary: r.summary.as_ref().map(summary_to_proto),
-        scene: r.scene,
+        scene: if with_scene { r.scene } else { String::new() },
+        scene_name: r.scene_name,
     }
 }
 
@@ -177,19 +246,23 @@ impl Cleave for CleaveService {
         req: Request<proto::SubmitJobRequest>,
     ) -> Result<Response<proto::Job>, Status> {
         let r = req.into_inner();
+        let format = format(r.format)?;
         let jobs = self.jobs.clone();
-        let job = blocking(move || jobs.submit(&r.scene, format(r.format), &r.label)).await?;
-        Ok(Response::new(job_to_proto(job)))
+        let job = blocking(move || jobs.submit(&r.scene, format, &r.label)).await?;
+        Ok(Response::new(job_to_proto(job, false)))
     }
 
     async fn get_job(
         &self,
         req: Request<proto::GetJobRequest>,
     ) -> Result<Response<proto::Job>, Status> {
-        let id = req.into_inner().job_id;
+        let r = req.into_inner();
+        let full = full_view(r.view, true)?;
+        let id = job_id(r.job_id)?;
         let jobs = self.jobs.clone();
         Ok(Response::new(job_to_proto(
             blocking(move || jobs.get(&id)).await?,
+            full,
         )))
     }
 
@@ -199,24 +272,25 @@ impl Cleave for CleaveService {
     ) -> Result<Response<proto::ListJobsResponse>, Status> {
         let r = req.into_inner();
         let state = match proto::JobState::try_from(r.state) {
-            Ok(proto::JobState::Unspecified) => None,
-            Ok(s) => JobState::parse(s.as_str_name()),
+            Ok(s) => state_from_proto(s),
             Err(_) => {
-                return Err(Status::invalid_argument(format!(
-                    "state: unknown job state {}",
-                    r.state
-                )))
+                let names: Vec<_> = (0..=5)
+                    .filter_map(|v| proto::JobState::try_from(v).ok())
+                    .map(|s| s.as_str_name())
+                    .collect();
+                return Err(unknown_enum("state", r.state, &names));
             }
         };
+        let full = full_view(r.view, false)?;
         let size = if r.page_size == 0 {
             50
         } else {
             r.page_size as usize
         };
         let jobs = self.jobs.clone();
-        let (list, next) = blocking(move || jobs.list(size, &r.page_token, state)).await?;
+        let (list, next) = blocking(move || jobs.list(size, &r.page_token, state, full)).await?;
         Ok(Response::new(proto::ListJobsResponse {
-            jobs: list.into_iter().map(job_to_proto).collect(),
+            jobs: list.into_iter().map(|j| job_to_proto(j, full)).collect(),
             next_page_token: next,
         }))
     }
@@ -225,10 +299,11 @@ impl Cleave for CleaveService {
         &self,
         req: Request<proto::CancelJobRequest>,
     ) -> Result<Response<proto::Job>, Status> {
-        let id = req.into_inner().job_id;
+        let id = job_id(req.into_inner().job_id)?;
         let jobs = self.jobs.clone();
         Ok(Response::new(job_to_proto(
             blocking(move || jobs.cancel(&id)).await?,
+            false,
         )))
     }
 
@@ -238,7 +313,7 @@ impl Cleave for CleaveService {
         &self,
         req: Request<proto::WatchJobRequest>,
     ) -> Result<Response<EventStream>, Status> {
-        let id = req.into_inner().job_id;
+        let id = job_id(req.into_inner().job_id)?;
         let jobs = self.jobs.clone();
         let bus = blocking(move || jobs.watch(&id)).await?;
         let (tx, rx) = tokio::sync::mpsc::channel(64);
@@ -270,7 +345,7 @@ impl Cleave for CleaveService {
         &self,
         req: Request<proto::ListSnapshotsRequest>,
     ) -> Result<Response<proto::ListSnapshotsResponse>, Status> {
-        let id = req.into_inner().job_id;
+        let id = job_id(req.into_inner().job_id)?;
         let jobs = self.jobs.clone();
         let heads = blocking(move || jobs.snapshots(&id)).await?;
         Ok(Response::new(proto::ListSnapshotsResponse {
@@ -285,34 +360,75 @@ impl Cleave for CleaveService {
         req: Request<proto::FetchFieldsRequest>,
     ) -> Result<Response<ChunkStream>, Status> {
         let r = req.into_inner();
+        let grid = match proto::Location::try_from(r.location) {
+            Ok(proto::Location::Particles) => false,
+            Ok(proto::Location::Grid) => true,
+            Ok(proto::Location::Unspecified) => {
+                return Err(Status::invalid_argument(
+                    "location: required (LOCATION_PARTICLES or LOCATION_GRID)",
+                ))
+            }
+            Err(_) => {
+                return Err(unknown_enum(
+                    "location",
+                    r.location,
+                    &["LOCATION_PARTICLES", "LOCATION_GRID"],
+                ))
+            }
+        };
+        if r.latest && r.snapshot != 0 {
+            return Err(Status::invalid_argument(format!(
+                "snapshot: {} given with latest = true; give one or the other",
+                r.snapshot
+            )));
+        }
+        let id = job_id(r.job_id)?;
         let jobs = self.jobs.clone();
-        let (id, index) = (r.job_id.clone(), r.snapshot);
-        let mut reader = blocking(move || jobs.open_snapshot(&id, index)).await?;
+        let (latest, requested, job) = (r.latest, r.snapshot, id.clone());
+        let (index, mut reader) = blocking(move || {
+            let index = if latest {
+                jobs.latest_snapshot(&job)?
+            } else {
+                requested
+            };
+            Ok((index, jobs.open_snapshot(&job, index)?))
+        })
+        .await?;
         let header = reader.header.clone();
-        let available: Vec<jobs::snapfile::ArrayInfo> = match proto::Location::try_from(r.location)
-        {
-            Ok(proto::Location::Grid) => match &header.grid {
+        let available: Vec<jobs::snapfile::ArrayInfo> = if grid {
+            match &header.grid {
                 Some(g) => g.fields.clone(),
                 None => {
                     return Err(Status::failed_precondition(format!(
-                        "snapshot {index} of {} has no grid fields",
-                        r.job_id
+                        "snapshot {index} of {id} has no grid fields"
                     )))
                 }
-            },
-            _ => header.fields.clone(),
+            }
+        } else {
+            header.fields.clone()
         };
         let chosen: Vec<_> = if r.fields.is_empty() {
             available
         } else {
-            let mut out = Vec::new();
+            // each field once, in the order first asked for: a name
+            // repeated cannot multiply the response
+            let mut out: Vec<jobs::snapfile::ArrayInfo> = Vec::new();
             for name in &r.fields {
+                if out.iter().any(|a| &a.name == name) {
+                    continue;
+                }
                 match available.iter().find(|a| &a.name == name) {
                     Some(a) => out.push(a.clone()),
                     None => {
                         let names: Vec<_> = available.iter().map(|a| a.name.as_str()).collect();
+                        // a name longer than any field's is not echoed
+                        let shown = if name.len() <= 64 {
+                            format!("{name:?}")
+                        } else {
+                            format!("of {} bytes", name.len())
+                        };
                         return Err(Status::invalid_argument(format!(
-                            "fields: no field {name:?} in this snapshot (it has {})",
+                            "fields: no field {shown} in this snapshot (it has {})",
                             names.join(", ")
                         )));
                     }
@@ -365,7 +481,7 @@ impl Cleave for CleaveService {
         &self,
         req: Request<proto::FetchSeriesRequest>,
     ) -> Result<Response<proto::FetchSeriesResponse>, Status> {
-        let id = req.into_inner().job_id;
+        let id = job_id(req.into_inner().job_id)?;
         let jobs = self.jobs.clone();
         let (columns, rows) = blocking(move || jobs.series(&id)).await?;
         Ok(Response::new(proto::FetchSeriesResponse {
@@ -380,11 +496,10 @@ impl Cleave for CleaveService {
         req: Request<proto::ValidateSceneRequest>,
     ) -> Result<Response<proto::ValidateSceneResponse>, Status> {
         let r = req.into_inner();
-        let resp = match tokio::task::spawn_blocking(move || {
-            JobManager::validate(&r.scene, format(r.format))
-        })
-        .await
-        .map_err(|e| Status::internal(e.to_string()))?
+        let format = format(r.format)?;
+        let resp = match tokio::task::spawn_blocking(move || JobManager::validate(&r.scene, format))
+            .await
+            .map_err(|e| Status::internal(e.to_string()))?
         {
             Ok(scene) => proto::ValidateSceneResponse {
                 valid: true,
@@ -409,6 +524,38 @@ impl Cleave for CleaveService {
         };
         Ok(Response::new(resp))
     }
+}
+
+/// Gives the status codes the API promises to requests tonic refuses
+/// before a handler runs: one it cannot decode (tonic: INTERNAL) is the
+/// client's fault, INVALID_ARGUMENT; one over `--max-request-bytes`
+/// (tonic: OUT_OF_RANGE) is RESOURCE_EXHAUSTED. Both come as a
+/// trailers-only response, so the status is in the headers. Our handlers
+/// return neither code with these messages.
+fn request_status(mut r: http::Response<tonic::body::Body>) -> http::Response<tonic::body::Body> {
+    let headers = r.headers_mut();
+    let code = headers
+        .get("grpc-status")
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<i32>().ok());
+    let message = headers
+        .get("grpc-message")
+        .and_then(|v| v.to_str().ok())
+        .map(|m| m.replace("%20", " "))
+        .unwrap_or_default();
+    let fixed = match code {
+        Some(c) if c == Code::Internal as i32 && message.starts_with("failed to decode") => {
+            Some(Code::InvalidArgument)
+        }
+        Some(c) if c == Code::OutOfRange as i32 && message.contains("message length too large") => {
+            Some(Code::ResourceExhausted)
+        }
+        _ => None,
+    };
+    if let Some(code) = fixed {
+        headers.insert("grpc-status", http::HeaderValue::from(code as i32));
+    }
+    r
 }
 
 /// Checks the bearer token of a request.
@@ -496,7 +643,8 @@ pub async fn serve_on(
     let reflection = tonic::service::interceptor::InterceptedService::new(reflection, auth.clone());
     let reflection_alpha =
         tonic::service::interceptor::InterceptedService::new(reflection_alpha, auth);
-    let mut builder = tonic::transport::Server::builder();
+    let mut builder = tonic::transport::Server::builder()
+        .layer(tower::util::MapResponseLayer::new(request_status));
     if let Some((cert, key)) = &config.tls {
         let identity =
             tonic::transport::Identity::from_pem(std::fs::read(cert)?, std::fs::read(key)?);
