@@ -126,7 +126,7 @@ fn free_spinning_disk_conserves_mass_momentum_and_angular_momentum() {
     let worst = |f: fn(&cleave::diagnostics::SeriesRow) -> f64| {
         rec.rows
             .iter()
-            .map(|r| ((f(r) - f(&first)) / f(&first)).abs())
+            .map(|r| ((f(r) - f(first)) / f(first)).abs())
             .fold(0.0, f64::max)
     };
     println!(

@@ -212,7 +212,7 @@ fn is_final(state: i32) -> bool {
 /// Seconds since the Unix epoch as `YYYY-MM-DD HH:MM:SS` UTC; `-` for 0
 /// (a time the job has not reached).
 pub fn utc(t: f64) -> String {
-    if !(t > 0.0) || !t.is_finite() {
+    if t.is_nan() || t <= 0.0 || t.is_infinite() {
         return "-".to_string();
     }
     let secs = t.floor() as i64;

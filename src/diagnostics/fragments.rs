@@ -68,6 +68,8 @@ impl FragmentFinder {
     /// The fragments among the particles for which `eligible(p)` holds
     /// (undamaged material of a damage model). `body` keeps bodies apart;
     /// `spacing[b]` is body b's initial particle spacing, m.
+    // one argument per particle array it reads (struct of arrays)
+    #[allow(clippy::too_many_arguments)]
     pub fn find(
         &mut self,
         x: &[[f64; 2]],

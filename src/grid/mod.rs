@@ -516,7 +516,8 @@ mod tests {
         };
         let x: Vec<[f64; 2]> = (0..5000).map(|_| [30.0 * next(), 30.0 * next()]).collect();
         // (support width, first node of the support) of the kernels
-        let kernels: [(usize, fn(f64) -> isize); 4] = [
+        type FirstNode = fn(f64) -> isize;
+        let kernels: [(usize, FirstNode); 4] = [
             (shape::Linear::N, |xi| shape::Linear::eval(xi, 0.25).base),
             (shape::Gimp::N, |xi| shape::Gimp::eval(xi, 0.25).base),
             (shape::QuadraticBspline::N, |xi| {
