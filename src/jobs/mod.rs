@@ -273,6 +273,13 @@ impl JobManager {
         label: &str,
     ) -> Result<JobRecord, JobError> {
         let scene = Scene::from_text(text, format)?;
+        self.enqueue(&scene, text, label)
+    }
+
+    /// Queues a scene already validated from `text` (the service validates
+    /// first, so that a request whose client has gone by then queues
+    /// nothing).
+    pub fn enqueue(&self, scene: &Scene, text: &str, label: &str) -> Result<JobRecord, JobError> {
         let particles = scene.total_particles() as u64;
         if particles > self.inner.config.max_particles {
             return Err(JobError::Exhausted(format!(

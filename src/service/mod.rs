@@ -247,8 +247,15 @@ impl Cleave for CleaveService {
     ) -> Result<Response<proto::Job>, Status> {
         let r = req.into_inner();
         let format = format(r.format)?;
+        // Validation may take a while on a large scene: if the client's
+        // deadline passes (or it cancels) meanwhile, tonic drops this
+        // future at the await, and nothing is queued.
+        let text = std::sync::Arc::new(r.scene);
+        let t = text.clone();
+        let scene =
+            blocking(move || JobManager::validate(&t, format).map_err(JobError::from)).await?;
         let jobs = self.jobs.clone();
-        let job = blocking(move || jobs.submit(&r.scene, format, &r.label)).await?;
+        let job = blocking(move || jobs.enqueue(&scene, &text, &r.label)).await?;
         Ok(Response::new(job_to_proto(job, false)))
     }
 
