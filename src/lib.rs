@@ -3,7 +3,7 @@
 //! Start with [`scene::Scene::from_path`] (parse and validate a scene),
 //! then [`mpm::Simulation::new`] and [`mpm::Simulation::run`] with an
 //! [`diagnostics::Observer`] such as [`output::OutputWriter`].
-//! `DESIGN.md` in the shared folder maps the modules.
+//! `docs/architecture.md` maps the modules, the step and the data flow.
 
 pub mod contact;
 pub mod diagnostics;
