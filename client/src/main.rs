@@ -848,6 +848,7 @@ fn run_valid(
     if let Some(bar) = &obs.bar {
         bar.finish_and_clear();
     }
+    let energy_error_relative = obs.writer.energy_error_relative();
     // Write the collections and plots even after a failure: the rows and
     // snapshots up to the failure are what a user needs to see why.
     let paths = obs.writer.finish().context("finishing the output files")?;
@@ -873,6 +874,7 @@ fn run_valid(
                         "strain_energy": row.strain_energy,
                         "external_work": row.external_work,
                         "energy_error": row.energy_error,
+                        "energy_error_relative": energy_error_relative,
                         "stage_seconds": summary.stage_seconds,
                         "phase_field": summary.phase_field,
                         "outputs": paths,
@@ -880,12 +882,14 @@ fn run_valid(
                 );
             } else {
                 eprintln!(
-                    "done: {} steps to t = {:.6e} s in {:.2} s; kinetic {:.6e} J, strain {:.6e} J; results in {}",
+                    "done: {} steps to t = {:.6e} s in {:.2} s; kinetic {:.6e} J, strain {:.6e} J, energy balance error {:.3e} J ({:.2e} of the largest kinetic + strain); results in {}",
                     summary.steps,
                     summary.time,
                     summary.wall_seconds,
                     row.kinetic_energy,
                     row.strain_energy,
+                    row.energy_error,
+                    energy_error_relative.unwrap_or(0.0),
                     out.display()
                 );
             }

@@ -117,6 +117,7 @@ pub struct OutputWriter {
     particle_entries: Vec<(f64, String)>,
     grid_entries: Vec<(f64, String)>,
     snapshots: Vec<PathBuf>,
+    plots: Pictures,
 }
 
 impl OutputWriter {
@@ -136,6 +137,7 @@ impl OutputWriter {
             particle_entries: Vec::new(),
             grid_entries: Vec::new(),
             snapshots: Vec::new(),
+            plots: Pictures::default(),
         })
     }
 
@@ -203,10 +205,20 @@ impl OutputWriter {
             particle_entries: s.particle_entries,
             grid_entries: s.grid_entries,
             snapshots: s.snapshots,
+            plots: Pictures::default(),
         })
     }
 
-    /// Flushes the series and writes the `.pvd` collections and the plot.
+    /// The run's last energy balance error relative to the largest total
+    /// energy it reached ([`relative_energy_error`] of the rows so far).
+    pub fn energy_error_relative(&self) -> Option<f64> {
+        relative_energy_error(&self.rows)
+    }
+
+    /// Flushes the series and writes the `.pvd` collections and the plots.
+    /// A plot that cannot be drawn is warned of and left out of the
+    /// returned paths; an Err is a results file that
+    /// could not be written.
     pub fn finish(mut self) -> Result<OutputPaths, OutputError> {
         self.series
             .flush()
@@ -228,14 +240,67 @@ impl OutputWriter {
             paths.grid_pvd = Some(p);
         }
         let p = self.dir.join("energies.png");
-        if plot_energies(&p, &self.rows)? {
+        if self.plots.draw(&p, || plot_energies(&p, &self.rows)) {
             paths.energy_plot = Some(p);
         }
         let p = self.dir.join("crack.png");
-        if plot_crack(&p, &self.columns, &self.rows)? {
+        if self
+            .plots
+            .draw(&p, || plot_crack(&p, &self.columns, &self.rows))
+        {
             paths.crack_plot = Some(p);
         }
+        self.plots.summarize();
         Ok(paths)
+    }
+}
+
+/// The pictures of a run, drawn so that none can fail it: a picture is a
+/// view of results that are already on disk (`series.csv`, the VTK
+/// files), so one that cannot be drawn (no room on the disk for it, a
+/// path taken, a bug in the plotting library) is reported and left out,
+/// and the run's exit status still says what the simulation did.
+#[derive(Debug, Default)]
+struct Pictures {
+    /// Pictures not drawn so far; the first is reported with its reason,
+    /// the rest counted, so that a run with a thousand snapshots does not
+    /// repeat the same warning a thousand times.
+    failed: usize,
+}
+
+impl Pictures {
+    /// Runs `plot` for the picture at `path`: Ok(true) as true, Ok(false)
+    /// (nothing to draw) as false, and an error or a panic as false with a
+    /// warning naming the file and the reason.
+    fn draw(&mut self, path: &Path, plot: impl FnOnce() -> Result<bool, OutputError>) -> bool {
+        let reason = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(plot)) {
+            Ok(Ok(drawn)) => return drawn,
+            Ok(Err(e)) => e.source.to_string(),
+            Err(panic) => panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "the plotting library panicked".to_string()),
+        };
+        self.failed += 1;
+        if self.failed == 1 {
+            tracing::warn!(
+                "{}: picture not drawn ({reason}); the run's other files are written",
+                path.display()
+            );
+        }
+        false
+    }
+
+    /// Warns of the pictures not drawn after the first (which was warned
+    /// of with its reason).
+    fn summarize(&self) {
+        if self.failed > 1 {
+            tracing::warn!(
+                "{} more pictures were not drawn, for the same reason or another",
+                self.failed - 1
+            );
+        }
     }
 }
 
@@ -266,7 +331,9 @@ impl Observer for OutputWriter {
         // an image of the phase field or damage of every snapshot that has one
         for field in ["phase_field", "damage"] {
             let image = self.dir.join(format!("{field}_{:04}.png", snap.index));
-            if plot_particle_field(&image, snap, field, 0.0, 1.0).map_err(|e| e.to_string())? {
+            if self.plots.draw(&image, || {
+                plot_particle_field(&image, snap, field, 0.0, 1.0)
+            }) {
                 self.snapshots.push(image);
             }
         }
@@ -289,6 +356,23 @@ impl Observer for OutputWriter {
         }
         Ok(())
     }
+}
+
+/// The energy balance error of a series' last row (`energy_error`, an
+/// absolute error in J: kinetic + strain − initial − external work)
+/// divided by the largest total energy |kinetic + strain| of any row, so
+/// that runs of different sizes compare: 0.01 is a loss of 1 % of the
+/// energy in play. None without rows; a run that never had energy divides
+/// by the smallest positive number, and so shows any error as huge.
+pub fn relative_energy_error(rows: &[SeriesRow]) -> Option<f64> {
+    let last = rows.last()?;
+    let scale = rows
+        .iter()
+        .map(|r| (r.kinetic_energy + r.strain_energy).abs())
+        .filter(|e| e.is_finite())
+        .fold(0.0f64, f64::max)
+        .max(f64::MIN_POSITIVE);
+    Some(last.energy_error / scale)
 }
 
 /// The fragments of one snapshot, largest first: one row per fragment
@@ -409,6 +493,92 @@ pub(crate) fn write_atomic(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diagnostics::{Field, FieldData};
+
+    /// A snapshot of four particles with a phase field.
+    fn snapshot() -> Snapshot {
+        Snapshot {
+            index: 0,
+            step: 0,
+            time: 0.0,
+            positions: vec![[0.0, 0.0], [1e-3, 0.0], [0.0, 1e-3], [1e-3, 1e-3]],
+            fields: vec![Field {
+                name: "phase_field".into(),
+                components: 1,
+                data: FieldData::F64(vec![1.0, 0.5, 0.0, 1.0]),
+            }],
+            grid: None,
+        }
+    }
+
+    #[test]
+    fn a_picture_that_cannot_be_drawn_fails_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        // A directory where each picture goes: the picture is drawn, but
+        // cannot take its place.
+        for taken in ["energies.png", "phase_field_0000.png"] {
+            std::fs::create_dir(dir.path().join(taken)).unwrap();
+            std::fs::write(dir.path().join(taken).join("x"), b"x").unwrap();
+        }
+        let mut w = OutputWriter::create(dir.path()).unwrap();
+        let columns: Vec<String> = SeriesRow::COLUMNS.iter().map(|c| c.to_string()).collect();
+        w.series_columns(&columns).unwrap();
+        for k in 0..3 {
+            let row = SeriesRow {
+                step: k,
+                time: k as f64 * 1e-6,
+                kinetic_energy: k as f64,
+                ..Default::default()
+            };
+            w.series_row(&row).unwrap();
+        }
+        w.snapshot(&snapshot()).unwrap();
+        let paths = w.finish().unwrap();
+
+        assert_eq!(paths.energy_plot, None);
+        assert!(!paths
+            .snapshots
+            .iter()
+            .any(|p| p.ends_with("phase_field_0000.png")));
+        let series = std::fs::read_to_string(dir.path().join("series.csv")).unwrap();
+        assert_eq!(series.lines().count(), 4);
+        assert!(dir.path().join("particles.pvd").is_file());
+        assert!(dir.path().join("particles_0000.vtp").is_file());
+        // no half-drawn picture left behind
+        for e in std::fs::read_dir(dir.path()).unwrap() {
+            let name = e.unwrap().file_name();
+            assert!(!name.to_string_lossy().contains(".tmp"), "{name:?} left");
+        }
+    }
+
+    #[test]
+    fn energy_error_relative_to_the_largest_energy_reached() {
+        assert_eq!(relative_energy_error(&[]), None);
+        let row = |k: f64, s: f64, err: f64| SeriesRow {
+            kinetic_energy: k,
+            strain_energy: s,
+            energy_error: err,
+            ..Default::default()
+        };
+        // 4 J at most (not the last row's 2 J); −0.1 J lost at the end
+        let rows = [row(3.0, 1.0, 0.0), row(1.0, 1.0, 0.0), row(1.5, 0.5, -0.1)];
+        assert_eq!(relative_energy_error(&rows), Some(-0.1 / 4.0));
+        let still = [row(0.0, 0.0, 0.0)];
+        assert_eq!(relative_energy_error(&still), Some(0.0));
+    }
+
+    #[test]
+    fn pictures_report_errors_and_panics_as_not_drawn() {
+        let mut p = Pictures::default();
+        let path = Path::new("a.png");
+        assert!(p.draw(path, || Ok(true)));
+        assert!(!p.draw(path, || Ok(false)));
+        assert_eq!(p.failed, 0);
+        let e = || Err(OutputError::new(path, std::io::Error::other("no room")));
+        assert!(!p.draw(path, e));
+        assert!(!p.draw(path, || panic!("a bug in the plotting library")));
+        assert_eq!(p.failed, 2);
+    }
 
     #[test]
     fn csv_round_trips_bit_for_bit() {

@@ -1,11 +1,71 @@
 //! Plots of a run: energies against time, the crack tip against time, and
 //! a particle field as an image.
+//!
+//! Text is set in a subset of DejaVu Sans that the binary carries
+//! (`assets/fonts/`, drawn by plotters' pure-Rust `ab_glyph` renderer), so
+//! that a plot needs no font installed on the machine and the build no
+//! fontconfig or freetype: a container or a headless node draws the same
+//! pictures as a desktop.
 
 use super::OutputError;
 use crate::diagnostics::SeriesRow;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
+use std::sync::OnceLock;
+
+/// The family name every plot asks for; [`embedded_font`] registers the
+/// carried font under it.
+const FONT: &str = "sans-serif";
+
+/// DejaVu Sans 2.37 cut down to Latin-1, Greek, punctuation, super- and
+/// subscripts, arrows and mathematical operators (µ, ², θ, −, ≈ …):
+/// 60 kB instead of 740 kB. Licence and how it was cut:
+/// `assets/fonts/README.md`.
+static FONT_BYTES: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-subset.ttf");
+
+/// Registers the carried font with plotters (once per process); an Err
+/// says the font could not be parsed, and no text can be drawn then.
+fn embedded_font() -> Result<(), String> {
+    static REGISTERED: OnceLock<bool> = OnceLock::new();
+    let ok = *REGISTERED.get_or_init(|| {
+        plotters::style::register_font(FONT, FontStyle::Normal, FONT_BYTES).is_ok()
+    });
+    if ok {
+        Ok(())
+    } else {
+        Err("the embedded font could not be loaded".to_string())
+    }
+}
+
+/// The root of a bitmap being drawn.
+type Root<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+/// Draws a `size` PNG at `path` through `paint`, atomically: into a
+/// `.tmp.png` beside it, renamed over `path` once whole, and removed when
+/// anything fails, so that a failed plot leaves no file behind.
+fn render(
+    path: &Path,
+    size: (u32, u32),
+    paint: impl FnOnce(&Root<'_>) -> Result<(), String>,
+) -> Result<(), OutputError> {
+    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
+    embedded_font().map_err(err)?;
+    let tmp = path.with_extension("png.tmp.png");
+    let drawn = (|| {
+        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        paint(&root)?;
+        root.present().map_err(|e| e.to_string())
+    })();
+    let result = drawn
+        .map_err(err)
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e)));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
 
 /// One line of a chart: name, colour, points (non-finite ones are skipped).
 type Line = (String, RGBColor, Vec<(f64, f64)>);
@@ -95,7 +155,7 @@ fn chart<DB: DrawingBackend>(
     }
     let pad = 0.05 * (hi - lo);
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 22))
+        .caption(title, (FONT, 22))
         .margin(12)
         .margin_right(30)
         .x_label_area_size(45)
@@ -106,6 +166,8 @@ fn chart<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc(format!("time in {unit}"))
         .y_desc(y_desc)
+        .axis_desc_style((FONT, 17))
+        .label_style((FONT, 14))
         .x_label_formatter(&|x| tick(*x))
         .y_label_formatter(&|y| tick(*y))
         .draw()
@@ -129,20 +191,14 @@ fn chart<DB: DrawingBackend>(
 
 /// Draws `charts` stacked vertically into a PNG at `path` (atomically).
 fn draw(path: &Path, charts: &[(&str, &str, Vec<Line>)]) -> Result<(), OutputError> {
-    // plotters reports its errors as its own type; keep the message.
-    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
-    let tmp = path.with_extension("png.tmp.png");
-    {
-        let root = BitMapBackend::new(&tmp, (900, 520 * charts.len() as u32)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    render(path, (900, 520 * charts.len() as u32), |root| {
         for (area, (title, y_desc, lines)) in
             root.split_evenly((charts.len(), 1)).iter().zip(charts)
         {
-            chart(area, title, y_desc, lines).map_err(err)?;
+            chart(area, title, y_desc, lines)?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
+        Ok(())
+    })
 }
 
 /// Side-by-side panels of lines against a logarithmic x axis with a
@@ -155,7 +211,6 @@ pub fn plot_log_x(
     y_desc: &str,
     panels: &[(String, Vec<(String, Vec<(f64, f64)>)>)],
 ) -> Result<(), OutputError> {
-    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
     let ok = |p: &&(f64, f64)| p.0 > 0.0 && p.0.is_finite() && p.1.is_finite();
     let all = || {
         panels
@@ -175,34 +230,31 @@ pub fn plot_log_x(
         y1 = y0 + 1.0;
     }
     let colours = [BLUE_, ORANGE, GREEN_, PURPLE, GREY];
-    let tmp = path.with_extension("png.tmp.png");
-    {
-        let root =
-            BitMapBackend::new(&tmp, (620 * panels.len().max(1) as u32, 520)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let size = (620 * panels.len().max(1) as u32, 520);
+    render(path, size, |root| {
         for (area, (title, lines)) in root
             .split_evenly((1, panels.len().max(1)))
             .iter()
             .zip(panels)
         {
             let mut chart = ChartBuilder::on(area)
-                .caption(title, ("sans-serif", 22))
+                .caption(title, (FONT, 22))
                 .margin(12)
                 .x_label_area_size(45)
                 .y_label_area_size(70)
                 .build_cartesian_2d((0.8 * x0..1.25 * x1).log_scale(), y0..1.05 * y1)
-                .map_err(|e| err(e.to_string()))?;
+                .map_err(|e| e.to_string())?;
             chart
                 .configure_mesh()
                 .x_desc(x_desc)
                 .y_desc(y_desc)
                 .x_label_formatter(&|x| format!("{x:.2}"))
                 .draw()
-                .map_err(|e| err(e.to_string()))?;
+                .map_err(|e| e.to_string())?;
             for (k, (name, points)) in lines.iter().enumerate() {
                 let colour = colours[k % colours.len()];
                 let p: Vec<(f64, f64)> = points.iter().filter(ok).copied().collect();
-                draw_line(&mut chart, name, colour, p).map_err(err)?;
+                draw_line(&mut chart, name, colour, p)?;
             }
             chart
                 .configure_series_labels()
@@ -210,11 +262,10 @@ pub fn plot_log_x(
                 .border_style(BLACK)
                 .position(SeriesLabelPosition::UpperLeft)
                 .draw()
-                .map_err(|e| err(e.to_string()))?;
+                .map_err(|e| e.to_string())?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
+        Ok(())
+    })
 }
 
 /// Error against cost on log–log axes (a study's accuracy against wall
@@ -229,7 +280,6 @@ pub fn plot_pareto(
     points: &[(f64, f64, String)],
     front: &[bool],
 ) -> Result<bool, OutputError> {
-    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
     let ok = |p: &(f64, f64)| p.0 > 0.0 && p.1 > 0.0 && p.0.is_finite() && p.1.is_finite();
     let shown: Vec<(f64, f64, &str, bool)> = points
         .iter()
@@ -251,17 +301,14 @@ pub fn plot_pareto(
     // room on the right for the labels
     let (x0, x1) = range(&mut shown.iter().map(|p| p.0), 5.0);
     let (y0, y1) = range(&mut shown.iter().map(|p| p.1), 1.2);
-    let tmp = path.with_extension("png.tmp.png");
-    {
-        let root = BitMapBackend::new(&tmp, (900, 640)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 22))
+    render(path, (900, 640), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, (FONT, 22))
             .margin(16)
             .x_label_area_size(45)
             .y_label_area_size(80)
             .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-            .map_err(|e| err(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
             .x_desc(x_desc)
@@ -271,10 +318,10 @@ pub fn plot_pareto(
             .x_label_formatter(&|v| tick(*v))
             .y_label_formatter(&|v| tick(*v))
             .draw()
-            .map_err(|e| err(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         let mut line: Vec<(f64, f64)> = shown.iter().filter(|p| p.3).map(|p| (p.0, p.1)).collect();
         line.sort_by(|a, b| a.0.total_cmp(&b.0));
-        draw_line(&mut chart, "Pareto front", ORANGE, line).map_err(err)?;
+        draw_line(&mut chart, "Pareto front", ORANGE, line)?;
         chart
             .draw_series(shown.iter().map(|p| {
                 let style = if p.3 {
@@ -284,19 +331,17 @@ pub fn plot_pareto(
                 };
                 EmptyElement::at((p.0, p.1))
                     + Circle::new((0, 0), 5, style)
-                    + Text::new(p.2.to_string(), (8, -6), ("sans-serif", 13).into_font())
+                    + Text::new(p.2.to_string(), (8, -6), (FONT, 13).into_font())
             }))
-            .map_err(|e| err(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .position(SeriesLabelPosition::UpperRight)
             .draw()
-            .map_err(|e| err(e.to_string()))?;
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))?;
+            .map_err(|e| e.to_string())
+    })?;
     Ok(true)
 }
 
@@ -326,10 +371,9 @@ pub fn plot_energies(path: &Path, rows: &[SeriesRow]) -> Result<bool, OutputErro
     if rows.iter().any(|r| r.fracture_energy != 0.0) {
         lines.push(line("fracture", PURPLE, |r| r.fracture_energy));
     }
-    // The unit goes in the title: plotters draws a rotated J (or j) as a
-    // speck. In plane strain the thickness is 1 m unless the scene says
-    // otherwise, so the values are then J per metre.
-    draw(path, &[("Energies in J", "energy", lines)])?;
+    // In plane strain the thickness is 1 m unless the scene says
+    // otherwise, so the values are then J per metre of thickness.
+    draw(path, &[("Energies", "energy in J", lines)])?;
     Ok(true)
 }
 
@@ -386,12 +430,8 @@ pub fn plot_crack(
 /// A polar plot of r(θ) (degrees) as a closed curve, one panel per series,
 /// side by side, equal axes.
 pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(), OutputError> {
-    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
-    let tmp = path.with_extension("png.tmp.png");
-    {
-        let width = 480 * panels.len().max(1) as u32;
-        let root = BitMapBackend::new(&tmp, (width, 500)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let width = 480 * panels.len().max(1) as u32;
+    render(path, (width, 500), |root| {
         let areas = root.split_evenly((1, panels.len().max(1)));
         for (area, (title, pts)) in areas.iter().zip(panels) {
             let rmax = pts
@@ -402,12 +442,12 @@ pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(),
                 .max(f64::MIN_POSITIVE)
                 * 1.1;
             let mut chart = ChartBuilder::on(area)
-                .caption(*title, ("sans-serif", 20))
+                .caption(*title, (FONT, 20))
                 .margin(10)
                 .x_label_area_size(35)
                 .y_label_area_size(60)
                 .build_cartesian_2d(-rmax..rmax, -rmax..rmax)
-                .map_err(|e| err(e.to_string()))?;
+                .map_err(|e| e.to_string())?;
             chart
                 .configure_mesh()
                 .x_labels(5)
@@ -415,7 +455,7 @@ pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(),
                 .x_label_formatter(&|x| format!("{x:.2e}"))
                 .y_label_formatter(&|y| format!("{y:.2e}"))
                 .draw()
-                .map_err(|e| err(e.to_string()))?;
+                .map_err(|e| e.to_string())?;
             let mut curve: Vec<(f64, f64)> = pts
                 .iter()
                 .filter(|p| p.1.is_finite())
@@ -425,20 +465,82 @@ pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(),
                 curve.push(first);
             }
             chart
-                .draw_series(LineSeries::new(
-                    curve,
-                    RGBColor(31, 119, 180).stroke_width(2),
-                ))
-                .map_err(|e| err(e.to_string()))?;
+                .draw_series(LineSeries::new(curve, BLUE_.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))
+        Ok(())
+    })
 }
 
-/// An image of one scalar particle field (e.g. the phase field) on the
-/// deformed particles: each particle is a small square coloured from blue
-/// (`lo`) to red (`hi`) through white.
+/// What an image of the particle field `name` calls it on its colour bar
+/// (with the unit: both fields are fractions without one), and whether
+/// its high values are the broken material: the phase field c is 1 where
+/// the material is intact and 0 in a crack (Borden et al. 2012),
+/// damage the other way round.
+fn field_label(name: &str) -> (String, bool) {
+    match name {
+        "phase_field" => ("phase field (dimensionless, 0 = broken)".to_string(), false),
+        "damage" => ("damage (dimensionless, 1 = broken)".to_string(), true),
+        other => (format!("{} (dimensionless)", other.replace('_', " ")), true),
+    }
+}
+
+/// The viridis colour map (van der Walt & Smith, matplotlib) at `t` in
+/// [0, 1], interpolated between nine of its colours: it reads from dark to
+/// light without passing through the white of the background, and stays
+/// ordered in grey scale and for colour-blind readers.
+fn viridis(t: f64) -> RGBColor {
+    const STOPS: [(u8, u8, u8); 9] = [
+        (68, 1, 84),
+        (71, 44, 122),
+        (59, 81, 139),
+        (44, 113, 142),
+        (33, 144, 141),
+        (39, 173, 129),
+        (92, 200, 99),
+        (170, 220, 50),
+        (253, 231, 37),
+    ];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let x = t * (STOPS.len() - 1) as f64;
+    let k = (x.floor() as usize).min(STOPS.len() - 2);
+    let u = x - k as f64;
+    let (a, b) = (STOPS[k], STOPS[k + 1]);
+    let mix = |p: u8, q: u8| (p as f64 + u * (q as f64 - p as f64)).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// The spacing of particles spread over a region of the plane, in the
+/// units of `positions`: the square root of the area they cover per
+/// particle, the area counted in cells of the bounding box's spacing that
+/// hold a particle (so that the holes between two bodies do not count).
+fn particle_spacing(positions: &[[f64; 2]], x0: f64, y0: f64, w: f64, h: f64) -> f64 {
+    let n = positions.len().max(1) as f64;
+    let cell = (w * h / n).sqrt().max(f64::MIN_POSITIVE);
+    let (nx, ny) = ((w / cell) as usize + 1, (h / cell) as usize + 1);
+    if nx.saturating_mul(ny) > 16 * positions.len().max(1) {
+        return cell; // a degenerate box (a line of particles)
+    }
+    let mut occupied = vec![false; nx * ny];
+    for p in positions {
+        let i = (((p[0] - x0) / cell) as usize).min(nx - 1);
+        let j = (((p[1] - y0) / cell) as usize).min(ny - 1);
+        occupied[i + nx * j] = true;
+    }
+    let cells = occupied.iter().filter(|&&o| o).count() as f64;
+    (cells * cell * cell / n).sqrt()
+}
+
+/// An image of one scalar particle field (the phase field, the damage) on
+/// the deformed particles: each particle a square of its spacing coloured
+/// from `lo` to `hi` ([`viridis`]), the most broken drawn last so that a
+/// thin crack is not hidden under intact neighbours, on axes in mm, with
+/// a colour bar naming the field and the range of its values. Ok(false)
+/// and nothing written when the snapshot has no such field or no particle.
 pub fn plot_particle_field(
     path: &Path,
     snap: &crate::diagnostics::Snapshot,
@@ -457,66 +559,177 @@ pub fn plot_particle_field(
     else {
         return Ok(false);
     };
-    if snap.positions.is_empty() {
+    // positions in mm; particles with a non-finite position are left out
+    let pts: Vec<([f64; 2], f64)> = snap
+        .positions
+        .iter()
+        .zip(values)
+        .map(|(p, &v)| ([1e3 * p[0], 1e3 * p[1]], v))
+        .filter(|(p, _)| p[0].is_finite() && p[1].is_finite())
+        .collect();
+    if pts.is_empty() {
         return Ok(false);
     }
-    let err = |e: String| OutputError::new(path, std::io::Error::other(e));
     let (mut x0, mut x1, mut y0, mut y1) = (
         f64::INFINITY,
         f64::NEG_INFINITY,
         f64::INFINITY,
         f64::NEG_INFINITY,
     );
-    for p in &snap.positions {
+    for (p, _) in &pts {
         x0 = x0.min(p[0]);
         x1 = x1.max(p[0]);
         y0 = y0.min(p[1]);
         y1 = y1.max(p[1]);
     }
-    let (w, h) = (
-        (x1 - x0).max(f64::MIN_POSITIVE),
-        (y1 - y0).max(f64::MIN_POSITIVE),
+    let positions: Vec<[f64; 2]> = pts.iter().map(|(p, _)| *p).collect();
+    let spacing = particle_spacing(&positions, x0, y0, x1 - x0, y1 - y0)
+        .max(1e-6 * (x1 - x0).max(y1 - y0))
+        .max(f64::MIN_POSITIVE);
+    // the particles' squares reach half a spacing beyond their centres
+    let (x0, x1, y0, y1) = (
+        x0 - 0.5 * spacing,
+        x1 + 0.5 * spacing,
+        y0 - 0.5 * spacing,
+        y1 + 0.5 * spacing,
     );
-    // at most 1000 × 2000 pixels, in the particles' aspect ratio
-    let (width, height) = if h > 2.0 * w {
-        (((2000.0 * w / h).round() as u32).max(50), 2000)
+    let (w, h) = (x1 - x0, y1 - y0);
+
+    // The plotting area in pixels, in the particles' aspect ratio: at most
+    // 900 wide and 900 high, at least 240 either way (a slender bar gets
+    // room around it rather than a sliver of an image).
+    const SIDE: f64 = 900.0;
+    const MIN: f64 = 240.0;
+    let (pw, ph) = if w >= h {
+        (SIDE, (SIDE * h / w).max(MIN))
     } else {
-        (1000, ((1000.0 * h / w).round() as u32).max(50))
+        ((SIDE * w / h).max(MIN), SIDE)
     };
-    let tmp = path.with_extension("png.tmp.png");
-    {
-        let root = BitMapBackend::new(&tmp, (width, height + 30)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    // widen the shorter range so that a mm is as long across as up
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let mm_per_px = (w / pw).max(h / ph);
+    let (hw, hh) = (0.5 * mm_per_px * pw, 0.5 * mm_per_px * ph);
+    let (pw, ph) = (pw.round() as u32, ph.round() as u32);
+
+    // around the plotting area: margins, tick labels and axis names
+    const MARGIN: u32 = 15;
+    const Y_LABELS: u32 = 85;
+    const X_LABELS: u32 = 60;
+    const TITLE: u32 = 60;
+    const BAR: u32 = 170;
+    let width = MARGIN + Y_LABELS + pw + MARGIN + BAR;
+    let height = TITLE + MARGIN + ph + X_LABELS + MARGIN;
+
+    let (vmin, vmax) = values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    let (scale, unit) = time_unit(snap.time.abs());
+    let (label, broken_high) = field_label(field);
+    let name = label.split(" (").next().unwrap_or(field).to_string();
+    let title = format!("{name} at t = {} {unit}", tick(scale * snap.time));
+    let subtitle = if vmin <= vmax {
+        format!(
+            "{} particles; values from {} to {}",
+            pts.len(),
+            tick(vmin),
+            tick(vmax)
+        )
+    } else {
+        format!("{} particles; no finite value", pts.len())
+    };
+    let (lo, hi) = if hi > lo { (lo, hi) } else { (lo, lo + 1.0) };
+
+    render(path, (width, height), |root| {
+        let e = |e: DrawingAreaErrorKind<_>| e.to_string();
+        root.draw(&Text::new(title, (MARGIN as i32, 8), (FONT, 24)))
+            .map_err(e)?;
         root.draw(&Text::new(
-            format!("{field} at t = {:.3e} s", snap.time),
-            (10, 5),
-            ("sans-serif", 18),
+            subtitle,
+            (MARGIN as i32, 36),
+            (FONT, 16).into_font().color(&GREY),
         ))
-        .map_err(|e| err(e.to_string()))?;
-        // one square of about a particle's spacing
-        let per = (snap.positions.len() as f64 / (w * h)).sqrt();
-        let size = ((width as f64 / w / per).ceil() as i32).max(1);
-        let span = (hi - lo).abs().max(f64::MIN_POSITIVE);
-        for (p, &v) in snap.positions.iter().zip(values) {
-            let t = ((v - lo) / span).clamp(0.0, 1.0);
-            let colour = if t < 0.5 {
-                let u = t * 2.0;
-                RGBColor((255.0 * u) as u8, (255.0 * u) as u8, 255)
+        .map_err(e)?;
+        let body = root.margin(TITLE, MARGIN, MARGIN, MARGIN);
+        let (left, right) = body.split_horizontally(Y_LABELS + pw + MARGIN);
+        let mut chart = ChartBuilder::on(&left)
+            .margin_top(MARGIN)
+            .margin_right(MARGIN)
+            .x_label_area_size(X_LABELS)
+            .y_label_area_size(Y_LABELS)
+            .build_cartesian_2d((cx - hw)..(cx + hw), (cy - hh)..(cy + hh))
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("x in mm")
+            .y_desc("y in mm")
+            .axis_desc_style((FONT, 18))
+            .label_style((FONT, 15))
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        // one square per particle, in pixels so that neighbours touch
+        let r = ((spacing / mm_per_px) * 0.5).max(0.5);
+        let (r0, r1) = (r.floor() as i32, (r.ceil() as i32).max(1));
+        let mut order: Vec<usize> = (0..pts.len()).collect();
+        order.sort_by(|&a, &b| {
+            let o = pts[a].1.total_cmp(&pts[b].1);
+            if broken_high {
+                o
             } else {
-                let u = (t - 0.5) * 2.0;
-                RGBColor(255, (255.0 * (1.0 - u)) as u8, (255.0 * (1.0 - u)) as u8)
-            };
-            let px = ((p[0] - x0) / w * (width as f64 - size as f64)) as i32;
-            let py = 30 + ((y1 - p[1]) / h * (height as f64 - size as f64)) as i32;
+                o.reverse()
+            }
+        });
+        for k in order {
+            let (p, v) = pts[k];
+            // pixels of the whole image, which are the root's coordinates
+            let (px, py) = chart.backend_coord(&(p[0], p[1]));
+            let colour = viridis((v - lo) / (hi - lo));
             root.draw(&Rectangle::new(
-                [(px, py), (px + size, py + size)],
+                [(px - r0, py - r0), (px + r1, py + r1)],
                 colour.filled(),
             ))
-            .map_err(|e| err(e.to_string()))?;
+            .map_err(e)?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| OutputError::new(path, e))?;
+
+        // the colour bar: the scale from lo to hi, its axis on the right
+        let mut bar = ChartBuilder::on(&right)
+            .margin_top(MARGIN)
+            .margin_left(10)
+            .x_label_area_size(X_LABELS)
+            .right_y_label_area_size(BAR - 70)
+            .build_cartesian_2d(0.0..1.0, lo..hi)
+            .map_err(|e| e.to_string())?;
+        bar.configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .y_desc(label.as_str())
+            .axis_desc_style((FONT, 16))
+            .label_style((FONT, 15))
+            .y_label_formatter(&|v| tick(*v))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        const STEPS: usize = 256;
+        bar.draw_series((0..STEPS).map(|k| {
+            let (a, b) = (k as f64 / STEPS as f64, (k + 1) as f64 / STEPS as f64);
+            Rectangle::new(
+                [(0.0, lo + a * (hi - lo)), (1.0, lo + b * (hi - lo))],
+                viridis(0.5 * (a + b)).filled(),
+            )
+        }))
+        .map_err(|e| e.to_string())?;
+        bar.plotting_area()
+            .draw(&Rectangle::new(
+                [(0.0, lo), (1.0, hi)],
+                BLACK.stroke_width(1),
+            ))
+            .map_err(e)?;
+        Ok(())
+    })?;
     Ok(true)
 }
 

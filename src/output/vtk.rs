@@ -3,6 +3,15 @@
 //! raw appended block (`header_type="UInt64"`, little endian): each array is
 //! its byte count as a UInt64 followed by its values, and `offset` counts
 //! from the byte after the `_` that opens the block.
+//!
+//! Fields go out in the shapes ParaView expects of a 3D data set: a 2D
+//! vector (2 components) as x, y, 0, and an in-plane symmetric tensor
+//! (4 components, xx yy xy zz in [`Field`]'s convention) as the 6
+//! components of VTK's symmetric tensors, xx yy zz xy yz xz (the order of
+//! `vtkMath::TensorFromSymmetricTensor` and the legacy format's
+//! `TENSORS6`), with yz = xz = 0: ParaView then offers the magnitude,
+//! the von Mises stress and the eigenvalues, and a vector can be a glyph's
+//! direction.
 
 use super::{write_atomic, OutputError};
 use crate::diagnostics::{Field, FieldData, GridSnapshot, Snapshot};
@@ -13,6 +22,11 @@ use std::path::Path;
 /// One appended array: its XML attributes and its values.
 enum Values<'a> {
     F64(&'a [f64]),
+    /// 2D vectors (x, y) written as (x, y, 0).
+    Vector2(&'a [f64]),
+    /// In-plane symmetric tensors (xx, yy, xy, zz) written in VTK's
+    /// order (xx, yy, zz, xy, yz, xz) with yz = xz = 0.
+    SymTensor2(&'a [f64]),
     U32(&'a [u32]),
     Points(&'a [[f64; 2]]),
     Iota(usize),
@@ -23,6 +37,8 @@ impl Values<'_> {
     fn bytes(&self) -> u64 {
         match self {
             Values::F64(v) => 8 * v.len() as u64,
+            Values::Vector2(v) => 24 * (v.len() / 2) as u64,
+            Values::SymTensor2(v) => 48 * (v.len() / 4) as u64,
             Values::U32(v) => 4 * v.len() as u64,
             Values::Points(p) => 24 * p.len() as u64,
             Values::Iota(n) | Values::IotaFrom1(n) => 8 * *n as u64,
@@ -33,6 +49,17 @@ impl Values<'_> {
         w.write_all(&self.bytes().to_le_bytes())?;
         match self {
             Values::F64(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
+            Values::Vector2(v) => v.chunks_exact(2).try_for_each(|c| {
+                [c[0], c[1], 0.0]
+                    .iter()
+                    .try_for_each(|x| w.write_all(&x.to_le_bytes()))
+            }),
+            Values::SymTensor2(v) => v.chunks_exact(4).try_for_each(|c| {
+                let [xx, yy, xy, zz] = [c[0], c[1], c[2], c[3]];
+                [xx, yy, zz, xy, 0.0, 0.0]
+                    .iter()
+                    .try_for_each(|x| w.write_all(&x.to_le_bytes()))
+            }),
             Values::U32(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
             Values::Points(p) => p.iter().try_for_each(|x| {
                 w.write_all(&x[0].to_le_bytes())?;
@@ -81,7 +108,12 @@ impl<'a> Appended<'a> {
     fn field(&mut self, xml: &mut String, f: &'a Field) {
         match &f.data {
             FieldData::F64(v) => {
-                self.array(xml, "Float64", Some(&f.name), f.components, Values::F64(v))
+                let (comps, values) = match f.components {
+                    2 => (3, Values::Vector2(v)),
+                    4 => (6, Values::SymTensor2(v)),
+                    c => (c, Values::F64(v)),
+                };
+                self.array(xml, "Float64", Some(&f.name), comps, values)
             }
             FieldData::U32(v) => {
                 self.array(xml, "UInt32", Some(&f.name), f.components, Values::U32(v))
@@ -254,9 +286,15 @@ mod tests {
         assert!(bytes.ends_with(b"</AppendedData>\n</VTKFile>\n"));
         let b = blocks(&bytes);
         assert_eq!(b.len(), 5);
+        // the 2D velocity as 3D vectors
         let v = f64s(&b[0]);
-        assert_eq!(v[..5], [1.0, 2.0, 3.0, 4.0, 5.0]);
-        assert!(v[5].is_nan());
+        assert_eq!(v.len(), 9);
+        assert_eq!(v[..7], [1.0, 2.0, 0.0, 3.0, 4.0, 0.0, 5.0]);
+        assert!(v[7].is_nan());
+        assert_eq!(v[8], 0.0);
+        assert!(
+            String::from_utf8_lossy(&bytes).contains("Name=\"velocity\" NumberOfComponents=\"3\"")
+        );
         let ids: Vec<u32> = b[1]
             .chunks(4)
             .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
@@ -274,6 +312,34 @@ mod tests {
         write_particles_vtp(&q, &snap).unwrap();
         assert_eq!(bytes, std::fs::read(&q).unwrap());
         assert!(!dir.path().join("p.vtp.tmp").exists());
+    }
+
+    #[test]
+    fn in_plane_tensors_go_out_in_vtk_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.vtp");
+        let mut snap = snapshot();
+        // σxx = 1, σyy = 2, σxy = 3, σzz = 4; then 5, 6, 7, 8
+        snap.fields = vec![Field {
+            name: "stress".into(),
+            components: 4,
+            data: FieldData::F64(vec![
+                1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 0.0, 0.0, 0.0, 0.0,
+            ]),
+        }];
+        write_particles_vtp(&p, &snap).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        assert!(
+            String::from_utf8_lossy(&bytes).contains("Name=\"stress\" NumberOfComponents=\"6\"")
+        );
+        // xx yy zz xy yz xz
+        assert_eq!(
+            f64s(&blocks(&bytes)[0]),
+            [
+                1.0, 2.0, 4.0, 3.0, 0.0, 0.0, 5.0, 6.0, 8.0, 7.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                0.0, 0.0
+            ]
+        );
     }
 
     #[test]
