@@ -236,25 +236,23 @@ pub fn run(
     // instant and DFG at the earlier one (the paper's Fig. 18), and both
     // models at both instants in the table.
     let (t_dfg, t_sf) = (instants[0], instants[1]);
-    let panel = |name: &str,
-                 t: f64,
-                 pick: &dyn Fn(&(f64, Case, Case)) -> &Case|
-     -> (String, Vec<(String, Vec<(f64, f64)>)>) {
-        let lines = results
-            .iter()
-            .map(|r| {
-                let c = pick(r);
-                let k = (0..c.at.len())
-                    .min_by(|&a, &b| (c.at[a].0 - t).abs().total_cmp(&(c.at[b].0 - t).abs()))
-                    .unwrap_or(0);
-                (
-                    format!("dx = {:.3} mm, {:.0} m/s", r.0 * 1e3, c.at[k].2),
-                    cumulative(&c.at[k].1, thickness),
-                )
-            })
-            .collect();
-        (format!("{name} at {:.0} µs", t * 1e6), lines)
-    };
+    let panel =
+        |name: &str, t: f64, pick: &dyn Fn(&(f64, Case, Case)) -> &Case| -> cleave::output::Panel {
+            let lines = results
+                .iter()
+                .map(|r| {
+                    let c = pick(r);
+                    let k = (0..c.at.len())
+                        .min_by(|&a, &b| (c.at[a].0 - t).abs().total_cmp(&(c.at[b].0 - t).abs()))
+                        .unwrap_or(0);
+                    (
+                        format!("dx = {:.3} mm, {:.0} m/s", r.0 * 1e3, c.at[k].2),
+                        cumulative(&c.at[k].1, thickness),
+                    )
+                })
+                .collect();
+            (format!("{name} at {:.0} µs", t * 1e6), lines)
+        };
     let panels = vec![
         panel("single field", t_sf, &|r| &r.1),
         panel("DFG", t_dfg, &|r| &r.2),

@@ -634,7 +634,8 @@ fn measure(series: &Path, specs: &[String], reference: Option<&str>, json: bool)
     }
 }
 
-/// `cleave plot`: the run's plots from its series.
+/// `cleave plot`: the run's plots from its series; says which files it
+/// wrote (and why it drew no crack plot).
 fn plot(series: &Path, out: Option<&Path>) -> anyhow::Result<()> {
     let (columns, rows) = cleave::output::read_series(series)?;
     let dir = out.or(series.parent()).unwrap_or(Path::new("."));
@@ -650,7 +651,11 @@ fn plot(series: &Path, out: Option<&Path>) -> anyhow::Result<()> {
         ),
     ] {
         if drawn {
-            println!("{}", dir.join(name).display());
+            println!("wrote {}", dir.join(name).display());
+        } else if rows.len() < 2 {
+            println!("no {name}: the series has fewer than two rows");
+        } else if name == "crack.png" {
+            println!("no {name}: the series has no crack_length column");
         }
     }
     Ok(())

@@ -889,3 +889,33 @@ fn an_unreachable_server_from_the_environment_is_named() {
     assert_eq!(o.status.code(), Some(3));
     assert!(!stderr(&o).contains("CLEAVE_SERVER"), "{}", stderr(&o));
 }
+
+/// `cleave plot` says which files it wrote, and why it drew no crack plot.
+#[test]
+fn plot_says_what_it_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = cleave()
+        .args(["run", "--quiet"])
+        .arg(scenes().join("two_disks.toml"))
+        .arg("--out")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let plots = dir.path().join("plots");
+    let o = cleave()
+        .arg("plot")
+        .arg(dir.path().join("series.csv"))
+        .arg("--out")
+        .arg(&plots)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text.contains(&format!("wrote {}", plots.join("energies.png").display())),
+        "{text}"
+    );
+    assert!(text.contains("no crack.png: "), "{text}");
+    assert!(plots.join("energies.png").metadata().unwrap().len() > 1000);
+}

@@ -12,7 +12,7 @@ mod plot;
 mod vtk;
 
 pub use plot::{
-    plot_crack, plot_energies, plot_log_x, plot_pareto, plot_particle_field, plot_polar,
+    plot_crack, plot_energies, plot_log_x, plot_pareto, plot_particle_field, plot_polar, Panel,
 };
 pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
 

@@ -70,6 +70,9 @@ fn render(
 /// One line of a chart: name, colour, points (non-finite ones are skipped).
 type Line = (String, RGBColor, Vec<(f64, f64)>);
 
+/// One panel of [`plot_log_x`]: its title and its named lines of points.
+pub type Panel = (String, Vec<(String, Vec<(f64, f64)>)>);
+
 const BLUE_: RGBColor = RGBColor(31, 119, 180);
 const ORANGE: RGBColor = RGBColor(255, 127, 14);
 const GREEN_: RGBColor = RGBColor(44, 160, 44);
@@ -209,7 +212,7 @@ pub fn plot_log_x(
     path: &Path,
     x_desc: &str,
     y_desc: &str,
-    panels: &[(String, Vec<(String, Vec<(f64, f64)>)>)],
+    panels: &[Panel],
 ) -> Result<(), OutputError> {
     let ok = |p: &&(f64, f64)| p.0 > 0.0 && p.0.is_finite() && p.1.is_finite();
     let all = || {
