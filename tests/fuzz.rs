@@ -311,8 +311,15 @@ fn fuzz(seed: u64, cases: usize) {
 fn every_shipped_scene_validates_unmutated() {
     for (name, table) in shipped() {
         let text = toml::to_string(&table).unwrap();
-        if let Err(e) = Scene::from_text(&text, Some(Format::Toml)) {
-            panic!("{name}: {e}");
+        match Scene::from_text(&text, Some(Format::Toml)) {
+            Ok(s) => println!(
+                "{name}: {} particles, dt {:.3e} s, {:.3e} steps at least, memory {}",
+                s.total_particles(),
+                s.time_step.dt,
+                s.time_step.steps,
+                s.memory
+            ),
+            Err(e) => panic!("{name}: {e}"),
         }
     }
 }

@@ -1058,3 +1058,35 @@ fn a_damaged_checkpoint_names_its_file_and_keeps_the_results() {
         "time,kinetic_energy\n0,1\n"
     );
 }
+
+/// A crack of 100 000 points through a body of 50 000 particles: the run's
+/// setup would measure 5e9 particle–segment distances; refused at
+/// validation, naming the body.
+#[test]
+fn a_crack_too_costly_to_place_is_refused() {
+    let points: Vec<String> = (0..100_000)
+        .map(|k| format!("[{:.6}, 0.5]", 0.35 + 0.3 * k as f64 / 100_000.0))
+        .collect();
+    let text = small_scene(&[
+        ("cell_size = 0.02", "cell_size = 0.002"),
+        (
+            "poissons_ratio = 0.3",
+            "poissons_ratio = 0.3\ndamage = { model = \"time_to_failure\", strength = 1.0e6, crack_speed = 1000.0 }",
+        ),
+        (
+            "velocity = [1.0, 0.0]",
+            &format!(
+                "velocity = [1.0, 0.0]\ncracks = [{{ points = [{}] }}]",
+                points.join(", ")
+            ),
+        ),
+    ]);
+    let e = refusal(&text);
+    assert!(
+        e.starts_with("bodies[0].shape: seeding would test") && e.contains("crack points"),
+        "{e}"
+    );
+    // with ten points it is valid
+    let short = text.replace(&points[10..].join(", "), "[0.65, 0.5]");
+    assert!(Scene::from_text(&short, None).is_ok());
+}

@@ -13,7 +13,7 @@
 //! phase-field matrix (`DEPENDENCIES.md`: 10.4 M at n = 65 536, 50.4 M at
 //! n = 265 225). `docs/stability.md` compares it with measured peaks.
 
-use super::schema::{SceneFile, ShapeFunctionKind, StressUpdate, TransferKind};
+use super::schema::{PhaseFieldMethod, SceneFile, ShapeFunctionKind, StressUpdate, TransferKind};
 use super::validate::ResolvedMaterial;
 use serde::Serialize;
 use std::fmt;
@@ -21,13 +21,16 @@ use std::fmt;
 /// Bytes a run of a scene is expected to need, by owner.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 pub struct MemoryEstimate {
+    /// The program itself: code, libraries, thread stacks, the allocator's
+    /// arenas (the peak of the smallest shipped scene).
+    pub program: u64,
     /// The particle arrays (with the bins' order and the snapshot copies).
     pub particles: u64,
     /// The grid's nodal fields (every velocity field with contact).
     pub grid: u64,
     /// The phase field's matrices, right-hand sides and solver vectors.
     pub phase_field_system: u64,
-    /// The phase field's Cholesky factor (values, single-precision copy and
+    /// The phase field's Cholesky factor (its values, in f32 for PCG, and
     /// its symbolic structure).
     pub phase_field_factor: u64,
     /// DFG's per-particle state and neighbour lists.
@@ -36,7 +39,8 @@ pub struct MemoryEstimate {
 
 impl MemoryEstimate {
     pub fn total(&self) -> u64 {
-        self.particles
+        self.program
+            .saturating_add(self.particles)
             .saturating_add(self.grid)
             .saturating_add(self.phase_field_system)
             .saturating_add(self.phase_field_factor)
@@ -62,8 +66,9 @@ impl fmt::Display for MemoryEstimate {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "about {} (particles {}",
+            "about {} (program {}, particles {}",
             human_bytes(self.total()),
+            human_bytes(self.program),
             human_bytes(self.particles)
         )?;
         write!(f, ", grid {}", human_bytes(self.grid))?;
@@ -262,8 +267,14 @@ pub(super) fn estimate(
             // fills about twice as much
             let fill = if fourth { 21.0 } else { 10.5 };
             let l = fill * dofs * dofs.max(2.0).log2();
-            // values (f64), single-precision copy (f32), row indices (usize)
-            factor += (l * (8.0 + 4.0 + 8.0)) as u64;
+            // its values: f32 for PCG's preconditioner, f64 for the direct
+            // solve (and the multigrid's hand-over); the supernodal
+            // structure and the factorization's workspace, per dof
+            let value = match file.phase_field_solver.method {
+                PhaseFieldMethod::Pcg => 4.0,
+                _ => 8.0,
+            };
+            factor += (l * value + dofs * 64.0) as u64;
         }
     }
     let dfg = match &file.dfg {
@@ -286,6 +297,7 @@ pub(super) fn estimate(
         None => 0,
     };
     MemoryEstimate {
+        program: 16 << 20,
         particles,
         grid,
         phase_field_system: system,

@@ -1006,7 +1006,11 @@ fn count_particles(
         let holes: f64 = body.holes.iter().map(geometry::area).sum();
         let n = ((geometry::area(&body.shape) - holes) / (s * s)).max(0.0);
         estimate += n;
-        let w = geometry::seed_cost(&body.shape, &body.holes, &lattice(body));
+        // the run's setup measures every particle's distance to every
+        // segment of the body's initial cracks
+        let crack_points: usize = body.cracks.iter().map(|k| k.points.len()).sum();
+        let w =
+            geometry::seed_cost(&body.shape, &body.holes, &lattice(body)) + n * crack_points as f64;
         cost += w;
         if w > largest.0 {
             largest = (w, i);
@@ -1029,8 +1033,9 @@ fn count_particles(
             &format!("bodies[{}].shape", largest.1),
             format!(
                 "seeding would test {cost:.3e} points (lattice points in the bodies' bounding boxes × \
-                 their shapes, holes and polygon edges; bodies[{}] {:.3e}), at most {MAX_SEED_COST:e}: \
-                 use a coarser grid.cell_size, fewer particles_per_cell, holes or polygon vertices",
+                 their shapes, holes and polygon edges, and particles × crack points; bodies[{}] {:.3e}), \
+                 at most {MAX_SEED_COST:e}: use a coarser grid.cell_size, fewer particles_per_cell, \
+                 holes, polygon vertices or crack points",
                 largest.1, largest.0
             ),
         );
