@@ -379,7 +379,7 @@ mod tests {
             per_dir: 3,
         };
         let mut seeded = Vec::new();
-        seed(&star, &[hole.clone()], &lat, |p| seeded.push(p));
+        seed(&star, std::slice::from_ref(&hole), &lat, |p| seeded.push(p));
         let mut expected = Vec::new();
         let sub = lat.spacing();
         for cy in 0..77 {

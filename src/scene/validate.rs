@@ -1096,8 +1096,8 @@ fn check_time_step(
             0.0
         };
         let signal = m.wave_speed + speed;
-        // NaN compares false: a NaN signal takes the place of any other
-        if fastest.is_none_or(|(s, _)| !(signal <= s)) {
+        // a NaN signal takes the place of any other (and is refused below)
+        if fastest.is_none_or(|(s, _)| signal > s || signal.is_nan()) {
             fastest = Some((signal, b));
         }
     }
