@@ -10,7 +10,8 @@
 
 use cleave::diagnostics::Recorder;
 use cleave::mpm::{SimError, Simulation};
-use cleave::scene::Scene;
+use cleave::scene::{MemoryBudget, Scene};
+use std::time::{Duration, Instant};
 
 fn long() -> bool {
     std::env::var_os("CLEAVE_STABILITY_LONG").is_some_and(|v| v != "0")
@@ -690,4 +691,402 @@ series_rows = 101
         End::Stopped(e, _) => panic!("unexpected diagnosis: {e}"),
         End::Completed(..) => panic!("a dt twice the CFL limit ran to the end"),
     }
+}
+
+// ---- Hostile input: bounded validation, zero time steps, memory, damaged
+// checkpoints. Each scene here was once accepted and then ran for minutes,
+// aborted or resumed into other results.
+
+/// A disk of soft material in a square grid, with `edits` applied.
+fn small_scene(edits: &[(&str, &str)]) -> String {
+    let mut text = r#"
+[grid]
+cell_size = 0.02
+max = [1.0, 1.0]
+
+[time]
+end = 0.01
+cfl = 0.5
+
+[materials.soft]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 1.0e6
+poissons_ratio = 0.3
+
+[[bodies]]
+shape = { type = "disk", center = [0.5, 0.5], radius = 0.2 }
+material = "soft"
+particles_per_cell = 4
+velocity = [1.0, 0.0]
+"#
+    .to_string();
+    for (from, to) in edits {
+        assert!(text.contains(from), "no {from:?} in the scene");
+        text = text.replacen(from, to, 1);
+    }
+    text
+}
+
+fn refusal(text: &str) -> String {
+    match Scene::from_text(text, None) {
+        Ok(s) => panic!(
+            "accepted: {} particles, dt {:e}",
+            s.total_particles(),
+            s.time_step.dt
+        ),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// Validation's estimate of the first Δt is the run's.
+#[test]
+fn the_validated_time_step_is_the_runs_first() {
+    for file in ["two_disks.toml", "wave_bar.toml", "sliding_block.toml"] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(file);
+        let scene = Scene::from_path(&path).unwrap();
+        let estimate = scene.time_step.clone();
+        let dt = Simulation::new(&scene).step().unwrap();
+        assert!(
+            (dt - estimate.dt).abs() <= 1e-12 * dt,
+            "{file}: the run's first dt {dt:e}, validation's {:e}",
+            estimate.dt
+        );
+        assert!(estimate.steps <= scene.file.time.end / dt * (1.0 + 1e-12));
+    }
+}
+
+/// A wave speed that overflows f64, a subnormal CFL factor, and a step
+/// count beyond max_steps: each is refused at validation naming Δt, the
+/// wave speed and the cell size, where they used to run ten million empty
+/// steps.
+#[test]
+fn a_time_step_of_zero_is_refused_at_validation() {
+    // a density near zero: the wave speed is 1e153 m/s, Δt 1e-155 s
+    let e = refusal(&small_scene(&[("density = 1000.0", "density = 1.0e-300")]));
+    assert!(
+        e.contains("materials.soft") && e.contains("wave speed") && e.contains("cell size"),
+        "{e}"
+    );
+    // λ + 2μ overflows: the wave speed is infinite, Δt = 0
+    let e = refusal(&small_scene(&[(
+        "youngs_modulus = 1.0e6",
+        "youngs_modulus = 1.7e308",
+    )]));
+    assert!(
+        e.contains("materials.soft") && e.contains("wave speed inf"),
+        "{e}"
+    );
+    // a subnormal CFL factor
+    let e = refusal(&small_scene(&[("cfl = 0.5", "cfl = 1e-320")]));
+    assert!(
+        e.contains("time step would be")
+            && e.contains("cell size 2e-2")
+            && e.contains("wave speed"),
+        "{e}"
+    );
+    // a stiffness near f64's limit: Δt is tiny and time.end is ten million
+    // steps away and more
+    let e = refusal(&small_scene(&[(
+        "youngs_modulus = 1.0e6",
+        "youngs_modulus = 1.0e300",
+    )]));
+    assert!(
+        e.contains("time.max_steps")
+            && e.contains("Δt = ")
+            && e.contains("wave speed 3.")
+            && e.contains("cell size"),
+        "{e}"
+    );
+    // an explicit max_steps below the estimate
+    let e = refusal(&small_scene(&[("cfl = 0.5", "cfl = 0.5\nmax_steps = 10")]));
+    assert!(e.contains("more than max_steps = 10"), "{e}");
+    // and just above it, the scene is valid
+    let scene = Scene::from_text(&small_scene(&[]), None).unwrap();
+    let steps = scene.time_step.steps.ceil() as u64;
+    let at = format!("cfl = 0.5\nmax_steps = {steps}");
+    assert!(Scene::from_text(&small_scene(&[("cfl = 0.5", &at)]), None).is_ok());
+}
+
+/// The run loop's own guard, for a Δt validation could not foresee: the
+/// run stops at step 0 naming dt instead of stepping in place.
+#[test]
+fn a_run_that_cannot_advance_stops_at_once() {
+    let mut scene = Scene::from_text(&small_scene(&[]), None).unwrap();
+    // what validation refuses, forced past it
+    scene.file.time.cfl = Some(1e-320);
+    let t0 = Instant::now();
+    let e = Simulation::new(&scene)
+        .run(&mut Recorder::default())
+        .unwrap_err();
+    let msg = e.to_string();
+    assert!(matches!(e, SimError::NoProgress { step: 0, .. }), "{msg}");
+    assert!(
+        msg.contains("dt = 5e-324") && msg.contains("cell size 2e-2"),
+        "{msg}"
+    );
+    let mut scene = Scene::from_text(&small_scene(&[]), None).unwrap();
+    scene.materials[0].wave_speed = f64::INFINITY;
+    let e = Simulation::new(&scene)
+        .run(&mut Recorder::default())
+        .unwrap_err();
+    assert!(e.to_string().contains("dt = 0e0"), "{e}");
+    assert!(t0.elapsed() < Duration::from_secs(5));
+}
+
+/// A 500-byte scene describing 3.1e9 particles, and one with many such
+/// bodies, are refused from their areas before anything is seeded (they
+/// took 10–16 s, and 10 s more per body).
+#[test]
+fn a_scene_describing_billions_of_particles_is_refused_at_once() {
+    let huge = small_scene(&[
+        ("cell_size = 0.02", "cell_size = 0.0002"),
+        ("max = [1.0, 1.0]", "max = [1.0, 1.0]"),
+        ("radius = 0.2", "radius = 0.5"),
+        ("particles_per_cell = 4", "particles_per_cell = 64"),
+    ]);
+    assert!(huge.len() < 500);
+    let t0 = Instant::now();
+    let e = refusal(&huge);
+    let one = t0.elapsed();
+    assert!(e.contains("about 1.257e9 particles"), "{e}");
+    let body = &huge[huge.find("[[bodies]]").unwrap()..];
+    let many = huge.clone() + &body.repeat(9);
+    let t0 = Instant::now();
+    let e = refusal(&many);
+    let ten = t0.elapsed();
+    assert!(e.contains("about 1.257e10 particles"), "{e}");
+    // seeding 1.3e9 particles took seconds; the estimate takes microseconds
+    assert!(one + ten < Duration::from_secs(1), "{one:?} {ten:?}");
+}
+
+/// A polygon of 300 000 vertices over a large area: its seeding would
+/// cost rows × edges, and is refused for it before seeding, naming the
+/// body; its particles alone would be allowed.
+#[test]
+fn a_polygon_too_costly_to_seed_is_refused_before_seeding() {
+    let n = 300_000;
+    let vertices: Vec<String> = (0..n)
+        .map(|k| {
+            let a = k as f64 * std::f64::consts::TAU / n as f64;
+            format!("[{:.9}, {:.9}]", 0.5 + 0.49 * a.cos(), 0.5 + 0.49 * a.sin())
+        })
+        .collect();
+    let text = small_scene(&[
+        ("cell_size = 0.02", "cell_size = 0.00025"),
+        (
+            r#"{ type = "disk", center = [0.5, 0.5], radius = 0.2 }"#,
+            &format!(
+                r#"{{ type = "polygon", vertices = [{}] }}"#,
+                vertices.join(", ")
+            ),
+        ),
+        ("particles_per_cell = 4", "particles_per_cell = 1"),
+    ]);
+    let t0 = Instant::now();
+    let e = refusal(&text);
+    assert!(
+        e.starts_with("bodies[0].shape: seeding would test") && e.contains("polygon"),
+        "{e}"
+    );
+    // parsing 300 000 vertices is most of it
+    assert!(t0.elapsed() < Duration::from_secs(5), "{:?}", t0.elapsed());
+}
+
+/// A scene larger than the memory a process may use is refused naming its
+/// estimate (a server's own budget here), never an abort mid-run.
+#[test]
+fn a_scene_larger_than_the_memory_budget_is_refused() {
+    let text = small_scene(&[]);
+    let scene = Scene::from_text(&text, None).unwrap();
+    let need = scene.memory.total();
+    assert!(need > 0 && scene.memory.particles > 0 && scene.memory.grid > 0);
+    let file = cleave::scene::parse(&text, cleave::scene::Format::Toml).unwrap();
+    let budget = MemoryBudget::of(need - 1, "the server's --max-memory");
+    let e = Scene::validate_within(file.clone(), &budget)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("bodies: a run needs about") && e.contains("the server's --max-memory"),
+        "{e}"
+    );
+    assert!(Scene::validate_within(file, &MemoryBudget::of(need, "x")).is_ok());
+}
+
+/// The process's own address-space limit (`ulimit -v`): this test runs
+/// itself again under a 2 GB limit, where a scene of 20 M particles used
+/// to abort with "memory allocation failed" (exit 134); there it is
+/// refused at validation.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_scene_beyond_the_address_space_limit_is_refused() {
+    const NAME: &str = "a_scene_beyond_the_address_space_limit_is_refused";
+    let text = small_scene(&[
+        ("cell_size = 0.02", "cell_size = 0.00025"),
+        ("radius = 0.2", "radius = 0.45"),
+    ]);
+    if std::env::var_os("CLEAVE_LIMITED_CHILD").is_some() {
+        let e = refusal(&text);
+        assert!(e.contains("address-space limit"), "{e}");
+        return;
+    }
+    let exe = std::env::current_exe().unwrap();
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(r#"ulimit -v 2000000 && exec "$0" --exact "$1" --test-threads=1 --nocapture"#)
+        .arg(exe)
+        .arg(NAME)
+        .env("CLEAVE_LIMITED_CHILD", "1")
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && text.contains("1 passed"), "{text}");
+}
+
+/// A checkpoint of two_disks, as bytes, and its scene.
+fn checkpoint_bytes() -> (Scene, Vec<u8>) {
+    struct Keep(Vec<u8>);
+    impl cleave::diagnostics::Observer for Keep {
+        fn series_columns(&mut self, _: &[String]) -> Result<(), String> {
+            Ok(())
+        }
+        fn series_row(&mut self, _: &cleave::diagnostics::SeriesRow) -> Result<(), String> {
+            Ok(())
+        }
+        fn snapshot(&mut self, _: &cleave::diagnostics::Snapshot) -> Result<(), String> {
+            Ok(())
+        }
+        fn progress(&mut self, p: &cleave::diagnostics::Progress) -> cleave::diagnostics::Control {
+            match p.step {
+                3 => cleave::diagnostics::Control::Checkpoint,
+                4 => cleave::diagnostics::Control::Stop,
+                _ => cleave::diagnostics::Control::Continue,
+            }
+        }
+        fn checkpoint(&mut self, cp: cleave::mpm::Checkpoint<'_>) -> Result<(), String> {
+            cp.write_to(&mut self.0).map_err(|e| e.to_string())
+        }
+    }
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/two_disks.toml");
+    let scene = Scene::from_path(&path).unwrap();
+    let mut keep = Keep(Vec::new());
+    Simulation::new(&scene).run(&mut keep).unwrap();
+    (scene, keep.0)
+}
+
+/// Single bit flips anywhere in a checkpoint, appended bytes and a cut
+/// tail: every damaged file is refused (13 of 34 such files used to
+/// resume into other results).
+#[test]
+fn every_damaged_checkpoint_is_refused() {
+    use cleave::mpm::{Checkpoint, CheckpointError};
+    let (scene, good) = checkpoint_bytes();
+    let cp = Checkpoint::read_from(&mut &good[..]).unwrap();
+    assert_eq!(cp.step(), 3);
+    assert!(Simulation::resume(&scene, cp).is_ok());
+    let n = good.len();
+    // every byte of the header and the trailer, and 400 offsets between
+    let mut offsets: Vec<usize> = (0..12).chain(n - 12..n).collect();
+    offsets.extend((0..400).map(|k| 12 + k * (n - 24) / 400));
+    let mut refused = 0;
+    for (k, &at) in offsets.iter().enumerate() {
+        let mut bad = good.clone();
+        bad[at] ^= 1 << (k % 8);
+        match Checkpoint::read_from(&mut &bad[..]) {
+            Ok(_) => panic!("a bit flipped at byte {at} of {n} was accepted"),
+            Err(
+                CheckpointError::Damaged { .. }
+                | CheckpointError::NotACheckpoint
+                | CheckpointError::OlderFormat(_),
+            ) => refused += 1,
+            Err(e) => panic!("byte {at}: refused, but not as damaged: {e}"),
+        }
+    }
+    let mut tails = Vec::new();
+    for extra in [&b"\n"[..], &[0u8; 1], &[0u8; 4096]] {
+        let mut bad = good.clone();
+        bad.extend_from_slice(extra);
+        tails.push(bad);
+    }
+    for cut in [1, 12, n / 2, n - 12] {
+        tails.push(good[..n - cut].to_vec());
+    }
+    for bad in &tails {
+        let e = Checkpoint::read_from(&mut &bad[..]).err();
+        assert!(
+            matches!(e, Some(CheckpointError::Damaged { .. })),
+            "{} bytes: {e:?}",
+            bad.len()
+        );
+        refused += 1;
+    }
+    assert_eq!(refused, offsets.len() + 7);
+}
+
+/// A damaged checkpoint in an output directory is refused naming the file
+/// and saying it is damaged; the series written so far is left as it was.
+#[test]
+fn a_damaged_checkpoint_names_its_file_and_keeps_the_results() {
+    use cleave::output::OutputWriter;
+    let (_, good) = checkpoint_bytes();
+    let dir = tempfile::tempdir().unwrap();
+    let path = OutputWriter::checkpoint_path(dir.path());
+    let series = dir.path().join("series.csv");
+    std::fs::write(&series, "time,kinetic_energy\n0,1\n").unwrap();
+    let mut bad = good.clone();
+    let at = bad.len() / 3;
+    bad[at] ^= 0x10;
+    std::fs::write(&path, &bad).unwrap();
+    let e = cleave::mpm::Checkpoint::load(&path)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains(&path.display().to_string()) && e.contains("is damaged") && e.contains("CRC-32"),
+        "{e}"
+    );
+    let e = OutputWriter::load_checkpoint(dir.path())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("checkpoint.bin") && e.contains("damaged"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(&series).unwrap(),
+        "time,kinetic_energy\n0,1\n"
+    );
+}
+
+/// A crack of 100 000 points through a body of 50 000 particles: the run's
+/// setup would measure 5e9 particle–segment distances; refused at
+/// validation, naming the body.
+#[test]
+fn a_crack_too_costly_to_place_is_refused() {
+    let points: Vec<String> = (0..100_000)
+        .map(|k| format!("[{:.6}, 0.5]", 0.35 + 0.3 * k as f64 / 100_000.0))
+        .collect();
+    let text = small_scene(&[
+        ("cell_size = 0.02", "cell_size = 0.002"),
+        (
+            "poissons_ratio = 0.3",
+            "poissons_ratio = 0.3\ndamage = { model = \"time_to_failure\", strength = 1.0e6, crack_speed = 1000.0 }",
+        ),
+        (
+            "velocity = [1.0, 0.0]",
+            &format!(
+                "velocity = [1.0, 0.0]\ncracks = [{{ points = [{}] }}]",
+                points.join(", ")
+            ),
+        ),
+    ]);
+    let e = refusal(&text);
+    assert!(
+        e.starts_with("bodies[0].shape: seeding would test") && e.contains("crack points"),
+        "{e}"
+    );
+    // with ten points it is valid
+    let short = text.replace(&points[10..].join(", "), "[0.65, 0.5]");
+    assert!(Scene::from_text(&short, None).is_ok());
 }

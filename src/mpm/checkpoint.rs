@@ -22,11 +22,17 @@
 //! tolerance, not bit for bit. The solver's counts and the stage times in
 //! the run summary are those since the resume.
 //!
-//! On disk: `b"CLEAVECKPT1\n"` then the [`Checkpoint`] in postcard (serde's
-//! compact binary format); a file from another format version or another
-//! scene is refused with the reason. The header's number names the layout
-//! of the saved types, which `checkpoint_layout.json` beside this file
-//! holds (a test fails when a saved type changes without it).
+//! On disk: `b"CLEAVECKPT2\n"`, the [`Checkpoint`] in postcard (serde's
+//! compact binary format), then a trailer: the length of what precedes it
+//! (u64, little-endian) and the CRC-32 (IEEE) of everything before the
+//! CRC itself, header included (u32, little-endian). A file from another
+//! format version or another scene is refused with the reason; a file
+//! whose length or checksum does not match (a flipped bit, a truncated or
+//! appended tail) is refused as damaged before anything is decoded, so
+//! that a resume never silently computes something else. The header's
+//! number names the layout of the saved types, which
+//! `checkpoint_layout.json` beside this file holds (a test fails when a
+//! saved type changes without it); format 2 added the trailer.
 
 use super::{Simulation, StageTimes};
 use crate::diagnostics::SeriesRow;
@@ -36,15 +42,23 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::io::{Read, Write};
 
-const MAGIC: &[u8; 12] = b"CLEAVECKPT1\n";
+const MAGIC: &[u8; 12] = b"CLEAVECKPT2\n";
+/// The headers of formats this build no longer reads.
+const OLDER: &[&[u8; 12]] = &[b"CLEAVECKPT1\n"];
+/// The trailer: the length before it (u64) and the CRC-32 (u32).
+const TRAILER: usize = 8 + 4;
 
 /// Why a checkpoint could not be written, read or resumed from.
 #[derive(Debug, thiserror::Error)]
 pub enum CheckpointError {
     #[error("{0}")]
     Io(#[from] std::io::Error),
-    #[error("not a cleave checkpoint (no CLEAVECKPT1 header)")]
+    #[error("not a cleave checkpoint (no CLEAVECKPT2 header)")]
     NotACheckpoint,
+    #[error("the checkpoint was written in an older format ({0}); this build reads CLEAVECKPT2: rerun from the start")]
+    OlderFormat(String),
+    #[error("{file} is damaged ({reason}): refused, and the results written so far are kept")]
+    Damaged { file: String, reason: String },
     #[error("checkpoint is damaged or from another format: {0}")]
     Decode(String),
     #[error("the scene is not the one the checkpoint was written for: {path} is {scene} in the scene, {checkpoint} in the checkpoint")]
@@ -116,29 +130,104 @@ impl Checkpoint<'_> {
         self.state.time
     }
 
-    /// Writes the checkpoint (header, then postcard).
+    /// Writes the checkpoint (header, postcard, then the length and the
+    /// CRC-32 of all of it), streaming: nothing is copied to checksum it.
     pub fn write_to(&self, w: &mut impl Write) -> Result<(), CheckpointError> {
-        w.write_all(MAGIC)?;
-        postcard::to_io(self, &mut *w).map_err(|e| CheckpointError::Decode(e.to_string()))?;
-        w.flush()?;
+        let mut out = Summed {
+            inner: w,
+            crc: crc32fast::Hasher::new(),
+            len: 0,
+        };
+        out.write_all(MAGIC)?;
+        postcard::to_io(self, &mut out).map_err(|e| CheckpointError::Decode(e.to_string()))?;
+        let len = out.len;
+        out.write_all(&len.to_le_bytes())?;
+        let crc = out.crc.clone().finalize();
+        out.inner.write_all(&crc.to_le_bytes())?;
+        out.inner.flush()?;
         Ok(())
     }
 
-    /// Reads a checkpoint written by [`Checkpoint::write_to`].
+    /// Reads a checkpoint written by [`Checkpoint::write_to`], checking its
+    /// length and checksum before decoding it.
     pub fn read_from(r: &mut impl Read) -> Result<Checkpoint<'static>, CheckpointError> {
+        Self::read_named(r, "the checkpoint")
+    }
+
+    fn read_named(r: &mut impl Read, file: &str) -> Result<Checkpoint<'static>, CheckpointError> {
         let mut bytes = Vec::new();
         r.read_to_end(&mut bytes)?;
-        let body = bytes
-            .strip_prefix(MAGIC.as_slice())
-            .ok_or(CheckpointError::NotACheckpoint)?;
+        let body = verified(&bytes, file)?;
         postcard::from_bytes(body).map_err(|e| CheckpointError::Decode(e.to_string()))
     }
 
-    /// Reads the checkpoint at `path`.
+    /// Reads the checkpoint at `path` (a damaged file is refused naming it).
     pub fn load(path: &std::path::Path) -> Result<Checkpoint<'static>, CheckpointError> {
         let mut f = std::io::BufReader::new(std::fs::File::open(path)?);
-        Checkpoint::read_from(&mut f)
+        Checkpoint::read_named(&mut f, &path.display().to_string())
     }
+}
+
+/// A writer that checksums and counts what goes through it.
+struct Summed<'w, W: Write> {
+    inner: &'w mut W,
+    crc: crc32fast::Hasher,
+    len: u64,
+}
+
+impl<W: Write> Write for Summed<'_, W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.inner.write(buf)?;
+        self.crc.update(&buf[..n]);
+        self.len += n as u64;
+        Ok(n)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+/// The postcard body of a checkpoint file's `bytes`, once its header,
+/// length and checksum are found right; `file` names it in the refusal.
+fn verified<'b>(bytes: &'b [u8], file: &str) -> Result<&'b [u8], CheckpointError> {
+    if !bytes.starts_with(MAGIC) {
+        if let Some(old) = OLDER.iter().find(|h| bytes.starts_with(h.as_slice())) {
+            let name = String::from_utf8_lossy(&old[..old.len() - 1]).into_owned();
+            return Err(CheckpointError::OlderFormat(name));
+        }
+        return Err(CheckpointError::NotACheckpoint);
+    }
+    let damaged = |reason: String| CheckpointError::Damaged {
+        file: file.to_string(),
+        reason,
+    };
+    if bytes.len() < MAGIC.len() + TRAILER {
+        return Err(damaged(format!(
+            "{} bytes, shorter than any checkpoint",
+            bytes.len()
+        )));
+    }
+    let (content, crc) = bytes.split_at(bytes.len() - 4);
+    let (before, len) = content.split_at(content.len() - 8);
+    let mut word = [0u8; 8];
+    word.copy_from_slice(len);
+    let len = u64::from_le_bytes(word);
+    if len != before.len() as u64 {
+        return Err(damaged(format!(
+            "{} bytes where its trailer says {}: cut short or appended to",
+            bytes.len(),
+            len.saturating_add(TRAILER as u64)
+        )));
+    }
+    let mut word = [0u8; 4];
+    word.copy_from_slice(crc);
+    let (held, found) = (u32::from_le_bytes(word), crc32fast::hash(content));
+    if held != found {
+        return Err(damaged(format!(
+            "its CRC-32 is {found:08x}, the file says {held:08x}"
+        )));
+    }
+    Ok(&before[MAGIC.len()..])
 }
 
 /// When an observer asks for its next checkpoint: every `every` of wall
@@ -411,7 +500,7 @@ mod tests {
 
     /// postcard writes no field names nor types: a file read with another
     /// layout fails to decode, or worse decodes into other values. The
-    /// header's number (`CLEAVECKPT1`) names the layout, so that older files
+    /// header's number (`CLEAVECKPT2`) names the layout, so that older files
     /// are refused as another format; this test holds the layout that
     /// number stands for (the checkpoint's types and the observers' states
     /// it carries) and fails when a saved type changes.
@@ -439,7 +528,7 @@ mod tests {
             std::fs::write(&fresh, &layout).expect("write the new layout");
             panic!(
                 "the checkpoint's saved types changed (new layout in {}): raise the number in MAGIC \
-                 (CLEAVECKPT1 -> CLEAVECKPT2, so that files in the old layout are refused) and replace {} with it",
+                 (CLEAVECKPT2 -> CLEAVECKPT3, with the old header in OLDER, so that files in the old layout are refused) and replace {} with it",
                 fresh.display(),
                 path.display()
             );
@@ -452,6 +541,22 @@ mod tests {
         let r = Checkpoint::read_from(&mut &b"CLEAVESNAP1\nxyz"[..]);
         assert!(matches!(r, Err(CheckpointError::NotACheckpoint)), "{r:?}");
         let r = Checkpoint::read_from(&mut &b"CLEAVECKPT1\n\x01\x02"[..]);
+        assert!(matches!(r, Err(CheckpointError::OlderFormat(_))), "{r:?}");
+        let r = Checkpoint::read_from(&mut &b"CLEAVECKPT2\n\x01\x02"[..]);
+        assert!(matches!(r, Err(CheckpointError::Damaged { .. })), "{r:?}");
+    }
+
+    /// A body that is not a checkpoint, with a right length and checksum,
+    /// gets as far as the decoder (which refuses it).
+    #[test]
+    fn a_sound_trailer_passes_to_the_decoder() {
+        let mut bytes = MAGIC.to_vec();
+        bytes.extend_from_slice(&[0x01, 0x02]);
+        bytes.extend_from_slice(&(bytes.len() as u64).to_le_bytes());
+        let crc = crc32fast::hash(&bytes);
+        bytes.extend_from_slice(&crc.to_le_bytes());
+        assert_eq!(verified(&bytes, "x").ok(), Some(&[0x01u8, 0x02][..]));
+        let r = Checkpoint::read_from(&mut &bytes[..]);
         assert!(matches!(r, Err(CheckpointError::Decode(_))), "{r:?}");
     }
 }

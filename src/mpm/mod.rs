@@ -110,6 +110,18 @@ pub enum SimError {
     },
     #[error("step {step}, t = {time:.6e} s: reached time.max_steps = {step} before time.end")]
     MaxSteps { step: u64, time: f64 },
+    #[error(
+        "step {step}, t = {time:.6e} s: the time step dt = {dt:e} s does not advance the clock \
+         (cell size {h:e} m, signal speed max(c + |v|) = {signal:e} m/s, reached at particle {particle})"
+    )]
+    NoProgress {
+        step: u64,
+        time: f64,
+        dt: f64,
+        h: f64,
+        signal: f64,
+        particle: u32,
+    },
     #[error("step {step}, t = {time:.6e} s: {message}")]
     PhaseField {
         step: u64,
@@ -444,11 +456,24 @@ impl Simulation {
             None => self.scene.cfl() * limit,
         };
         let left = end - self.time;
-        Ok(if dt > left || left - dt < 1e-9 * dt {
+        let dt = if dt > left || left - dt < 1e-9 * dt {
             left
         } else {
             dt
-        })
+        };
+        // a zero, subnormal or non-finite step, or one too small to move
+        // the clock, would repeat until max_steps: stop at once and say why
+        if !dt.is_normal() || self.time + dt == self.time {
+            return Err(SimError::NoProgress {
+                step: self.step,
+                time: self.time,
+                dt,
+                h: self.geom.h,
+                signal: self.max_signal,
+                particle: self.fastest_particle(),
+            });
+        }
+        Ok(dt)
     }
 
     fn fastest_particle(&self) -> u32 {

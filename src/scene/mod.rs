@@ -5,14 +5,17 @@
 //! mistake becomes a [`SceneError`] whose entries name the field path and
 //! the reason, e.g. `bodies[1].material.youngs_modulus: must be > 0, got -3`.
 
+mod memory;
 mod plan;
 pub mod schema;
 mod validate;
 
+pub use memory::{human_bytes, MemoryBudget, MemoryEstimate};
 pub use plan::{Plan, Stage};
 pub use schema::*;
 pub use validate::{
-    phase_field_gamma, ResolvedDamage, ResolvedMaterial, Scene, MAX_CONTACT_GROUPS,
+    phase_field_gamma, ResolvedDamage, ResolvedMaterial, Scene, TimeStepEstimate,
+    DEFAULT_MAX_STEPS, MAX_CONTACT_GROUPS,
 };
 
 use std::fmt;
@@ -120,6 +123,17 @@ impl Scene {
     pub fn from_text(text: &str, format: Option<Format>) -> Result<Scene, SceneError> {
         let file = parse(text, format.unwrap_or_else(|| Format::sniff(text)))?;
         Scene::validate(file)
+    }
+
+    /// [`Scene::from_text`] with the memory estimate checked against
+    /// `budget` ([`Scene::validate_within`]).
+    pub fn from_text_within(
+        text: &str,
+        format: Option<Format>,
+        budget: &MemoryBudget,
+    ) -> Result<Scene, SceneError> {
+        let file = parse(text, format.unwrap_or_else(|| Format::sniff(text)))?;
+        Scene::validate_within(file, budget)
     }
 }
 

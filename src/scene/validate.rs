@@ -1,10 +1,12 @@
 //! Validation: raw [`SceneFile`] → [`Scene`] with resolved materials, grid
 //! dimensions, particle counts and the [`Plan`].
 
+use super::memory::{self, MemoryBudget, MemoryEstimate};
 use super::plan::Plan;
 use super::schema::*;
 use super::{FieldError, SceneError};
 use crate::geometry::{self, Lattice};
+use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// At most this many distinct contact groups (a node's groups are a bit mask).
@@ -13,6 +15,12 @@ pub const MAX_CONTACT_GROUPS: usize = 32;
 const MAX_NODES: usize = 50_000_000;
 /// Refuse scenes with more particles than this (memory).
 const MAX_PARTICLES: usize = 50_000_000;
+/// Refuse scenes whose seeding would test more lattice points than this
+/// ([`geometry::seed_cost`]): a few seconds of validation at most, however
+/// large a lattice a short scene describes.
+const MAX_SEED_COST: f64 = 1e9;
+/// The default of `time.max_steps`.
+pub const DEFAULT_MAX_STEPS: u64 = 10_000_000;
 
 /// A material with its derived constants, as the engine uses it.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,6 +77,28 @@ pub struct Scene {
     pub contact_groups: Vec<u32>,
     /// The stages this scene needs.
     pub plan: Plan,
+    /// What a run of it is expected to need in memory (checked against the
+    /// budget it was validated with).
+    pub memory: MemoryEstimate,
+    /// The first time step and what sets it.
+    pub time_step: TimeStepEstimate,
+}
+
+/// The time step a run starts with, as validation estimates it: a fixed
+/// `time.dt`, or `time.cfl` × h / (c + |v|) with the fastest body's
+/// dilatational wave speed c and its velocity (the formula of the run's
+/// `next_dt`; a run's Δt only shrinks from there as particles speed up or a
+/// neo-Hookean material stiffens).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TimeStepEstimate {
+    /// s.
+    pub dt: f64,
+    /// The signal speed c + |v| it is set by, m/s (0 with a fixed `dt`).
+    pub signal_speed: f64,
+    /// The body that sets it (its index), if any.
+    pub body: Option<usize>,
+    /// Steps to `time.end` at this Δt: fewer than the run takes, never more.
+    pub steps: f64,
 }
 
 impl Scene {
@@ -90,8 +120,22 @@ impl Scene {
         self.lattice(b).spacing()
     }
 
-    /// Validates a parsed scene; reports every problem found.
+    /// Validates a parsed scene; reports every problem found. Its memory
+    /// estimate is checked against what this process may use
+    /// ([`MemoryBudget::process`]).
     pub fn validate(file: SceneFile) -> Result<Scene, SceneError> {
+        Scene::validate_within(file, &MemoryBudget::process())
+    }
+
+    /// [`Scene::validate`] with the memory estimate checked against
+    /// `budget` (a server passes its own, with the process's:
+    /// `MemoryBudget::process().min(MemoryBudget::of(bytes, "..."))`).
+    ///
+    /// Its cost is bounded whatever lattice the scene describes: every
+    /// body's particles are estimated from its area before any is seeded,
+    /// and the seeding's work from its bounding box, its holes and its
+    /// polygons' edges ([`geometry::seed_cost`]).
+    pub fn validate_within(file: SceneFile, budget: &MemoryBudget) -> Result<Scene, SceneError> {
         let mut c = Checker::default();
         let cells = check_grid(&mut c, &file.grid);
         c.positive("analysis.thickness", file.analysis.thickness);
@@ -126,7 +170,7 @@ impl Scene {
             );
         }
         let mut body_material = Vec::with_capacity(file.bodies.len());
-        let mut particle_counts = Vec::with_capacity(file.bodies.len());
+        let mut seedable = Vec::with_capacity(file.bodies.len());
         let mut groups = std::collections::BTreeSet::new();
         for (i, body) in file.bodies.iter().enumerate() {
             let path = format!("bodies[{i}]");
@@ -160,6 +204,19 @@ impl Scene {
                     materials.len() - 1
                 }),
             };
+            if let Some(m) = mat.and_then(|k| materials.get(k)) {
+                // a particle's mass must survive in f64: a zero or subnormal
+                // one divides nodal momenta by zero
+                let s = lattice_of(&file.grid, cells, body.particles_per_cell).spacing();
+                let t = file.analysis.thickness;
+                let mass = m.density * s * s * t;
+                if t.is_finite() && t > 0.0 && s > 0.0 && !mass.is_normal() {
+                    c.err(
+                        &format!("{path}.material"),
+                        format!("a particle's mass, density {:e} kg/m³ × spacing² {:e} m² × thickness {t:e} m, is {mass:e} kg: beyond f64's range", m.density, s * s),
+                    );
+                }
+            }
             if mat.is_some() {
                 let pf = phase_field_of(&file, &body.material);
                 if let Some(pf) = pf {
@@ -221,8 +278,9 @@ impl Scene {
             }
             body_material.push(mat.unwrap_or(usize::MAX));
             groups.insert(body.contact_group);
-            particle_counts.push(check_body(&mut c, &path, body, &file.grid, cells));
+            seedable.push(check_body(&mut c, &path, body, &file.grid, cells));
         }
+        let particle_counts = count_particles(&mut c, &file, cells, &seedable);
         if groups.len() > MAX_CONTACT_GROUPS {
             c.err(
                 "bodies",
@@ -230,13 +288,6 @@ impl Scene {
                     "{} contact groups; at most {MAX_CONTACT_GROUPS} are supported",
                     groups.len()
                 ),
-            );
-        }
-        let total: usize = particle_counts.iter().sum();
-        if total > MAX_PARTICLES {
-            c.err(
-                "bodies",
-                format!("{total} particles in all; at most {MAX_PARTICLES} are supported"),
             );
         }
         check_contact(&mut c, &file.contact, &groups);
@@ -267,7 +318,31 @@ impl Scene {
         if !c.errors.is_empty() {
             return Err(SceneError { errors: c.errors });
         }
+        let time_step = check_time_step(&mut c, &file, &materials, &body_material);
         let contact_groups: Vec<u32> = groups.into_iter().collect();
+        let memory = memory::estimate(
+            &file,
+            cells,
+            &particle_counts,
+            &materials,
+            &body_material,
+            contact_groups.len(),
+        );
+        if let Some((limit, what)) = &budget.limit {
+            if memory.total() > *limit {
+                c.err(
+                    "bodies",
+                    format!(
+                        "a run needs {memory}, more than the {} that {what} allows: \
+                         use fewer particles (a coarser grid.cell_size or fewer particles_per_cell) or more memory",
+                        memory::human_bytes(*limit)
+                    ),
+                );
+            }
+        }
+        if !c.errors.is_empty() {
+            return Err(SceneError { errors: c.errors });
+        }
         let plan = Plan::build(&file, &contact_groups);
         Ok(Scene {
             file,
@@ -277,6 +352,8 @@ impl Scene {
             particle_counts,
             contact_groups,
             plan,
+            memory,
+            time_step,
         })
     }
 
@@ -502,7 +579,7 @@ fn check_time(c: &mut Checker, t: &TimeSpec) {
         (None, Some(dt)) => {
             if c.positive("time.dt", dt) && t.end.is_finite() && t.end > 0.0 {
                 let steps = (t.end / dt).ceil();
-                let cap = t.max_steps.unwrap_or(10_000_000) as f64;
+                let cap = t.max_steps.unwrap_or(DEFAULT_MAX_STEPS) as f64;
                 if steps > cap {
                     c.err(
                         "time.dt",
@@ -664,6 +741,13 @@ fn resolve_material(
     let (e, rho) = (m.youngs_modulus, m.density);
     let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     let mu = e / (2.0 * (1.0 + nu));
+    if !(lambda.is_finite() && mu.is_finite()) {
+        c.err(
+            &format!("{path}.youngs_modulus"),
+            format!("the Lamé constants λ = {lambda:e} Pa, μ = {mu:e} Pa of E = {e:e} Pa and ν = {nu} are beyond f64's range"),
+        );
+        return None;
+    }
     let wave_speed = match plane {
         PlaneKind::PlaneStrain => ((lambda + 2.0 * mu) / rho).sqrt(),
         PlaneKind::PlaneStress => (e / (rho * (1.0 - nu * nu))).sqrt(),
@@ -845,13 +929,15 @@ fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec) -> bool {
     c.errors.len() == before
 }
 
+/// Checks a body's fields and that it lies in the grid; whether it can be
+/// seeded.
 fn check_body(
     c: &mut Checker,
     path: &str,
     body: &BodySpec,
     grid: &GridSpec,
     cells: [usize; 2],
-) -> usize {
+) -> bool {
     let before = c.errors.len();
     let shape_ok = check_shape(c, &format!("{path}.shape"), &body.shape);
     let holes_ok = body
@@ -875,7 +961,7 @@ fn check_body(
         c.point(&format!("{path}.velocity_origin"), o);
     }
     if !(shape_ok && holes_ok) || cells[0] == 0 {
-        return 0;
+        return false;
     }
     let b = geometry::bounds(&body.shape);
     let gmax = [
@@ -895,22 +981,191 @@ fn check_body(
             );
         }
     }
-    if c.errors.len() > before {
-        return 0;
+    c.errors.len() == before
+}
+
+/// The particles of every body that passed [`check_body`] (`seedable`), 0
+/// for the others. The counts are first estimated from the shapes' areas
+/// and the seeding's cost from their bounding boxes, for all bodies
+/// together, so that a scene describing billions of particles is refused
+/// before any is seeded; then the bodies are seeded and counted exactly.
+fn count_particles(
+    c: &mut Checker,
+    file: &SceneFile,
+    cells: [usize; 2],
+    seedable: &[bool],
+) -> Vec<usize> {
+    let mut counts = vec![0; file.bodies.len()];
+    let bodies = || file.bodies.iter().enumerate().filter(|(i, _)| seedable[*i]);
+    let lattice = |b: &BodySpec| lattice_of(&file.grid, cells, b.particles_per_cell);
+    let mut estimate = 0.0;
+    let mut cost = 0.0;
+    let mut largest = (0.0, 0usize);
+    for (i, body) in bodies() {
+        let s = lattice(body).spacing();
+        let holes: f64 = body.holes.iter().map(geometry::area).sum();
+        let n = ((geometry::area(&body.shape) - holes) / (s * s)).max(0.0);
+        estimate += n;
+        // the run's setup measures every particle's distance to every
+        // segment of the body's initial cracks
+        let crack_points: usize = body.cracks.iter().map(|k| k.points.len()).sum();
+        let w =
+            geometry::seed_cost(&body.shape, &body.holes, &lattice(body)) + n * crack_points as f64;
+        cost += w;
+        if w > largest.0 {
+            largest = (w, i);
+        }
     }
-    let lat = lattice_of(grid, cells, ppc);
-    let mut count = 0usize;
-    geometry::seed(&body.shape, &body.holes, &lat, |_| count += 1);
-    if count == 0 {
+    // the lattice count of a shape differs from its area's by a row of
+    // particles along its outline: leave room for it
+    if estimate > 1.5 * MAX_PARTICLES as f64 {
         c.err(
-            &format!("{path}.shape"),
+            "bodies",
             format!(
-                "holds no particle at cell size {} with {ppc} particles per cell",
-                grid.cell_size
+                "about {estimate:.3e} particles in all (the bodies' areas over the particle spacing squared); \
+                 at most {MAX_PARTICLES} are supported: use a coarser grid.cell_size or fewer particles_per_cell"
+            ),
+        );
+        return counts;
+    }
+    if cost > MAX_SEED_COST {
+        c.err(
+            &format!("bodies[{}].shape", largest.1),
+            format!(
+                "seeding would test {cost:.3e} points (lattice points in the bodies' bounding boxes × \
+                 their shapes, holes and polygon edges, and particles × crack points; bodies[{}] {:.3e}), \
+                 at most {MAX_SEED_COST:e}: use a coarser grid.cell_size, fewer particles_per_cell, \
+                 holes, polygon vertices or crack points",
+                largest.1, largest.0
+            ),
+        );
+        return counts;
+    }
+    for (i, body) in bodies() {
+        let mut n = 0usize;
+        geometry::seed(&body.shape, &body.holes, &lattice(body), |_| n += 1);
+        if n == 0 {
+            c.err(
+                &format!("bodies[{i}].shape"),
+                format!(
+                    "holds no particle at cell size {} with {} particles per cell",
+                    file.grid.cell_size, body.particles_per_cell
+                ),
+            );
+        }
+        counts[i] = n;
+    }
+    let total: usize = counts.iter().sum();
+    if total > MAX_PARTICLES {
+        c.err(
+            "bodies",
+            format!("{total} particles in all; at most {MAX_PARTICLES} are supported"),
+        );
+    }
+    counts
+}
+
+/// The first time step ([`TimeStepEstimate`]); refuses a Δt that is zero,
+/// subnormal or not finite, and a step count to `time.end` beyond
+/// `time.max_steps` (a run would stop there), naming Δt, the wave speed,
+/// the cell size and the body and material that set them.
+fn check_time_step(
+    c: &mut Checker,
+    file: &SceneFile,
+    materials: &[ResolvedMaterial],
+    body_material: &[usize],
+) -> TimeStepEstimate {
+    let h = file.grid.cell_size;
+    let t = &file.time;
+    let cap = t.max_steps.unwrap_or(DEFAULT_MAX_STEPS);
+    // The run's signal speed is max over particles of c + |v_p| (`next_dt`).
+    // A lower bound: c of each body's material, plus |velocity| when the
+    // body's mean particle velocity is its `velocity` (no gradient, or a
+    // gradient about the particles' centroid).
+    let mut fastest: Option<(f64, usize)> = None;
+    for (b, body) in file.bodies.iter().enumerate() {
+        let Some(m) = body_material.get(b).and_then(|&k| materials.get(k)) else {
+            continue;
+        };
+        let v = body.velocity;
+        let mean_is_velocity =
+            body.velocity_gradient == [[0.0; 2]; 2] || body.velocity_origin.is_none();
+        let speed = if mean_is_velocity {
+            (v[0] * v[0] + v[1] * v[1]).sqrt()
+        } else {
+            0.0
+        };
+        let signal = m.wave_speed + speed;
+        // a NaN signal takes the place of any other (and is refused below)
+        if fastest.is_none_or(|(s, _)| signal > s || signal.is_nan()) {
+            fastest = Some((signal, b));
+        }
+    }
+    let Some((signal, b)) = fastest else {
+        return TimeStepEstimate {
+            dt: 0.0,
+            signal_speed: 0.0,
+            body: None,
+            steps: 0.0,
+        };
+    };
+    let material = &materials[body_material[b]];
+    let material_path = match &file.bodies[b].material {
+        MaterialRef::Name(n) => format!("materials.{n}"),
+        MaterialRef::Inline(_) => format!("bodies[{b}].material"),
+    };
+    let cause = format!(
+        "the wave speed {:e} m/s of {material_path} (E = {:e} Pa, ρ = {:e} kg/m³) in bodies[{b}], \
+         plus its speed, {signal:e} m/s, over the cell size {h:e} m",
+        material.wave_speed, material.youngs_modulus, material.density
+    );
+    let (dt, path) = match t.dt {
+        Some(dt) => (dt, "time.dt".to_string()),
+        None => (
+            file.time.cfl.unwrap_or(0.5) * h / signal,
+            material_path.clone(),
+        ),
+    };
+    let steps = t.end / dt;
+    let estimate = TimeStepEstimate {
+        dt,
+        signal_speed: if t.dt.is_some() { 0.0 } else { signal },
+        body: Some(b),
+        steps,
+    };
+    if t.dt.is_none() && !signal.is_finite() {
+        c.err(
+            &material_path,
+            format!("the time step cannot be computed: {cause} (the wave speed is not finite: the stiffness or density is beyond f64's range)"),
+        );
+    } else if !dt.is_normal() {
+        c.err(
+            &path,
+            format!(
+                "the time step would be {dt:e} s ({}): a run could not advance",
+                if t.dt.is_some() {
+                    "time.dt".to_string()
+                } else {
+                    format!("time.cfl × {cause}")
+                }
+            ),
+        );
+    } else if steps > cap as f64 + 1.0 {
+        // the run takes at least this many steps: it would stop at max_steps
+        c.err(
+            "time.max_steps",
+            format!(
+                "time.end = {:e} s takes at least {steps:.4e} steps of Δt = {dt:e} s ({}), more than max_steps = {cap}",
+                t.end,
+                if t.dt.is_some() {
+                    "time.dt".to_string()
+                } else {
+                    format!("time.cfl × {cause}")
+                }
             ),
         );
     }
-    count
+    estimate
 }
 
 fn check_contact(c: &mut Checker, contact: &ContactSpec, groups: &std::collections::BTreeSet<u32>) {
