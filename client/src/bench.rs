@@ -213,6 +213,7 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
             max_concurrent: 1,
             threads_per_job: threads,
             max_particles: u64::MAX,
+            max_memory: None,
             max_queued: 100,
             // the overhead measured is that of the service alone
             checkpoint_every: None,

@@ -692,6 +692,9 @@ fn validate(path: &Path, json: bool) -> ExitCode {
                         "particles": scene.total_particles(),
                         "cells": scene.cells,
                         "stages": scene.plan.names(),
+                        "memory": scene.memory,
+                        "memory_bytes": scene.memory.total(),
+                        "time_step": scene.time_step,
                     })
                 );
             } else {
@@ -702,6 +705,11 @@ fn validate(path: &Path, json: bool) -> ExitCode {
                     scene.cells[0],
                     scene.cells[1],
                     scene.plan
+                );
+                println!("  memory: {}", scene.memory);
+                println!(
+                    "  time step: {:.4e} s, at least {:.0} steps to time.end",
+                    scene.time_step.dt, scene.time_step.steps
                 );
             }
             ExitCode::SUCCESS

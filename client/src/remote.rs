@@ -327,7 +327,7 @@ pub async fn validate(
             .collect();
         println!(
             "{}",
-            json!({"status": if r.valid { "valid" } else { "invalid" }, "scene": path, "particles": r.particles, "cells": [r.cells_x, r.cells_y], "stages": r.stages, "errors": errors})
+            json!({"status": if r.valid { "valid" } else { "invalid" }, "scene": path, "particles": r.particles, "cells": [r.cells_x, r.cells_y], "stages": r.stages, "memory_bytes": r.memory_bytes, "memory": r.memory, "time_step": {"dt": r.time_step, "steps": r.steps}, "errors": errors})
         );
     }
     if r.valid {
@@ -339,6 +339,11 @@ pub async fn validate(
                 r.cells_x,
                 r.cells_y,
                 r.stages.join(" → ")
+            );
+            println!("  memory: {}", r.memory);
+            println!(
+                "  time step: {:.4e} s, at least {:.0} steps to time.end",
+                r.time_step, r.steps
             );
         }
         Ok(ExitCode::SUCCESS)

@@ -113,7 +113,7 @@ fn load_outcome(dir: &Path) -> Result<Option<Outcome>, String> {
     let (columns, rows) = match cleave::output::read_series(&dir.join("series.csv")) {
         Ok(s) => s,
         // a run that failed before its first row has no series
-        Err(e) if e.source.kind() == std::io::ErrorKind::NotFound && failure.is_some() => {
+        Err(e) if e.error.kind() == std::io::ErrorKind::NotFound && failure.is_some() => {
             (Vec::new(), Vec::new())
         }
         Err(e) => return Err(e.to_string()),

@@ -508,6 +508,31 @@ async fn hostile_requests_get_the_promised_status_and_bounded_answers() {
         assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e:?}");
         assert!(e.message().starts_with(&format!("{field}: ")), "{e:?}");
     }
+    // ValidateScene gives the memory estimate and the time step
+    let v = c
+        .validate_scene(proto::ValidateSceneRequest {
+            scene: scene.clone(),
+            format: proto::SceneFormat::Toml as i32,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert!(v.valid && v.memory_bytes > 1 << 20 && v.memory.contains("particles"));
+    assert!(v.time_step > 0.0 && v.steps > 100.0, "{v:?}");
+    // a server's --max-memory refuses a scene whose estimate is over it
+    let small = Server::start(&dir.path().join("small"), &["--max-memory", "1000000"]);
+    let e = small
+        .client()
+        .await
+        .submit_job(proto::SubmitJobRequest {
+            scene: scene.clone(),
+            ..Default::default()
+        })
+        .await
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e:?}");
+    assert!(e.message().contains("--max-memory"), "{}", e.message());
+    drop(small);
     // nothing was queued by those
     assert!(c
         .list_jobs(proto::ListJobsRequest::default())

@@ -30,6 +30,11 @@ struct Args {
     /// Largest job accepted, in particles.
     #[arg(long, env = "CLEAVE_MAX_PARTICLES", default_value_t = 20_000_000)]
     max_particles: u64,
+    /// Largest job accepted by its scene's memory estimate, in bytes
+    /// (default: what the process may use, its address-space limit and the
+    /// memory available). `cleave validate` prints a scene's estimate.
+    #[arg(long, env = "CLEAVE_MAX_MEMORY", value_name = "BYTES")]
+    max_memory: Option<u64>,
     /// Most jobs waiting in the queue.
     #[arg(long, env = "CLEAVE_MAX_QUEUED_JOBS", default_value_t = 100)]
     max_queued_jobs: usize,
@@ -67,6 +72,7 @@ fn main() -> anyhow::Result<()> {
             max_concurrent: a.max_concurrent_jobs.max(1),
             threads_per_job: threads.max(1),
             max_particles: a.max_particles,
+            max_memory: a.max_memory,
             max_queued: a.max_queued_jobs,
             checkpoint_every: match cleave::mpm::CheckpointTimer::interval(a.checkpoint_every)
                 .map_err(anyhow::Error::msg)?

@@ -142,6 +142,9 @@ pub struct JobConfig {
     pub max_concurrent: usize,
     pub threads_per_job: usize,
     pub max_particles: u64,
+    /// Bytes a job's run may take by its scene's estimate (None: only the
+    /// process's own limits and the memory available).
+    pub max_memory: Option<u64>,
     pub max_queued: usize,
     /// Wall time between a running job's checkpoints (None: none).
     pub checkpoint_every: Option<std::time::Duration>,
@@ -260,9 +263,17 @@ impl JobManager {
         &self.inner.config
     }
 
-    /// Checks a scene.
-    pub fn validate(text: &str, format: Option<Format>) -> Result<Scene, SceneError> {
-        Scene::from_text(text, format)
+    /// Checks a scene, its memory estimate against this server's budget
+    /// (`--max-memory`) and what the process may still use.
+    pub fn validate(&self, text: &str, format: Option<Format>) -> Result<Scene, SceneError> {
+        let mut budget = crate::scene::MemoryBudget::process();
+        if let Some(bytes) = self.inner.config.max_memory {
+            budget = budget.min(crate::scene::MemoryBudget::of(
+                bytes,
+                "the server's --max-memory",
+            ));
+        }
+        Scene::from_text_within(text, format, &budget)
     }
 
     /// Validates and queues a scene.
@@ -272,7 +283,7 @@ impl JobManager {
         format: Option<Format>,
         label: &str,
     ) -> Result<JobRecord, JobError> {
-        let scene = Scene::from_text(text, format)?;
+        let scene = self.validate(text, format)?;
         self.enqueue(&scene, text, label)
     }
 
@@ -461,7 +472,7 @@ impl JobManager {
         match crate::output::read_series(&path) {
             Ok(s) => Ok(s),
             Err(e)
-                if e.source.kind() != std::io::ErrorKind::InvalidData
+                if e.error.kind() != std::io::ErrorKind::InvalidData
                     && (!record.state.is_final() || record.state == JobState::Cancelled) =>
             {
                 Err(JobError::Precondition(format!(

@@ -23,20 +23,22 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// A file that could not be written.
+/// A file that could not be written (or read back).
+///
+/// Its message already holds the I/O error's, so that error is not also
+/// given as the `source`: a chain printed whole (`{:#}`) would say it twice.
 #[derive(Debug, thiserror::Error)]
-#[error("{path}: {source}")]
+#[error("{path}: {error}")]
 pub struct OutputError {
     pub path: PathBuf,
-    #[source]
-    pub source: std::io::Error,
+    pub error: std::io::Error,
 }
 
 impl OutputError {
     pub(crate) fn new(path: &Path, source: std::io::Error) -> OutputError {
         OutputError {
             path: path.to_path_buf(),
-            source,
+            error: source,
         }
     }
 }
@@ -275,7 +277,7 @@ impl Pictures {
     fn draw(&mut self, path: &Path, plot: impl FnOnce() -> Result<bool, OutputError>) -> bool {
         let reason = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(plot)) {
             Ok(Ok(drawn)) => return drawn,
-            Ok(Err(e)) => e.source.to_string(),
+            Ok(Err(e)) => e.error.to_string(),
             Err(panic) => panic
                 .downcast_ref::<&str>()
                 .map(|s| s.to_string())

@@ -251,9 +251,8 @@ impl Cleave for CleaveService {
         // deadline passes (or it cancels) meanwhile, tonic drops this
         // future at the await, and nothing is queued.
         let text = std::sync::Arc::new(r.scene);
-        let t = text.clone();
-        let scene =
-            blocking(move || JobManager::validate(&t, format).map_err(JobError::from)).await?;
+        let (t, jobs) = (text.clone(), self.jobs.clone());
+        let scene = blocking(move || jobs.validate(&t, format).map_err(JobError::from)).await?;
         let jobs = self.jobs.clone();
         let job = blocking(move || jobs.enqueue(&scene, &text, &r.label)).await?;
         Ok(Response::new(job_to_proto(job, false)))
@@ -504,7 +503,8 @@ impl Cleave for CleaveService {
     ) -> Result<Response<proto::ValidateSceneResponse>, Status> {
         let r = req.into_inner();
         let format = format(r.format)?;
-        let resp = match tokio::task::spawn_blocking(move || JobManager::validate(&r.scene, format))
+        let jobs = self.jobs.clone();
+        let resp = match tokio::task::spawn_blocking(move || jobs.validate(&r.scene, format))
             .await
             .map_err(|e| Status::internal(e.to_string()))?
         {
@@ -515,6 +515,10 @@ impl Cleave for CleaveService {
                 stages: scene.plan.names().into_iter().map(String::from).collect(),
                 cells_x: scene.cells[0] as u64,
                 cells_y: scene.cells[1] as u64,
+                memory_bytes: scene.memory.total(),
+                memory: scene.memory.to_string(),
+                time_step: scene.time_step.dt,
+                steps: scene.time_step.steps,
             },
             Err(e) => proto::ValidateSceneResponse {
                 valid: false,
