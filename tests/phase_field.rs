@@ -1045,3 +1045,85 @@ fn a_new_node_set_starts_from_the_kept_c_and_a_poor_multigrid_hands_over() {
         );
     }
 }
+
+#[test]
+fn the_preconditioner_is_rounded_to_f32_with_no_subnormal_entry() {
+    use cleave::fracture::phase_field::system::round_to_single;
+    let tiny = f32::MIN_POSITIVE as f64;
+    let l = [
+        1.0,
+        -2.5e-4,
+        3.0e-30,
+        tiny,
+        0.99 * tiny,
+        -1.0e-40,
+        1.0e-300,
+        0.0,
+    ];
+    let mut single = vec![7.0f32; 2];
+    round_to_single(&l, &mut single);
+    assert_eq!(single.len(), l.len());
+    assert!(single.iter().all(|v| !v.is_subnormal()), "{single:?}");
+    // normal f32 numbers are rounded, the rest flushed to zero
+    assert_eq!(single[..4], [1.0, -2.5e-4, 3.0e-30, f32::MIN_POSITIVE]);
+    assert_eq!(single[4..], [0.0; 4]);
+}
+
+#[test]
+fn the_factorizations_are_counted_by_kind_in_the_summary_and_the_series() {
+    let base = p1_coarse("1.2e-5").replace("series_rows = 81", "series_rows = 13");
+    let column_sum = |rec: &cleave::diagnostics::Recorder, name: &str| -> f64 {
+        rec.column(name).unwrap().iter().sum()
+    };
+    for (method, preconditioned) in [("pcg", true), ("direct", false)] {
+        let (rec, summary) = run_text(&format!(
+            "{base}\n[phase_field_solver]\nmethod = \"{method}\"\nrefactor_after = 2\n"
+        ));
+        let s = summary.phase_field.unwrap();
+        assert_eq!(
+            s.preconditioner_factorizations + s.direct_factorizations,
+            s.factorizations,
+            "{method}: {s:?}"
+        );
+        if preconditioned {
+            // one at the start, then renewed as the history grows
+            assert!(s.preconditioner_factorizations > 1, "{s:?}");
+            assert!(s.preconditioner_factorization > 0.0, "{s:?}");
+            // a fall-back solves with the factor already made
+            assert_eq!(s.direct_factorizations, 0, "{s:?}");
+        } else {
+            assert_eq!(s.preconditioner_factorizations, 0, "{s:?}");
+            assert_eq!(s.direct_factorizations, summary.steps, "{s:?}");
+            assert_eq!(s.fallbacks, 0, "{s:?}");
+        }
+        let kinds = [
+            (
+                "pf_preconditioner_factorizations",
+                "pf_preconditioner_factorization_s",
+                s.preconditioner_factorizations,
+            ),
+            (
+                "pf_direct_factorizations",
+                "pf_direct_factorization_s",
+                s.direct_factorizations,
+            ),
+        ];
+        for (count, seconds, total) in kinds {
+            // the rows count the factorizations since the last row
+            assert_eq!(column_sum(&rec, count), total as f64, "{method}: {count}");
+            let (n, t) = (rec.column(count).unwrap(), rec.column(seconds).unwrap());
+            for (n, t) in n.iter().zip(&t) {
+                // mean seconds of one: positive where there was one
+                assert!(
+                    if *n > 0.0 {
+                        *t > 0.0 && *t < 10.0
+                    } else {
+                        *t == 0.0
+                    },
+                    "{method}: {count} {n}, {seconds} {t}"
+                );
+            }
+        }
+        assert_eq!(column_sum(&rec, "pf_fallbacks"), s.fallbacks as f64);
+    }
+}

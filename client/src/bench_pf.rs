@@ -1,12 +1,16 @@
 //! `cleave bench-phase-field`: where the time of a phase-field step goes,
 //! for a scene (by default P1 at the paper's resolution), with the direct
 //! solve (the baseline) and the two warm-started PCGs (the last factor, the
-//! multigrid) in the same run, from t = 0 or from a checkpoint. Prints
-//! the table and writes it to a Markdown file, above the file's
+//! multigrid) in the same run, from t = 0 or from a checkpoint; then every
+//! kind of numeric factorization a run makes, timed alone on the PCG run's
+//! matrix at the start and (with `--late`) at a late instant (the timed
+//! steps above never include one: PCG's factor is made in the warm-up).
+//! Prints the tables and writes them to a Markdown file, above the file's
 //! `KEEP_BELOW` line: what a person wrote under that line survives a
 //! re-run.
 
 use anyhow::Context;
+use cleave::fracture::phase_field::system::FactorKind;
 use cleave::mpm::{Checkpoint, Simulation};
 use cleave::scene::{PhaseFieldMethod, Scene};
 use std::fmt::Write as _;
@@ -32,12 +36,58 @@ struct Split {
     pcg_iterations: f64,
 }
 
+/// Seconds per numeric factorization of each kind at one instant.
+struct FactorTimes {
+    time: f64,
+    unknowns: usize,
+    preconditioner: f64,
+    direct: f64,
+}
+
+/// Times `repeats` factorizations of each kind a run makes on the
+/// simulation's current matrices (the seconds the run's stats count).
+fn time_factorizations(sim: &mut Simulation, repeats: usize) -> anyhow::Result<FactorTimes> {
+    let mut seconds = [0.0; 2];
+    for _ in 0..repeats {
+        // the preconditioner last: the run goes on with the factor it would have
+        for (k, kind) in [FactorKind::Direct, FactorKind::Preconditioner]
+            .into_iter()
+            .enumerate()
+        {
+            let before = sim
+                .phase_field_stats()
+                .context("the scene has no phase field")?;
+            sim.factorize_phase_field(kind)
+                .context("the scene has no phase field")??;
+            let after = sim
+                .phase_field_stats()
+                .context("the scene has no phase field")?;
+            seconds[k] += after.factorization - before.factorization;
+        }
+    }
+    let unknowns = sim.phase_field_unknowns();
+    Ok(FactorTimes {
+        time: sim.time(),
+        unknowns,
+        direct: seconds[0] / repeats as f64,
+        preconditioner: seconds[1] / repeats as f64,
+    })
+}
+
+/// What `measure` does after its timed steps with method PCG: time the
+/// factorizations there and, with `late`, again at that time.
+struct FactorPlan {
+    late: Option<f64>,
+    repeats: usize,
+}
+
 fn measure(
     scene: &Scene,
     method: PhaseFieldMethod,
     from: Option<&Path>,
     warmup: usize,
     steps: usize,
+    factors: Option<(&FactorPlan, &mut Vec<FactorTimes>)>,
 ) -> anyhow::Result<Split> {
     let mut scene = scene.clone();
     scene.file.phase_field_solver.method = method;
@@ -92,6 +142,16 @@ fn measure(
     let solve = per(s1.solve, s0.solve);
     let pf = per(t1.phase_field, t0.phase_field);
     let solves = (s1.pcg_solves - s0.pcg_solves).max(1) as f64;
+    if let Some((plan, out)) = factors {
+        out.push(time_factorizations(&mut sim, plan.repeats)?);
+        if let Some(late) = plan.late {
+            eprintln!("{method:?}: running on to t = {late:e} s for the late factorizations");
+            while sim.time() < late * (1.0 - 1e-9) {
+                sim.step()?;
+            }
+            out.push(time_factorizations(&mut sim, plan.repeats)?);
+        }
+    }
     Ok(Split {
         method: match method {
             PhaseFieldMethod::Direct => "direct (Cholesky every step)",
@@ -116,6 +176,8 @@ pub fn run(
     warmup: usize,
     from: Option<&Path>,
     steps: usize,
+    late: Option<f64>,
+    factor_repeats: usize,
 ) -> anyhow::Result<()> {
     let scene = Scene::from_path(scene_path)
         .map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?;
@@ -125,13 +187,19 @@ pub fn run(
         )?;
     let total_steps = (scene.file.time.end / dt).round();
     let threads = rayon::current_num_threads();
+    let plan = FactorPlan {
+        late,
+        repeats: factor_repeats.max(1),
+    };
+    let mut factor_rows = Vec::new();
     let mut rows = Vec::new();
     for method in [
         PhaseFieldMethod::Direct,
         PhaseFieldMethod::Pcg,
         PhaseFieldMethod::Multigrid,
     ] {
-        rows.push(measure(&scene, method, from, warmup, steps)?);
+        let factors = (method == PhaseFieldMethod::Pcg).then_some((&plan, &mut factor_rows));
+        rows.push(measure(&scene, method, from, warmup, steps, factors)?);
     }
     let mut md = String::new();
     writeln!(md, "# Phase-field step: where the time goes\n")?;
@@ -176,6 +244,29 @@ pub fn run(
         p.wall / d.wall,
         m.wall / d.wall
     )?;
+    writeln!(
+        md,
+        "\n## Every kind of factorization a run makes\n\n\
+         Seconds per numeric factorization, the mean of {} of each kind on the PCG run's matrix after its \
+         timed steps{}: *preconditioner* is PCG's (the f64 factor rounded to f32: a run's \
+         `preconditioner_factorizations`), *direct* the f64 factor of method direct and of a fall-back \
+         (`direct_factorizations`). A run's mean seconds per factorization of each kind should be \
+         near these.\n",
+        plan.repeats,
+        match late {
+            Some(t) => format!(" and at t = {t:e} s (the same run stepped on)"),
+            None => " (`--late T` adds a late instant)".into(),
+        },
+    )?;
+    writeln!(md, "| t, s | unknowns | preconditioner | direct (f64) |")?;
+    writeln!(md, "|---:|---:|---:|---:|")?;
+    for f in &factor_rows {
+        writeln!(
+            md,
+            "| {:e} | {} | {:.3} | {:.3} |",
+            f.time, f.unknowns, f.preconditioner, f.direct
+        )?;
+    }
     print!("{md}");
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| dir.display().to_string())?;

@@ -129,6 +129,13 @@ enum Command {
         /// Timed steps per method.
         #[arg(long, default_value_t = 40)]
         steps: usize,
+        /// Also time every kind of factorization at this simulated time,
+        /// s, stepping the PCG run on to it (untimed).
+        #[arg(long, value_name = "SECONDS")]
+        late: Option<f64>,
+        /// Factorizations of each kind timed at each instant.
+        #[arg(long, default_value_t = 3)]
+        factor_repeats: usize,
     },
     /// DFG against single field for a damage scene (default: the dynamic
     /// Brazilian disk, seed 000 D4/D5) at several cell sizes: wall time per
@@ -505,7 +512,17 @@ fn local_main(command: Command) -> ExitCode {
             warmup,
             from,
             steps,
-        } => match bench_pf::run(&scene, &out, warmup, from.as_deref(), steps.max(1)) {
+            late,
+            factor_repeats,
+        } => match bench_pf::run(
+            &scene,
+            &out,
+            warmup,
+            from.as_deref(),
+            steps.max(1),
+            late,
+            factor_repeats,
+        ) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");

@@ -252,6 +252,22 @@ impl Simulation {
         self.phase.as_ref().map(|p| p.stats())
     }
 
+    /// One numeric factorization of the given kind of every phase-field
+    /// system's current matrix, counted in [`Self::phase_field_stats`]
+    /// (`cleave bench-phase-field`); None without a phase field.
+    pub fn factorize_phase_field(
+        &mut self,
+        kind: crate::fracture::phase_field::system::FactorKind,
+    ) -> Option<Result<(), crate::fracture::phase_field::system::PhaseFieldError>> {
+        self.phase.as_mut().map(|p| p.factorize_kind(kind))
+    }
+
+    /// Unknowns of the phase-field systems' last assembly, summed over the
+    /// bodies (0 without a phase field).
+    pub fn phase_field_unknowns(&self) -> usize {
+        self.phase.as_ref().map_or(0, |p| p.unknowns())
+    }
+
     /// Wall time spent in each stage so far.
     pub fn stage_times(&self) -> &StageTimes {
         &self.times
@@ -261,7 +277,11 @@ impl Simulation {
     /// With a phase field: the solver's mean seconds per step since the
     /// last row (`pf_assembly_s`, `pf_factorization_s`, `pf_solve_s`), the
     /// most stagger iterations of a step (`pf_stagger_iterations`), the
-    /// last stagger residual (`pf_residual`), Ψ_f per body
+    /// last stagger residual (`pf_residual`), the numeric factorizations
+    /// since the last row by kind and the mean seconds of one
+    /// (`pf_preconditioner_factorizations`, `pf_preconditioner_factorization_s`,
+    /// `pf_direct_factorizations`, `pf_direct_factorization_s`) and the
+    /// fall-backs to a direct solve (`pf_fallbacks`), Ψ_f per body
     /// (`fracture_energy_b<i>`, with two or more phase-field bodies), and
     /// per tracked body the crack tip (`crack_tip_x`, `crack_tip_y`,
     /// `crack_length`, `crack_speed`, suffixed `_b<i>` with two or more).
@@ -281,6 +301,11 @@ impl Simulation {
                     "pf_solve_s",
                     "pf_stagger_iterations",
                     "pf_residual",
+                    "pf_preconditioner_factorizations",
+                    "pf_preconditioner_factorization_s",
+                    "pf_direct_factorizations",
+                    "pf_direct_factorization_s",
+                    "pf_fallbacks",
                 ]
                 .map(String::from),
             );
@@ -872,6 +897,11 @@ impl Simulation {
                 s.solve,
                 s.staggers as f64,
                 s.residual,
+                s.preconditioner_factorizations as f64,
+                s.preconditioner_factorization,
+                s.direct_factorizations as f64,
+                s.direct_factorization,
+                s.fallbacks as f64,
             ]);
             if energies.len() > 1 {
                 extra.extend(&energies);

@@ -22,8 +22,8 @@
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::fracture::phase_field::system::{
-    self, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem, SolveMethod,
-    SolveStats,
+    self, FactorKind, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem,
+    SolveMethod, SolveStats,
 };
 use crate::grid::shape::Kernel;
 use crate::grid::{Bins, GridGeom, SyncPtr};
@@ -113,6 +113,13 @@ pub(super) struct RowStats {
     pub solve: f64,
     /// The most stagger iterations (solves) of one step since the last row.
     pub staggers: u32,
+    /// Numeric factorizations since the last row by kind, and the mean
+    /// seconds of one (0 without any), and the fall-backs to a direct solve.
+    pub preconditioner_factorizations: u64,
+    pub preconditioner_factorization: f64,
+    pub direct_factorizations: u64,
+    pub direct_factorization: f64,
+    pub fallbacks: u64,
     /// ‖K(H)c − F‖/‖F‖ after the last step's stagger loop, as far as the
     /// history update is concerned (the linear solver's own residual is
     /// bounded by its tolerance and not included).
@@ -547,6 +554,13 @@ impl PhaseFields {
                 0.0
             }
         };
+        let mean = |seconds: f64, count: u64| {
+            if count > 0 {
+                seconds / count as f64
+            } else {
+                0.0
+            }
+        };
         RowStats {
             assembly: per(now.assembly, i.mark.assembly),
             factorization: per(
@@ -555,6 +569,18 @@ impl PhaseFields {
             ),
             solve: per(now.solve, i.mark.solve),
             staggers: i.max_staggers,
+            preconditioner_factorizations: now.preconditioner_factorizations
+                - i.mark.preconditioner_factorizations,
+            preconditioner_factorization: mean(
+                now.preconditioner_factorization - i.mark.preconditioner_factorization,
+                now.preconditioner_factorizations - i.mark.preconditioner_factorizations,
+            ),
+            direct_factorizations: now.direct_factorizations - i.mark.direct_factorizations,
+            direct_factorization: mean(
+                now.direct_factorization - i.mark.direct_factorization,
+                now.direct_factorizations - i.mark.direct_factorizations,
+            ),
+            fallbacks: now.fallbacks - i.mark.fallbacks,
             residual: i.residual,
         }
     }
@@ -572,8 +598,27 @@ impl PhaseFields {
             s.factorizations += t.factorizations;
             s.pcg_solves += t.pcg_solves;
             s.pcg_iterations += t.pcg_iterations;
+            s.preconditioner_factorizations += t.preconditioner_factorizations;
+            s.preconditioner_factorization += t.preconditioner_factorization;
+            s.direct_factorizations += t.direct_factorizations;
+            s.direct_factorization += t.direct_factorization;
+            s.fallbacks += t.fallbacks;
         }
         s
+    }
+
+    /// Unknowns of the last assemblies, summed over the bodies.
+    pub(super) fn unknowns(&self) -> usize {
+        self.bodies.iter().map(|b| b.system.len()).sum()
+    }
+
+    /// One numeric factorization of the given kind of every body's
+    /// system, counted in [`Self::stats`] (`cleave bench-phase-field`).
+    pub(super) fn factorize_kind(&mut self, kind: FactorKind) -> Result<(), PhaseFieldError> {
+        for b in &mut self.bodies {
+            b.system.factorize_kind(kind)?;
+        }
+        Ok(())
     }
 }
 

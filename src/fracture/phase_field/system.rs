@@ -80,6 +80,27 @@ pub struct SolveStats {
     /// "multigrid").
     pub pcg_solves: u64,
     pub pcg_iterations: u64,
+    /// The numeric factorizations above by kind, and their seconds (in
+    /// `factorization` too): PCG's preconditioner (an f64 factor rounded
+    /// to f32) and the f64 factor solved with directly (method "direct",
+    /// and the fall-backs).
+    pub preconditioner_factorizations: u64,
+    pub preconditioner_factorization: f64,
+    pub direct_factorizations: u64,
+    pub direct_factorization: f64,
+    /// Direct solves after PCG with a fresh preconditioner (or multigrid
+    /// hierarchy) failed to converge: each one factorization more.
+    pub fallbacks: u64,
+}
+
+/// The kinds of numeric factorization a run makes (see
+/// [`SolveStats::preconditioner_factorizations`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FactorKind {
+    /// PCG's preconditioner: the f64 factor rounded to f32.
+    Preconditioner,
+    /// The f64 factor of a direct solve.
+    Direct,
 }
 
 /// How `K c = F` is solved each step.
@@ -371,15 +392,25 @@ pub struct PhaseFieldSystem {
     rhs: Vec<f64>,
     /// The analysis and the node set it was made for.
     symbolic: Option<SymbolicCholesky<usize>>,
-    /// The numeric Cholesky factor: in f64 for the direct method, in f32
-    /// (`single`) when it only preconditions PCG. The triangular solves are
-    /// nearly all of a PCG iteration and stream the whole factor from
-    /// memory; in f32 they stream half, and the f32 factorization is
-    /// cheaper too, while PCG still takes the f64 residual to its tolerance.
+    /// The numeric Cholesky factor, always made in f64; when it only
+    /// preconditions PCG (`single`) it is rounded to f32. The triangular
+    /// solves are nearly all of a PCG iteration and stream the whole factor
+    /// from memory; in f32 they stream half, while PCG still takes the f64
+    /// residual to its tolerance.
+    ///
+    /// Not factorized in f32: the factor of this system decays by tens of
+    /// orders of magnitude away from the diagonal (the entries of K are
+    /// ~1e-7 in SI units, and a factor of a mass-dominated operator decays
+    /// geometrically along the fill), so an f32 factorization holds ~1e5
+    /// subnormal entries (0.2 % of P1's 45.5 M at t = 0) and makes far more
+    /// subnormal intermediate products. x86 cores without flush-to-zero
+    /// handle those in microcode, tens of times slower: P1's f32
+    /// factorization took 3.1 s inside a run against 0.80 s for f64 on the
+    /// same machine (issue 40; docs/phase-field-performance.md). In f64 the
+    /// subnormal range (below 2.2e-308) is out of reach, and the rounding
+    /// below flushes what would be subnormal in f32 to zero.
     l_values: Vec<f64>,
     l_single: Vec<f32>,
-    /// `values` in f32, for the single factor.
-    values_single: Vec<f32>,
     /// The triangular solves with either factor (two threads), and their
     /// work vectors.
     trisolve: Option<SupernodalSolve>,
@@ -442,7 +473,6 @@ impl PhaseFieldSystem {
             symbolic: None,
             l_values: Vec::new(),
             l_single: Vec::new(),
-            values_single: Vec::new(),
             trisolve: None,
             scratch_single: SolveScratch::default(),
             scratch_double: SolveScratch::default(),
@@ -876,29 +906,28 @@ impl PhaseFieldSystem {
         Ok(())
     }
 
-    /// PCG's fresh start, which begins a new cycle of its renewal rule: an
-    /// f32 factorization (counted as `refactor_after` iterations) and PCG
-    /// preconditioned by it, from the last solution. Should the f32
-    /// factorization fail or PCG not converge even so, a direct solve in f64.
-    /// The solution is left in `x`.
+    /// PCG's fresh start, which begins a new cycle of its renewal rule: a
+    /// factorization (counted as `refactor_after` iterations) and PCG
+    /// preconditioned by its f32 rounding, from the last solution. Should
+    /// PCG not converge even so, a direct solve with the same factor in f64
+    /// (no second factorization). The solution is left in `x`.
     fn renew(
         &mut self,
         tolerance: f64,
         max_iterations: usize,
         refactor_after: usize,
     ) -> Result<(), PhaseFieldError> {
-        let (converged, iterations) = match self.factorize(true) {
-            Ok(()) => self.timed_pcg(tolerance, max_iterations),
-            // f32 may lose definiteness where f64 keeps it
-            Err(_) => (false, 0),
-        };
+        // the factorization is in f64: where it fails, a direct solve would too
+        self.factorize(true)?;
+        let (converged, iterations) = self.timed_pcg(tolerance, max_iterations);
         self.cycle_cost = (refactor_after + iterations.max(1)) as f64;
         self.cycle_solves = 1;
-        if converged {
-            Ok(())
-        } else {
-            self.direct()
+        if !converged {
+            self.stats.fallbacks += 1;
+            self.single = false;
+            self.solve_with_factor();
         }
+        Ok(())
     }
 
     /// The renewal rule's bookkeeping after a solve with an old
@@ -1003,6 +1032,7 @@ impl PhaseFieldSystem {
         } else {
             tracing::debug!(unknowns = n, iterations, "phase-field multigrid: PCG did not converge with a fresh hierarchy; solving directly");
             self.use_multigrid = false;
+            self.stats.fallbacks += 1;
             self.direct()
         }
     }
@@ -1019,6 +1049,12 @@ impl PhaseFieldSystem {
     /// An f64 factorization and the solve with it, into `x`.
     fn direct(&mut self) -> Result<(), PhaseFieldError> {
         self.factorize(false)?;
+        self.solve_with_factor();
+        Ok(())
+    }
+
+    /// x = K⁻¹ F with the stored factor.
+    fn solve_with_factor(&mut self) {
         let t0 = Instant::now();
         let mut x = std::mem::take(&mut self.x);
         x.clear();
@@ -1026,7 +1062,6 @@ impl PhaseFieldSystem {
         self.apply_inverse(&mut x);
         self.x = x;
         self.stats.solve += t0.elapsed().as_secs_f64();
-        Ok(())
     }
 
     /// Analysis (if the pattern is new) and numeric factorization, in f32
@@ -1045,9 +1080,7 @@ impl PhaseFieldSystem {
             let sym =
                 factorize_symbolic_cholesky(pattern, Side::Lower, SymmetricOrdering::Amd, params)
                     .map_err(|e| PhaseFieldError::Solver(format!("symbolic analysis: {e:?}")))?;
-            let req = sym
-                .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
-                .or(sym.factorize_numeric_llt_scratch::<f32>(Par::Seq, Default::default()));
+            let req = sym.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default());
             self.mem = MemBuffer::try_new(req)
                 .map_err(|e| PhaseFieldError::Solver(format!("workspace: {e:?}")))?;
             let tri = SupernodalSolve::new(&sym)
@@ -1072,32 +1105,49 @@ impl PhaseFieldSystem {
             .as_ref()
             .ok_or_else(|| PhaseFieldError::Solver("no analysis".into()))?;
         self.factored = false;
-        if single {
-            self.values_single.clear();
-            self.values_single
-                .extend(self.values.iter().map(|&v| v as f32));
-            numeric_llt(
-                sym,
-                pattern,
-                &self.values_single,
-                &mut self.l_single,
-                &mut self.mem,
-            )?;
-        } else {
-            numeric_llt(
-                sym,
-                pattern,
-                &self.values,
-                &mut self.l_values,
-                &mut self.mem,
-            )?;
+        let made = numeric_llt(
+            sym,
+            pattern,
+            &self.values,
+            &mut self.l_values,
+            &mut self.mem,
+        );
+        if made.is_ok() && single {
+            round_to_single(&self.l_values, &mut self.l_single);
         }
+        let seconds = t1.elapsed().as_secs_f64();
+        // a failed attempt's time is spent too
+        self.stats.factorization += seconds;
+        made?;
         self.single = single;
         self.factored = true;
         self.refactor_next = false;
         self.stats.factorizations += 1;
-        self.stats.factorization += t1.elapsed().as_secs_f64();
+        if single {
+            self.stats.preconditioner_factorizations += 1;
+            self.stats.preconditioner_factorization += seconds;
+        } else {
+            self.stats.direct_factorizations += 1;
+            self.stats.direct_factorization += seconds;
+        }
+        tracing::debug!(
+            unknowns = n,
+            preconditioner = single,
+            seconds,
+            "phase-field numeric factorization"
+        );
         Ok(())
+    }
+
+    /// One numeric factorization of today's matrix of the given kind (the
+    /// symbolic analysis first if the node set is new), counted in
+    /// [`Self::stats`] like a run's: what `cleave bench-phase-field` times.
+    /// Leaves the factor in place, so PCG goes on with it.
+    pub fn factorize_kind(&mut self, kind: FactorKind) -> Result<(), PhaseFieldError> {
+        if self.dofs.is_empty() {
+            return Ok(());
+        }
+        self.factorize(kind == FactorKind::Preconditioner)
     }
 
     /// x ← (L Lᵀ)⁻¹ x with the stored factor, or one V-cycle.
@@ -1230,18 +1280,35 @@ struct PcgWork {
     p: Vec<f64>,
 }
 
+/// `l` rounded to f32 into `single`, with what would be subnormal in f32
+/// (below `f32::MIN_POSITIVE` in magnitude, ~1.2e-38) flushed to zero, so
+/// that the triangular solves meet no subnormal operand in the factor.
+/// An entry that small is more than 30 orders of magnitude below the
+/// factor's diagonal here: dropping it changes the preconditioner by far
+/// less than the rounding to f32 does.
+pub fn round_to_single(l: &[f64], single: &mut Vec<f32>) {
+    single.clear();
+    single.extend(l.iter().map(|&v| {
+        if v.abs() < f32::MIN_POSITIVE as f64 {
+            0.0
+        } else {
+            v as f32
+        }
+    }));
+}
+
 /// The numeric factorization of `values` (on `pattern`, lower triangle)
-/// into `l`, in f64 or f32.
-fn numeric_llt<T: faer::traits::ComplexField>(
+/// into `l`, in f64.
+fn numeric_llt(
     sym: &SymbolicCholesky<usize>,
     pattern: SymbolicSparseColMatRef<'_, usize>,
-    values: &[T],
-    l: &mut Vec<T>,
+    values: &[f64],
+    l: &mut Vec<f64>,
     mem: &mut MemBuffer,
 ) -> Result<(), PhaseFieldError> {
-    l.resize(sym.len_val(), T::zero_impl());
+    l.resize(sym.len_val(), 0.0);
     let a = SparseColMatRef::new(pattern, values);
-    sym.factorize_numeric_llt::<T>(
+    sym.factorize_numeric_llt::<f64>(
         l,
         a,
         Side::Lower,
