@@ -30,8 +30,8 @@ pub struct MemoryEstimate {
     pub grid: u64,
     /// The phase field's matrices, right-hand sides and solver vectors.
     pub phase_field_system: u64,
-    /// The phase field's Cholesky factor (its values, in f32 for PCG, and
-    /// its symbolic structure).
+    /// The phase field's Cholesky factor (its values in f64, and for PCG
+    /// their f32 copy too, and its symbolic structure).
     pub phase_field_factor: u64,
     /// DFG's per-particle state and neighbour lists.
     pub dfg: u64,
@@ -259,19 +259,19 @@ pub(super) fn estimate(
             // a quadratic B-spline couples a node with its 5 x 5
             // neighbours, 7 x 7 with the 4th-order term's second derivatives
             let row = if fourth { 49.0 } else { 25.0 };
-            // row indices (usize), values (f64), assembly keys (u64), a
-            // single-precision copy (f32); the vectors of PCG and the
-            // right-hand side per dof
-            system += (dofs * row * (8.0 + 8.0 + 8.0 + 4.0) + dofs * 12.0 * 8.0) as u64;
+            // row indices (usize), values (f64), assembly keys (u64); the
+            // vectors of PCG and the right-hand side per dof
+            system += (dofs * row * (8.0 + 8.0 + 8.0) + dofs * 12.0 * 8.0) as u64;
             // nnz(L) ≈ 10.5 n log₂ n (quadratic); the 4th-order stencil
             // fills about twice as much
             let fill = if fourth { 21.0 } else { 10.5 };
             let l = fill * dofs * dofs.max(2.0).log2();
-            // its values: f32 for PCG's preconditioner, f64 for the direct
-            // solve (and the multigrid's hand-over); the supernodal
+            // its values: always factorized in f64 (an f32 factorization
+            // meets subnormal numbers, slow on x86), and PCG keeps an f32
+            // copy beside them as its preconditioner; the supernodal
             // structure and the factorization's workspace, per dof
             let value = match file.phase_field_solver.method {
-                PhaseFieldMethod::Pcg => 4.0,
+                PhaseFieldMethod::Pcg => 8.0 + 4.0,
                 _ => 8.0,
             };
             factor += (l * value + dofs * 64.0) as u64;
