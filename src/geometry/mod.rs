@@ -342,7 +342,7 @@ mod tests {
             per_dir: 2,
         };
         let mut pts = Vec::new();
-        seed(&shape, &[slot.clone()], &lat, |p| pts.push(p));
+        seed(&shape, std::slice::from_ref(&slot), &lat, |p| pts.push(p));
         assert!(pts.iter().all(|p| !contains(&slot, *p)));
         // 40 x 40 particles minus a 0.5 x 0.1 slot = 20 x 4 particles
         assert_eq!(pts.len(), 1600 - 80);
