@@ -336,18 +336,19 @@ enum Command {
 }
 
 impl Command {
-    /// The server options of a command that can talk to a server.
-    fn server_args(&self) -> Option<&ServerArgs> {
+    /// The server options of a command that can talk to a server, and
+    /// whether it was asked for JSON.
+    fn server_args(&self) -> Option<(&ServerArgs, bool)> {
         match self {
-            Command::Run { server, .. }
-            | Command::Validate { server, .. }
-            | Command::Study { server, .. }
-            | Command::Submit { server, .. }
-            | Command::Watch { server, .. }
-            | Command::Fetch { server, .. }
-            | Command::List { server, .. }
-            | Command::Get { server, .. }
-            | Command::Cancel { server, .. } => Some(server),
+            Command::Run { server, json, .. }
+            | Command::Validate { server, json, .. }
+            | Command::Study { server, json, .. }
+            | Command::Submit { server, json, .. }
+            | Command::Watch { server, json, .. }
+            | Command::Fetch { server, json, .. }
+            | Command::List { server, json, .. }
+            | Command::Get { server, json, .. }
+            | Command::Cancel { server, json, .. } => Some((server, *json)),
             Command::Bench { .. }
             | Command::BenchService { .. }
             | Command::BenchPhaseField { .. }
@@ -403,7 +404,11 @@ fn server_target(cli: &Cli, matches: &clap::ArgMatches) -> Option<remote::Target
         sub.filter(|m| m.try_contains_id(name).unwrap_or(false))
             .and_then(|m| m.value_source(name))
     };
-    let own = cli.command.server_args().cloned().unwrap_or_default();
+    let own = cli
+        .command
+        .server_args()
+        .map(|(s, _)| s.clone())
+        .unwrap_or_default();
     let explicit = |name: &str| source(name) == Some(ValueSource::CommandLine);
     let pick = |mine: Option<String>, top: Option<String>, name: &str| {
         if explicit(name) {
@@ -940,24 +945,7 @@ fn run_valid(
 
 /// Every command against a server.
 fn remote_main(target: &remote::Target, command: Command) -> ExitCode {
-    let json = match &command {
-        Command::Run { json, .. }
-        | Command::Validate { json, .. }
-        | Command::Submit { json, .. }
-        | Command::Watch { json, .. }
-        | Command::Fetch { json, .. }
-        | Command::List { json, .. }
-        | Command::Get { json, .. }
-        | Command::Cancel { json, .. }
-        | Command::Study { json, .. } => *json,
-        Command::Bench { .. }
-        | Command::BenchService { .. }
-        | Command::BenchPhaseField { .. }
-        | Command::BenchDfg { .. }
-        | Command::GcPolar { .. }
-        | Command::Plot { .. }
-        | Command::Metric { .. } => false,
-    };
+    let json = command.server_args().is_some_and(|(_, json)| json);
     let runtime = match tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()

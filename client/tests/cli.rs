@@ -852,14 +852,22 @@ fn every_argument_has_help_and_server_options_only_where_they_apply() {
             remote.contains(&c.as_str()),
             "{c}: {help}"
         );
-        // an entry's first line: "  <NAME>  text" or "  -x, --name <V>  text"
-        for l in help.lines().filter(|l| {
+        // an entry's first line: "  <NAME>  text" or "  -x, --name <V>  text";
+        // or, where clap puts help on the next line, the entry alone with
+        // its text indented below it
+        let lines: Vec<&str> = help.lines().collect();
+        let is_entry = |l: &str| {
             let t = l.trim_start();
             l.starts_with("  ") && (t.starts_with('<') || t.starts_with('-') || t.starts_with('['))
-        }) {
+        };
+        let indent = |l: &str| l.len() - l.trim_start().len();
+        for (k, l) in lines.iter().enumerate().filter(|(_, l)| is_entry(l)) {
             let t = l.trim();
-            let described = t.split("  ").filter(|p| !p.trim().is_empty()).count() >= 2;
-            assert!(described, "{c}: no help for {t:?}");
+            let inline = t.split("  ").filter(|p| !p.trim().is_empty()).count() >= 2;
+            let below = lines
+                .get(k + 1)
+                .is_some_and(|n| !n.trim().is_empty() && !is_entry(n) && indent(n) > indent(l));
+            assert!(inline || below, "{c}: no help for {t:?}");
         }
     }
 }
