@@ -255,3 +255,54 @@ impl Store {
             .map_err(db_err)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A data directory written before jobs had a scene name opens, keeps
+    /// its jobs, and lists them with an empty name; new jobs get theirs.
+    #[test]
+    fn a_data_directory_from_before_scene_names_opens() {
+        let dir = tempfile::tempdir().unwrap();
+        let conn = Connection::open(dir.path().join("cleave.sqlite")).unwrap();
+        conn.execute_batch(
+            "CREATE TABLE jobs (
+                 seq INTEGER PRIMARY KEY AUTOINCREMENT,
+                 id TEXT UNIQUE NOT NULL,
+                 label TEXT NOT NULL,
+                 state TEXT NOT NULL,
+                 scene TEXT NOT NULL,
+                 created_at REAL NOT NULL,
+                 started_at REAL,
+                 finished_at REAL,
+                 error TEXT,
+                 particles INTEGER NOT NULL,
+                 stages TEXT NOT NULL,
+                 summary TEXT
+             );
+             INSERT INTO jobs (id, label, state, scene, created_at, particles, stages)
+                 VALUES ('job-000001', 'old', 'SUCCEEDED', '[grid]', 1.0, 10, 'p2g,g2p');",
+        )
+        .unwrap();
+        drop(conn);
+        let store = Store::open(dir.path()).unwrap();
+        let old = store.get("job-000001").unwrap();
+        assert_eq!((old.label.as_str(), old.scene_name.as_str()), ("old", ""));
+        let id = store
+            .insert("new", "[meta]\nname = \"x\"", "x", 2.0, 5, &[])
+            .unwrap();
+        let (jobs, _) = store.list(10, None, None, false).unwrap();
+        assert_eq!(jobs.len(), 2);
+        assert_eq!(
+            (jobs[0].id.as_str(), jobs[0].scene_name.as_str()),
+            (id.as_str(), "x")
+        );
+        assert_eq!(jobs[0].scene, "", "a basic list reads no scene text");
+        let (full, _) = store.list(10, None, None, true).unwrap();
+        assert_eq!(full[1].scene, "[grid]");
+        // opening again does not add the column twice
+        drop(store);
+        assert!(Store::open(dir.path()).is_ok());
+    }
+}
