@@ -105,15 +105,12 @@ fn full_view(v: i32, full_by_default: bool) -> Result<bool, Status> {
     }
 }
 
+/// The domain's state of a proto state (None for UNSPECIFIED): the proto
+/// names are the domain's with the enum's prefix.
 fn state_from_proto(s: proto::JobState) -> Option<JobState> {
-    match s {
-        proto::JobState::Unspecified => None,
-        proto::JobState::Queued => Some(JobState::Queued),
-        proto::JobState::Running => Some(JobState::Running),
-        proto::JobState::Succeeded => Some(JobState::Succeeded),
-        proto::JobState::Failed => Some(JobState::Failed),
-        proto::JobState::Cancelled => Some(JobState::Cancelled),
-    }
+    s.as_str_name()
+        .strip_prefix("JOB_STATE_")
+        .and_then(JobState::parse)
 }
 
 pub fn state_to_proto(s: JobState) -> proto::JobState {
@@ -250,9 +247,12 @@ impl Cleave for CleaveService {
         // Validation may take a while on a large scene: if the client's
         // deadline passes (or it cancels) meanwhile, tonic drops this
         // future at the await, and nothing is queued.
-        let text = std::sync::Arc::new(r.scene);
-        let (t, jobs) = (text.clone(), self.jobs.clone());
-        let scene = blocking(move || jobs.validate(&t, format).map_err(JobError::from)).await?;
+        let (text, jobs) = (r.scene, self.jobs.clone());
+        let (scene, text) = blocking(move || {
+            let scene = jobs.validate(&text, format)?;
+            Ok((scene, text))
+        })
+        .await?;
         let jobs = self.jobs.clone();
         let job = blocking(move || jobs.enqueue(&scene, &text, &r.label)).await?;
         Ok(Response::new(job_to_proto(job, false)))
