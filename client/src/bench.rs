@@ -5,7 +5,7 @@
 
 use anyhow::Context;
 use cleave::mpm::Simulation;
-use cleave::scene::Scene;
+use cleave::scene::{Scene, Stage};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -79,9 +79,12 @@ fn measure(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measur
             rate: sim.particles().len() as f64 * steps as f64 / secs,
             per_step: secs / steps as f64,
             stages: [
-                per(after.p2g, before.p2g),
-                per(after.grid_update, before.grid_update),
-                per(after.g2p + after.bins, before.g2p + before.bins),
+                per(after.get(Stage::P2g), before.get(Stage::P2g)),
+                per(after.get(Stage::GridUpdate), before.get(Stage::GridUpdate)),
+                per(
+                    after.sum(|s| matches!(s, Stage::G2p | Stage::Rebin)),
+                    before.sum(|s| matches!(s, Stage::G2p | Stage::Rebin)),
+                ),
             ],
         })
     })

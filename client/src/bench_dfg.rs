@@ -12,7 +12,7 @@ use anyhow::Context;
 use cleave::diagnostics::fragments::{from_snapshot, Fragment};
 use cleave::diagnostics::{Observer, Recorder, SeriesRow, Snapshot};
 use cleave::mpm::Simulation;
-use cleave::scene::Scene;
+use cleave::scene::{Scene, Stage};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -85,8 +85,8 @@ fn run_case(file: &cleave::scene::SceneFile, instants: &[f64]) -> anyhow::Result
         particles: s.particles,
         steps: s.steps,
         per_step: (s.wall_seconds - t.diagnostics) / steps as f64,
-        dfg: (t.damage_field + t.field_partition) / steps as f64,
-        contact: t.contact / steps as f64,
+        dfg: t.sum(|s| matches!(s, Stage::DamageField | Stage::FieldPartition)) / steps as f64,
+        contact: t.get(Stage::Contact) / steps as f64,
         at,
     })
 }

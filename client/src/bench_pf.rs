@@ -12,7 +12,7 @@
 use anyhow::Context;
 use cleave::fracture::phase_field::system::FactorKind;
 use cleave::mpm::{Checkpoint, Simulation};
-use cleave::scene::{PhaseFieldMethod, Scene};
+use cleave::scene::{PhaseFieldMethod, Scene, Stage};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -131,8 +131,8 @@ fn measure(
     );
     let per = |a: f64, b: f64| (a - b) / steps as f64;
     let mpm = per(
-        t1.p2g + t1.traction + t1.grid_update + t1.g2p + t1.bins + t1.contact + t1.field_partition,
-        t0.p2g + t0.traction + t0.grid_update + t0.g2p + t0.bins + t0.contact + t0.field_partition,
+        t1.sum(|s| !s.is_phase_field()),
+        t0.sum(|s| !s.is_phase_field()),
     );
     let assembly = per(s1.assembly, s0.assembly);
     let factorization = per(
@@ -140,7 +140,7 @@ fn measure(
         s0.analysis + s0.factorization,
     );
     let solve = per(s1.solve, s0.solve);
-    let pf = per(t1.phase_field, t0.phase_field);
+    let pf = per(t1.sum(Stage::is_phase_field), t0.sum(Stage::is_phase_field));
     let solves = (s1.pcg_solves - s0.pcg_solves).max(1) as f64;
     if let Some((plan, out)) = factors {
         out.push(time_factorizations(&mut sim, plan.repeats)?);

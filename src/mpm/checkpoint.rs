@@ -22,7 +22,7 @@
 //! tolerance, not bit for bit. The solver's counts and the stage times in
 //! the run summary are those since the resume.
 //!
-//! On disk: `b"CLEAVECKPT2\n"`, the [`Checkpoint`] in postcard (serde's
+//! On disk: `b"CLEAVECKPT3\n"`, the [`Checkpoint`] in postcard (serde's
 //! compact binary format), then a trailer: the length of what precedes it
 //! (u64, little-endian) and the CRC-32 (IEEE) of everything before the
 //! CRC itself, header included (u32, little-endian). A file from another
@@ -42,9 +42,9 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::io::{Read, Write};
 
-const MAGIC: &[u8; 12] = b"CLEAVECKPT2\n";
+const MAGIC: &[u8; 12] = b"CLEAVECKPT3\n";
 /// The headers of formats this build no longer reads.
-const OLDER: &[&[u8; 12]] = &[b"CLEAVECKPT1\n"];
+const OLDER: &[&[u8; 12]] = &[b"CLEAVECKPT1\n", b"CLEAVECKPT2\n"];
 /// The trailer: the length before it (u64) and the CRC-32 (u32).
 const TRAILER: usize = 8 + 4;
 
@@ -53,9 +53,9 @@ const TRAILER: usize = 8 + 4;
 pub enum CheckpointError {
     #[error("{0}")]
     Io(#[from] std::io::Error),
-    #[error("not a cleave checkpoint (no CLEAVECKPT2 header)")]
+    #[error("not a cleave checkpoint (no CLEAVECKPT3 header)")]
     NotACheckpoint,
-    #[error("the checkpoint was written in an older format ({0}); this build reads CLEAVECKPT2: rerun from the start")]
+    #[error("the checkpoint was written in an older format ({0}); this build reads CLEAVECKPT3: rerun from the start")]
     OlderFormat(String),
     #[error("{file} is damaged ({reason}): refused, and the results written so far are kept")]
     Damaged { file: String, reason: String },
@@ -440,6 +440,12 @@ impl Simulation {
         if s.phase.is_some() != sim.phase.is_some()
             || s.damage.is_some() != sim.damage.is_some()
             || s.dfg.is_some() != sim.dfg.is_some()
+            || !s
+                .times
+                .stages
+                .iter()
+                .map(|t| t.stage)
+                .eq(sim.times.stages.iter().map(|t| t.stage))
         {
             return Err(bad("its stages are not the scene's".into()));
         }
@@ -500,14 +506,16 @@ mod tests {
 
     /// postcard writes no field names nor types: a file read with another
     /// layout fails to decode, or worse decodes into other values. The
-    /// header's number (`CLEAVECKPT2`) names the layout, so that older files
+    /// header's number (`CLEAVECKPT3`) names the layout, so that older files
     /// are refused as another format; this test holds the layout that
     /// number stands for (the checkpoint's types and the observers' states
     /// it carries) and fails when a saved type changes.
     #[test]
     fn the_file_layout_is_the_one_its_header_names() {
         use serde_reflection::{Tracer, TracerConfig};
-        let mut tracer = Tracer::new(TracerConfig::default());
+        // a stage is saved by its name: any stage's name stands for a string
+        let config = TracerConfig::default().default_string_value("p2g".into());
+        let mut tracer = Tracer::new(config);
         tracer
             .trace_simple_type::<Checkpoint>()
             .expect("trace the checkpoint's types");
@@ -528,7 +536,7 @@ mod tests {
             std::fs::write(&fresh, &layout).expect("write the new layout");
             panic!(
                 "the checkpoint's saved types changed (new layout in {}): raise the number in MAGIC \
-                 (CLEAVECKPT2 -> CLEAVECKPT3, with the old header in OLDER, so that files in the old layout are refused) and replace {} with it",
+                 (CLEAVECKPT3 -> CLEAVECKPT4, with the old header in OLDER, so that files in the old layout are refused) and replace {} with it",
                 fresh.display(),
                 path.display()
             );
@@ -542,7 +550,7 @@ mod tests {
         assert!(matches!(r, Err(CheckpointError::NotACheckpoint)), "{r:?}");
         let r = Checkpoint::read_from(&mut &b"CLEAVECKPT1\n\x01\x02"[..]);
         assert!(matches!(r, Err(CheckpointError::OlderFormat(_))), "{r:?}");
-        let r = Checkpoint::read_from(&mut &b"CLEAVECKPT2\n\x01\x02"[..]);
+        let r = Checkpoint::read_from(&mut &b"CLEAVECKPT3\n\x01\x02"[..]);
         assert!(matches!(r, Err(CheckpointError::Damaged { .. })), "{r:?}");
     }
 

@@ -51,10 +51,11 @@ impl DamageState {
     /// The laws of the scene's materials, or `None` without damage. Fills
     /// `parts.damage` and `parts.strength` (particles in seeding order).
     pub(super) fn new(scene: &Scene, parts: &mut Particles) -> Option<DamageState> {
-        let models: Vec<_> = scene.materials.iter().map(|m| m.damage.clone()).collect();
-        if models.iter().all(Option::is_none) {
+        // the plan decides: a named damage material no body uses adds nothing
+        if !scene.plan.has(crate::scene::Stage::Damage) {
             return None;
         }
+        let models: Vec<_> = scene.materials.iter().map(|m| m.damage.clone()).collect();
         let h = scene.file.grid.cell_size;
         let law = DamageLaw {
             models,

@@ -1,12 +1,12 @@
-//! The explicit MPM step (update-stress-last) and the run loop.
+//! The explicit MPM step and the run loop.
 //!
-//! One step, as the [`Plan`](crate::scene::Plan) lists it:
-//! 1. `field_partition` (contact scenes only): which groups meet at a node;
-//! 2. `p2g`: mass, momentum, internal force ([`p2g`]);
-//! 3. `traction`: surface tractions on boundary particles;
-//! 4. `grid_update`: nodal velocities, body force, boundary conditions;
-//! 5. `contact` (contact scenes only): frictional contact ([`crate::contact`]);
-//! 6. `g2p`: particle velocities, positions, stresses ([`g2p`]).
+//! One step is the scene's [`Plan`]: [`Simulation::advance`] walks its
+//! stages in order and times each one ([`StageTimes`]); nothing else runs.
+//! The core of every step is `p2g → grid_update → g2p → rebin` (update
+//! stress last), or `p2g → grid_update → g2p_velocity → remap → g2p_stress
+//! → rebin` with MUSL; contact adds `field_partition` and `contact`, a
+//! traction side `traction`, the fracture models their own stages (see
+//! [`Stage`]).
 //!
 //! Entry points: [`Simulation::new`] then [`Simulation::run`].
 
@@ -28,7 +28,7 @@ use crate::grid::shape::{CubicBspline, Gimp, Kernel, Linear, QuadraticBspline};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
 use crate::material::Elastic;
 use crate::particles::Particles;
-use crate::scene::{Scene, ShapeFunctionKind};
+use crate::scene::{Plan, Scene, ShapeFunctionKind, Stage};
 use grid_update::Boundary;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -132,20 +132,56 @@ pub enum SimError {
     Observer(String),
 }
 
-/// Wall time spent in each stage, s.
+/// Wall time spent in each stage of the plan, s, in the plan's order, and
+/// in the diagnostics (series rows and snapshots, not a stage).
 #[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct StageTimes {
-    pub damage_field: f64,
-    pub field_partition: f64,
-    pub p2g: f64,
-    pub traction: f64,
-    pub phase_field: f64,
-    pub grid_update: f64,
-    pub contact: f64,
-    pub g2p: f64,
-    pub damage: f64,
-    pub bins: f64,
+    pub stages: Vec<StageTime>,
     pub diagnostics: f64,
+}
+
+/// One stage's wall time, s.
+#[derive(Debug, Clone, Copy, Serialize, serde::Deserialize)]
+pub struct StageTime {
+    pub stage: Stage,
+    pub seconds: f64,
+    /// Steps in which the stage ran its code.
+    pub runs: u64,
+}
+
+impl StageTimes {
+    /// Zero for every stage of `plan`.
+    pub fn new(plan: &Plan) -> StageTimes {
+        StageTimes {
+            stages: plan
+                .stages
+                .iter()
+                .map(|&stage| StageTime {
+                    stage,
+                    seconds: 0.0,
+                    runs: 0,
+                })
+                .collect(),
+            diagnostics: 0.0,
+        }
+    }
+
+    /// The seconds spent in the stages `pick` selects.
+    pub fn sum(&self, pick: impl Fn(Stage) -> bool) -> f64 {
+        self.stages
+            .iter()
+            .filter(|t| pick(t.stage))
+            .map(|t| t.seconds)
+            .sum()
+    }
+
+    /// The seconds spent in `stage` (0 when the plan does not have it).
+    pub fn get(&self, stage: Stage) -> f64 {
+        self.stages
+            .iter()
+            .find(|t| t.stage == stage)
+            .map_or(0.0, |t| t.seconds)
+    }
 }
 
 /// What a finished (or cancelled) run reports.
@@ -192,8 +228,6 @@ pub struct Simulation {
     /// field slots borrow while the step mutates the particles).
     group_of: Vec<u8>,
     apic: bool,
-    /// Modified update-stress-last (a second scatter and gather).
-    musl: bool,
     /// MUSL scratch: where the particles move this step.
     x_next: Vec<[f64; 2]>,
     /// Node runs the last scatter wrote (cleared at the next reset).
@@ -535,132 +569,283 @@ impl Simulation {
         by_kernel!(self.scene.file.grid.shape_function, K => self.advance_k::<K>(dt))
     }
 
+    /// Runs the plan's stages in order, each timed on its own. The stages
+    /// before the scatter (the damage field, the field partition) decide
+    /// the field slots the rest of the step uses, so they run first and
+    /// the slots are built from their result.
     fn advance_k<K: Kernel>(&mut self, dt: f64) -> Result<(), SimError> {
-        if let Some(mut multi) = self.multi.take() {
-            let group = std::mem::take(&mut self.group_of);
-            let mut dfg = self.dfg.take();
-            let mut t0 = Instant::now();
-            let slots_n = match dfg.as_mut() {
-                Some(d) => {
-                    d.field::<K>(&self.geom, &self.parts, &self.bins);
-                    self.times.damage_field += t0.elapsed().as_secs_f64();
-                    t0 = Instant::now();
-                    d.partition::<K>(&self.geom, &self.parts, &self.bins, &mut multi)
-                }
-                None => p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi),
-            };
-            self.grid
-                .reset(self.geom.node_count(), slots_n, true, &self.written);
-            self.written.clone_from(&self.bins.active);
-            self.times.field_partition += t0.elapsed().as_secs_f64();
-            let nodes = self.geom.node_count();
-            let r = match &dfg {
-                Some(d) => {
-                    let slots = DfgFields {
-                        x: &d.x_partition,
-                        cut: &d.cut,
-                        normal: d.normals(),
-                        nodes,
-                        multi: &multi,
-                        group: &group,
-                        grad: &d.grad,
-                        node_grad: &d.node_grad,
-                    };
-                    self.stages::<K, _>(dt, &slots, Some(&multi))
-                }
-                None => {
-                    let slots = GroupFields {
-                        nodes,
-                        multi: &multi,
-                        group: &group,
-                    };
-                    self.stages::<K, _>(dt, &slots, Some(&multi))
-                }
-            };
-            self.multi = Some(multi);
-            self.group_of = group;
-            self.dfg = dfg;
-            r
-        } else {
-            self.grid.reset(
-                self.geom.node_count(),
-                self.geom.node_count(),
-                false,
-                &self.written,
-            );
-            self.written.clone_from(&self.bins.active);
-            self.stages::<K, _>(dt, &SingleField, None)
-        }
+        let plan = std::mem::take(&mut self.times.stages);
+        let split = plan
+            .iter()
+            .position(|t| !t.stage.before_scatter())
+            .unwrap_or(plan.len());
+        let mut times = plan;
+        let (pre, rest) = times.split_at_mut(split);
+        let r = self.execute::<K>(dt, pre, rest);
+        self.times.stages = times;
+        r
     }
 
+    fn execute<K: Kernel>(
+        &mut self,
+        dt: f64,
+        pre: &mut [StageTime],
+        rest: &mut [StageTime],
+    ) -> Result<(), SimError> {
+        let nodes = self.geom.node_count();
+        let Some(mut multi) = self.multi.take() else {
+            debug_assert!(pre.is_empty(), "stages before the scatter need contact");
+            return self.stages::<K, _>(dt, &SingleField, None, nodes, rest);
+        };
+        let group = std::mem::take(&mut self.group_of);
+        let mut dfg = self.dfg.take();
+        let mut slots_n = nodes;
+        for t in pre.iter_mut() {
+            let t0 = Instant::now();
+            let ran = match (t.stage, dfg.as_mut()) {
+                (Stage::DamageField, Some(d)) => {
+                    d.field::<K>(&self.geom, &self.parts, &self.bins);
+                    true
+                }
+                (Stage::FieldPartition, Some(d)) => {
+                    slots_n = d.partition::<K>(&self.geom, &self.parts, &self.bins, &mut multi);
+                    true
+                }
+                (Stage::FieldPartition, None) => {
+                    slots_n =
+                        p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi);
+                    true
+                }
+                _ => false,
+            };
+            t.seconds += t0.elapsed().as_secs_f64();
+            t.runs += u64::from(ran);
+        }
+        let r = match &dfg {
+            Some(d) => {
+                let slots = DfgFields {
+                    x: &d.x_partition,
+                    cut: &d.cut,
+                    normal: d.normals(),
+                    nodes,
+                    multi: &multi,
+                    group: &group,
+                    grad: &d.grad,
+                    node_grad: &d.node_grad,
+                };
+                self.stages::<K, _>(dt, &slots, Some(&multi), slots_n, rest)
+            }
+            None => {
+                let slots = GroupFields {
+                    nodes,
+                    multi: &multi,
+                    group: &group,
+                };
+                self.stages::<K, _>(dt, &slots, Some(&multi), slots_n, rest)
+            }
+        };
+        self.multi = Some(multi);
+        self.group_of = group;
+        self.dfg = dfg;
+        r
+    }
+
+    /// The stages from the scatter on, with the field slots `slots`
+    /// (`slots_n` of them) fixed for the step.
     fn stages<K: Kernel, S: FieldSlots>(
         &mut self,
         dt: f64,
         slots: &S,
         multi: Option<&MultiField>,
+        slots_n: usize,
+        plan: &mut [StageTime],
     ) -> Result<(), SimError> {
+        let t_bc = self.time + dt;
+        let transfer = g2p::Transfer { flip: self.flip };
+        let mut moved_tile = false;
+        for t in plan.iter_mut() {
+            let t0 = Instant::now();
+            // whether the stage found its state and ran
+            let ran = 'stage: {
+                match t.stage {
+                    Stage::P2g => {
+                        self.scatter::<K, S>(slots, multi, slots_n);
+                        true
+                    }
+                    // Tractions at mid-step: the impulse of a linear ramp is then exact
+                    Stage::Traction => {
+                        let t_mid = self.time + 0.5 * dt;
+                        let w = self.tractions.apply::<K, S>(
+                            t_mid,
+                            dt,
+                            &self.geom,
+                            &self.parts,
+                            slots,
+                            &mut self.grid,
+                        );
+                        self.add_work(w);
+                        true
+                    }
+                    // The implicit phase-field solve (c from the history so far)
+                    Stage::PhaseFieldSolve => {
+                        let Some(pf) = self.phase.as_mut() else {
+                            break 'stage false;
+                        };
+                        pf.solve::<K>(&self.geom, &self.bins, &mut self.parts, self.output_due)
+                            .map_err(|e| SimError::PhaseField {
+                                step: self.step + 1,
+                                time: self.time + dt,
+                                message: e.to_string(),
+                            })?;
+                        true
+                    }
+                    Stage::GridUpdate => {
+                        self.grid_update(dt, t_bc, multi)?;
+                        true
+                    }
+                    Stage::Contact => {
+                        let Some(m) = multi else {
+                            break 'stage false;
+                        };
+                        let touched = contact::apply(&mut self.grid, m, &self.friction, self.m_min);
+                        if touched > 0 {
+                            self.contact_steps += 1;
+                        }
+                        // contact must not undo the walls
+                        let w = self.boundary.apply(t_bc, &mut self.grid, multi);
+                        self.add_work(w);
+                        true
+                    }
+                    Stage::G2p => {
+                        let stats = if self.apic {
+                            g2p::g2p::<K, S, true>(
+                                &self.geom,
+                                &mut self.parts,
+                                &mut self.bins,
+                                slots,
+                                &self.grid,
+                                &self.mats,
+                                transfer,
+                                dt,
+                            )
+                        } else {
+                            g2p::g2p::<K, S, false>(
+                                &self.geom,
+                                &mut self.parts,
+                                &mut self.bins,
+                                slots,
+                                &self.grid,
+                                &self.mats,
+                                transfer,
+                                dt,
+                            )
+                        };
+                        moved_tile = stats.moved_tile;
+                        self.finish_gather(dt, stats)?;
+                        true
+                    }
+                    Stage::G2pVelocity => {
+                        self.musl_velocities::<K, S>(dt, slots, transfer);
+                        true
+                    }
+                    Stage::Remap => {
+                        self.remap::<K, S>(slots);
+                        // The walls hold the remapped velocities too (no work:
+                        // that was counted when they were first imposed).
+                        self.boundary.apply(t_bc, &mut self.grid, multi);
+                        true
+                    }
+                    Stage::G2pStress => {
+                        let stats = g2p::musl_stress::<K, S>(
+                            &self.geom,
+                            &mut self.parts,
+                            &mut self.bins,
+                            &self.x_next,
+                            slots,
+                            &self.grid,
+                            &self.mats,
+                            dt,
+                        );
+                        moved_tile = stats.moved_tile;
+                        self.finish_gather(dt, stats)?;
+                        true
+                    }
+                    Stage::PhaseFieldHistory => {
+                        let Some(pf) = self.phase.as_mut() else {
+                            break 'stage false;
+                        };
+                        pf.degrade(&mut self.parts, &self.mats);
+                        true
+                    }
+                    Stage::Damage => {
+                        let Some(d) = self.damage.as_mut() else {
+                            break 'stage false;
+                        };
+                        d.update(&mut self.parts, dt);
+                        true
+                    }
+                    Stage::Rebin => {
+                        if moved_tile {
+                            self.bins.rebuild(&self.geom, &self.parts.x, K::N);
+                        }
+                        true
+                    }
+                    Stage::PhaseFieldStagger => {
+                        let Some(pf) = self.phase.as_mut() else {
+                            break 'stage false;
+                        };
+                        pf.stagger::<K>(
+                            &self.geom,
+                            &self.bins,
+                            &mut self.parts,
+                            &self.mats,
+                            self.row_due,
+                            self.output_due,
+                        )
+                        .map_err(|e| SimError::PhaseField {
+                            step: self.step,
+                            time: self.time,
+                            message: e.to_string(),
+                        })?;
+                        true
+                    }
+                    // these run before the scatter (`execute`)
+                    Stage::DamageField | Stage::FieldPartition => false,
+                }
+            };
+            t.seconds += t0.elapsed().as_secs_f64();
+            t.runs += u64::from(ran);
+        }
+        Ok(())
+    }
+
+    /// Clears the nodes the last scatter wrote, then P2G.
+    fn scatter<K: Kernel, S: FieldSlots>(
+        &mut self,
+        slots: &S,
+        multi: Option<&MultiField>,
+        slots_n: usize,
+    ) {
         let contact = multi.is_some();
-        // P2G
-        let t0 = Instant::now();
+        self.grid
+            .reset(self.geom.node_count(), slots_n, contact, &self.written);
+        self.written.clone_from(&self.bins.active);
+        let (geom, parts, bins, grid) = (&self.geom, &self.parts, &self.bins, &mut self.grid);
         match (self.apic, contact) {
-            (false, false) => p2g::p2g::<K, S, false, false>(
-                &self.geom,
-                &self.parts,
-                &self.bins,
-                slots,
-                &mut self.grid,
-            ),
-            (true, false) => p2g::p2g::<K, S, true, false>(
-                &self.geom,
-                &self.parts,
-                &self.bins,
-                slots,
-                &mut self.grid,
-            ),
-            (false, true) => p2g::p2g::<K, S, false, true>(
-                &self.geom,
-                &self.parts,
-                &self.bins,
-                slots,
-                &mut self.grid,
-            ),
-            (true, true) => p2g::p2g::<K, S, true, true>(
-                &self.geom,
-                &self.parts,
-                &self.bins,
-                slots,
-                &mut self.grid,
-            ),
+            (false, false) => p2g::p2g::<K, S, false, false>(geom, parts, bins, slots, grid),
+            (true, false) => p2g::p2g::<K, S, true, false>(geom, parts, bins, slots, grid),
+            (false, true) => p2g::p2g::<K, S, false, true>(geom, parts, bins, slots, grid),
+            (true, true) => p2g::p2g::<K, S, true, true>(geom, parts, bins, slots, grid),
         }
-        let t1 = Instant::now();
-        self.times.p2g += (t1 - t0).as_secs_f64();
-        // Tractions at mid-step: the impulse of a linear ramp is then exact
-        if !self.tractions.is_empty() {
-            let t_mid = self.time + 0.5 * dt;
-            let w = self.tractions.apply::<K, S>(
-                t_mid,
-                dt,
-                &self.geom,
-                &self.parts,
-                slots,
-                &mut self.grid,
-            );
-            self.add_work(w);
-            self.times.traction += t1.elapsed().as_secs_f64();
-        }
-        // The implicit phase-field solve (c from the history so far)
-        if let Some(pf) = self.phase.as_mut() {
-            let t = Instant::now();
-            pf.solve::<K>(&self.geom, &self.bins, &mut self.parts, self.output_due)
-                .map_err(|e| SimError::PhaseField {
-                    step: self.step + 1,
-                    time: self.time + dt,
-                    message: e.to_string(),
-                })?;
-            self.times.phase_field += t.elapsed().as_secs_f64();
-        }
-        let t2 = Instant::now();
-        // Grid update and boundary conditions
+    }
+
+    /// Nodal velocities, body force, the negative-mass guard and the walls.
+    fn grid_update(
+        &mut self,
+        dt: f64,
+        t_bc: f64,
+        multi: Option<&MultiField>,
+    ) -> Result<(), SimError> {
         let nodes = self.geom.node_count();
         let (w, negative) = grid_update::update(
             &mut self.grid,
@@ -672,9 +857,7 @@ impl Simulation {
         );
         if let Some((slot, mass)) = negative {
             let node = match multi {
-                Some(m) if slot >= self.geom.node_count() => {
-                    m.extra_node[slot - self.geom.node_count()] as usize
-                }
+                Some(m) if slot >= nodes => m.extra_node[slot - nodes] as usize,
                 _ => slot,
             };
             let [x, y] = self.geom.node_position(node);
@@ -688,183 +871,96 @@ impl Simulation {
             });
         }
         self.add_work(w);
-        let t_bc = self.time + dt;
         let w = self.boundary.apply(t_bc, &mut self.grid, multi);
         self.add_work(w);
-        let t3 = Instant::now();
-        self.times.grid_update += (t3 - t2).as_secs_f64();
-        // Contact
-        if let Some(m) = multi {
-            let touched = contact::apply(&mut self.grid, m, &self.friction, self.m_min);
-            if touched > 0 {
-                self.contact_steps += 1;
-            }
-            // contact must not undo the walls
-            let w = self.boundary.apply(t_bc, &mut self.grid, multi);
-            self.add_work(w);
-            self.times.contact += t3.elapsed().as_secs_f64();
-        }
-        let t4 = Instant::now();
-        // G2P
-        let transfer = g2p::Transfer { flip: self.flip };
-        let stats = if self.musl {
-            self.musl::<K, S>(dt, t_bc, slots, multi, transfer)
-        } else if self.apic {
-            g2p::g2p::<K, S, true>(
-                &self.geom,
-                &mut self.parts,
-                &mut self.bins,
-                slots,
-                &self.grid,
-                &self.mats,
-                transfer,
-                dt,
-            )
-        } else {
-            g2p::g2p::<K, S, false>(
-                &self.geom,
-                &mut self.parts,
-                &mut self.bins,
-                slots,
-                &self.grid,
-                &self.mats,
-                transfer,
-                dt,
-            )
-        };
-        let t5 = Instant::now();
-        self.times.g2p += (t5 - t4).as_secs_f64();
+        Ok(())
+    }
+
+    /// After the gather that moves the particles: the clock advances, then
+    /// the particle guards (non-finite values, leaving the grid, vanished
+    /// volume) turn a bad particle into the run's error.
+    fn finish_gather(&mut self, dt: f64, stats: g2p::G2pStats) -> Result<(), SimError> {
         self.step += 1;
         self.time += dt;
         self.dt = dt;
         self.grid_valid = true;
-        if let Some((p, kind)) = stats.bad {
-            let (step, time, particle) = (self.step, self.time, self.parts.id[p]);
-            return Err(match kind {
-                BadKind::NonFinite(quantity) => SimError::NonFinite {
-                    step,
-                    time,
-                    particle,
-                    quantity,
-                },
-                BadKind::LeftGrid([x, y]) => SimError::LeftGrid {
-                    step,
-                    time,
-                    particle,
-                    x,
-                    y,
-                },
-                BadKind::VolumeVanished(j) => SimError::VolumeVanished {
-                    step,
-                    time,
-                    particle,
-                    j,
-                },
-            });
-        }
-        if let Some(pf) = self.phase.as_mut() {
-            let t = Instant::now();
-            pf.degrade(&mut self.parts, &self.mats);
-            self.times.phase_field += t.elapsed().as_secs_f64();
-        }
-        if let Some(d) = self.damage.as_mut() {
-            let t = Instant::now();
-            d.update(&mut self.parts, dt);
-            self.times.damage += t.elapsed().as_secs_f64();
-        }
         self.max_signal = stats.max_signal;
-        let t6 = Instant::now();
-        if stats.moved_tile {
-            self.bins.rebuild(&self.geom, &self.parts.x, K::N);
-        }
-        self.times.bins += t6.elapsed().as_secs_f64();
-        if let Some(pf) = self.phase.as_mut() {
-            let t = Instant::now();
-            pf.stagger::<K>(
-                &self.geom,
-                &self.bins,
-                &mut self.parts,
-                &self.mats,
-                self.row_due,
-                self.output_due,
-            )
-            .map_err(|e| SimError::PhaseField {
-                step: self.step,
-                time: self.time,
-                message: e.to_string(),
-            })?;
-            self.times.phase_field += t.elapsed().as_secs_f64();
-        }
-        Ok(())
+        let Some((p, kind)) = stats.bad else {
+            return Ok(());
+        };
+        let (step, time, particle) = (self.step, self.time, self.parts.id[p]);
+        Err(match kind {
+            BadKind::NonFinite(quantity) => SimError::NonFinite {
+                step,
+                time,
+                particle,
+                quantity,
+            },
+            BadKind::LeftGrid([x, y]) => SimError::LeftGrid {
+                step,
+                time,
+                particle,
+                x,
+                y,
+            },
+            BadKind::VolumeVanished(j) => SimError::VolumeVanished {
+                step,
+                time,
+                particle,
+                j,
+            },
+        })
     }
 
-    /// The MUSL particle update: velocities, remap, then stresses.
-    fn musl<K: Kernel, S: FieldSlots>(
+    /// The MUSL first gather: particle velocities and where they move.
+    fn musl_velocities<K: Kernel, S: FieldSlots>(
         &mut self,
         dt: f64,
-        t_bc: f64,
         slots: &S,
-        multi: Option<&MultiField>,
         transfer: g2p::Transfer,
-    ) -> g2p::G2pStats {
-        let (geom, mats) = (&self.geom, &self.mats);
+    ) {
         self.x_next.resize(self.parts.len(), [0.0; 2]);
+        let args = (
+            &self.geom,
+            &mut self.parts,
+            &mut self.bins,
+            &mut self.x_next,
+        );
         if self.apic {
             g2p::musl_velocities::<K, S, true>(
-                geom,
-                &mut self.parts,
-                &mut self.bins,
-                &mut self.x_next,
-                slots,
-                &self.grid,
-                mats,
-                transfer,
-                dt,
+                args.0, args.1, args.2, args.3, slots, &self.grid, &self.mats, transfer, dt,
             );
+        } else {
+            g2p::musl_velocities::<K, S, false>(
+                args.0, args.1, args.2, args.3, slots, &self.grid, &self.mats, transfer, dt,
+            );
+        }
+    }
+
+    /// The MUSL remap: the updated particle momenta back to the grid.
+    fn remap<K: Kernel, S: FieldSlots>(&mut self, slots: &S) {
+        let (geom, parts, bins, grid) = (&self.geom, &self.parts, &self.bins, &mut self.grid);
+        if self.apic {
             p2g::remap_velocities::<K, S, true>(
                 geom,
-                &self.parts,
-                &self.bins,
+                parts,
+                bins,
                 slots,
-                &mut self.grid,
+                grid,
                 &self.written,
                 self.m_min,
             );
         } else {
-            g2p::musl_velocities::<K, S, false>(
-                geom,
-                &mut self.parts,
-                &mut self.bins,
-                &mut self.x_next,
-                slots,
-                &self.grid,
-                mats,
-                transfer,
-                dt,
-            );
             p2g::remap_velocities::<K, S, false>(
                 geom,
-                &self.parts,
-                &self.bins,
+                parts,
+                bins,
                 slots,
-                &mut self.grid,
+                grid,
                 &self.written,
                 self.m_min,
             );
         }
-        // The walls hold the remapped velocities too (no work: that was
-        // counted when they were first imposed).
-        self.boundary.apply(t_bc, &mut self.grid, multi);
-        g2p::musl_stress::<K, S>(
-            geom,
-            &mut self.parts,
-            &mut self.bins,
-            &self.x_next,
-            slots,
-            &self.grid,
-            mats,
-            dt,
-        )
     }
 
     fn add_work(&mut self, w: f64) {

@@ -10,8 +10,7 @@ use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, MultiField};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::{
-    MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage, StressUpdate, TimeFunction,
-    TransferKind,
+    MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage, TimeFunction, TransferKind,
 };
 
 pub(super) fn build(scene: &Scene) -> Simulation {
@@ -174,7 +173,6 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         group_of: parts.group.clone(),
         parts,
         apic,
-        musl: file.transfer.stress_update == StressUpdate::Musl,
         x_next: Vec::new(),
         written: Vec::new(),
         flip: match file.transfer.scheme {
@@ -191,7 +189,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         abs_work: 0.0,
         initial_energy: 0.0,
         energy_floor: 1e-9 * scale,
-        times: StageTimes::default(),
+        times: StageTimes::new(&scene.plan),
         contact_steps: 0,
         snapshot_index: 0,
         grid_valid: false,
@@ -301,10 +299,6 @@ impl Tractions {
             });
         }
         Tractions { sides }
-    }
-
-    pub(super) fn is_empty(&self) -> bool {
-        self.sides.is_empty()
     }
 
     /// Adds the traction forces at time `t` to the grid; returns their work

@@ -1,53 +1,137 @@
-//! The [`Plan`]: the stages a scene needs, built once from the scene. A
-//! stage that no body or option asks for is not in the plan and its code
-//! never runs.
+//! The [`Plan`]: the ordered stages of one explicit step, built once from
+//! the scene. The step executes this list and nothing else
+//! ([`crate::mpm::Simulation`] walks it and times each entry), so what
+//! `cleave validate` prints is what runs: a stage that no body or option
+//! asks for is not in the plan and its code never runs.
 
-use super::schema::{SceneFile, SideCondition};
-use serde::Serialize;
+use super::schema::{SceneFile, SideCondition, StressUpdate};
+use serde::{Deserialize, Serialize};
 use std::fmt;
 
-/// One stage of the explicit step, in execution order.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
+/// One stage of the explicit step. The variants are listed in the order a
+/// step runs them; a plan holds a subsequence of this order. Saved and
+/// printed by its [`name`](Stage::name) (so a checkpoint's layout does not
+/// change when a stage is added).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Stage {
     /// The kernel damage field and its gradient at the particles, and the
-    /// nodal gradient (seed 000 eqs. 17–19, Algorithm 1); only with `[dfg]`.
+    /// nodal gradient (Homel & Herbold 2017, eqs. 17–19, Algorithm 1); only
+    /// with `[dfg]`.
     DamageField,
     /// Assigns each particle–node pair a velocity field (one per contact
     /// group present at the node, each split in two by the damage-field
     /// gradient with `[dfg]`, Algorithm 2 and the separability rule); only
     /// with more than one contact group or with `[dfg]`.
     FieldPartition,
-    /// Particle-to-grid: mass, momentum, internal and external force.
+    /// Particle-to-grid: clears the nodes the last scatter wrote, then
+    /// scatters mass, momentum, internal and external force.
     P2g,
     /// Surface tractions on the outermost particles of traction sides.
     Traction,
-    /// The implicit phase-field solve per body (seed 001): assemble
-    /// K(H) c = F, factorize, solve, map c to the particles.
-    PhaseField,
+    /// The implicit phase-field solve per body (Kakouris & Triantafyllou):
+    /// assemble K(H) c = F, factorize, solve, map c to the particles
+    /// (skipped inside when the last stagger already solved this state).
+    PhaseFieldSolve,
     /// Nodal momentum update and boundary conditions.
     GridUpdate,
-    /// Frictional contact between velocity fields (Bardenhagen/Nairn).
+    /// Frictional contact between velocity fields (Bardenhagen et al.
+    /// 2001), then the walls again.
     Contact,
-    /// Grid-to-particle: velocity, position, velocity gradient, stress.
+    /// Update-stress-last grid-to-particle: velocity, position, velocity
+    /// gradient and stress in one gather, then the particle guards.
     G2p,
-    /// Damage update and tensile stress degradation (seed 000 eqs. 23–27).
+    /// Modified USL, first gather: particle velocities and positions.
+    G2pVelocity,
+    /// Modified USL: the updated particle momenta scattered back to the
+    /// grid (Sulsky et al. 1995), and the walls imposed on them.
+    Remap,
+    /// Modified USL, second gather: the velocity gradient from the
+    /// remapped velocities, the stress, then the particle guards.
+    G2pStress,
+    /// The phase field's history H = max ψ⁺ and the degraded stress.
+    PhaseFieldHistory,
+    /// Damage update and tensile stress degradation (Homel & Herbold 2017,
+    /// eqs. 23–27).
     Damage,
+    /// The particles that changed tile are re-binned (a no-op when none
+    /// did).
+    Rebin,
+    /// The staggered scheme's residual; more phase-field solves and
+    /// history updates while it is above the tolerance.
+    PhaseFieldStagger,
 }
 
 impl Stage {
+    /// Every stage, in execution order.
+    pub const ALL: [Stage; 15] = [
+        Stage::DamageField,
+        Stage::FieldPartition,
+        Stage::P2g,
+        Stage::Traction,
+        Stage::PhaseFieldSolve,
+        Stage::GridUpdate,
+        Stage::Contact,
+        Stage::G2p,
+        Stage::G2pVelocity,
+        Stage::Remap,
+        Stage::G2pStress,
+        Stage::PhaseFieldHistory,
+        Stage::Damage,
+        Stage::Rebin,
+        Stage::PhaseFieldStagger,
+    ];
+
+    /// The stage of a [`name`](Stage::name).
+    pub fn from_name(name: &str) -> Option<Stage> {
+        Stage::ALL.into_iter().find(|s| s.name() == name)
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Stage::DamageField => "damage_field",
             Stage::FieldPartition => "field_partition",
             Stage::P2g => "p2g",
             Stage::Traction => "traction",
-            Stage::PhaseField => "phase_field",
+            Stage::PhaseFieldSolve => "phase_field_solve",
             Stage::GridUpdate => "grid_update",
             Stage::Contact => "contact",
             Stage::G2p => "g2p",
+            Stage::G2pVelocity => "g2p_velocity",
+            Stage::Remap => "remap",
+            Stage::G2pStress => "g2p_stress",
+            Stage::PhaseFieldHistory => "phase_field_history",
             Stage::Damage => "damage",
+            Stage::Rebin => "rebin",
+            Stage::PhaseFieldStagger => "phase_field_stagger",
         }
+    }
+
+    /// The phase field's stages (solve, history, stagger).
+    pub fn is_phase_field(self) -> bool {
+        matches!(
+            self,
+            Stage::PhaseFieldSolve | Stage::PhaseFieldHistory | Stage::PhaseFieldStagger
+        )
+    }
+
+    /// Stages that decide the velocity fields and so run before the
+    /// scatter's field slots exist.
+    pub fn before_scatter(self) -> bool {
+        matches!(self, Stage::DamageField | Stage::FieldPartition)
+    }
+}
+
+impl Serialize for Stage {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for Stage {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Stage, D::Error> {
+        let name = String::deserialize(d)?;
+        Stage::from_name(&name)
+            .ok_or_else(|| serde::de::Error::custom(format!("no stage is named `{name}`")))
     }
 }
 
@@ -57,7 +141,7 @@ impl fmt::Display for Stage {
     }
 }
 
-/// The stages of one step for a scene.
+/// The stages of one step for a scene, in execution order.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct Plan {
     pub stages: Vec<Stage>,
@@ -71,36 +155,34 @@ impl Plan {
             .any(|s| matches!(s, SideCondition::Traction { .. }));
         let dfg = file.dfg.is_some();
         let contact = contact_groups.len() > 1 || dfg;
-        let mut stages = Vec::new();
-        if dfg {
-            stages.push(Stage::DamageField);
-        }
-        if contact {
-            stages.push(Stage::FieldPartition);
-        }
-        stages.push(Stage::P2g);
-        if traction {
-            stages.push(Stage::Traction);
-        }
-        let phase_field = file.bodies.iter().any(|b| {
-            file.material_of(&b.material)
-                .is_some_and(|m| m.phase_field.is_some())
-        });
-        if phase_field {
-            stages.push(Stage::PhaseField);
-        }
-        stages.push(Stage::GridUpdate);
-        if contact {
-            stages.push(Stage::Contact);
-        }
-        stages.push(Stage::G2p);
-        let damage = file.bodies.iter().any(|b| {
-            file.material_of(&b.material)
-                .is_some_and(|m| m.damage.is_some())
-        });
-        if damage {
-            stages.push(Stage::Damage);
-        }
+        let uses = |f: fn(&super::schema::MaterialSpec) -> bool| {
+            file.bodies
+                .iter()
+                .any(|b| file.material_of(&b.material).is_some_and(f))
+        };
+        let phase_field = uses(|m| m.phase_field.is_some());
+        let damage = uses(|m| m.damage.is_some());
+        let musl = file.transfer.stress_update == StressUpdate::Musl;
+        let stages = [
+            (Stage::DamageField, dfg),
+            (Stage::FieldPartition, contact),
+            (Stage::P2g, true),
+            (Stage::Traction, traction),
+            (Stage::PhaseFieldSolve, phase_field),
+            (Stage::GridUpdate, true),
+            (Stage::Contact, contact),
+            (Stage::G2p, !musl),
+            (Stage::G2pVelocity, musl),
+            (Stage::Remap, musl),
+            (Stage::G2pStress, musl),
+            (Stage::PhaseFieldHistory, phase_field),
+            (Stage::Damage, damage),
+            (Stage::Rebin, true),
+            (Stage::PhaseFieldStagger, phase_field),
+        ]
+        .into_iter()
+        .filter_map(|(s, on)| on.then_some(s))
+        .collect();
         Plan { stages }
     }
 
@@ -117,5 +199,28 @@ impl Plan {
 impl fmt::Display for Plan {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.names().join(" → "))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `ALL` is in execution order and names every stage once; a name reads
+    /// back as its stage.
+    #[test]
+    fn stages_are_named_once_and_read_back() {
+        let names: Vec<_> = Stage::ALL.iter().map(|s| s.name()).collect();
+        let mut unique = names.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), names.len());
+        for s in Stage::ALL {
+            assert_eq!(Stage::from_name(s.name()), Some(s));
+            let json = serde_json::to_string(&s).unwrap();
+            assert_eq!(json, format!("\"{}\"", s.name()));
+            assert_eq!(serde_json::from_str::<Stage>(&json).unwrap(), s);
+        }
+        assert!(serde_json::from_str::<Stage>("\"phase_field\"").is_err());
     }
 }

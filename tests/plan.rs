@@ -1,0 +1,91 @@
+//! The plan a scene prints is the list its step runs: for every shipped
+//! scene, two steps run exactly the plan's stages, in the plan's order,
+//! each once per step.
+
+use cleave::mpm::Simulation;
+use cleave::scene::{Scene, Stage};
+
+#[test]
+fn every_shipped_scene_runs_the_plan_it_prints() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut paths: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    assert!(paths.len() >= 20, "{} scenes", paths.len());
+    for path in paths {
+        let scene = Scene::from_path(&path).unwrap();
+        let mut sim = Simulation::new(&scene);
+        // (steps of the scene's size, past its end where it is that short)
+        for _ in 0..2 {
+            sim.advance(scene.time_step.dt)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        }
+        let ran: Vec<(Stage, u64)> = sim
+            .stage_times()
+            .stages
+            .iter()
+            .map(|t| (t.stage, t.runs))
+            .collect();
+        let planned: Vec<(Stage, u64)> = scene.plan.stages.iter().map(|&s| (s, 2)).collect();
+        assert_eq!(ran, planned, "{}", path.display());
+        // the core of every explicit step, whatever else the scene asks for
+        for core in [Stage::P2g, Stage::GridUpdate, Stage::Rebin] {
+            assert!(scene.plan.has(core), "{}: no {core}", path.display());
+        }
+        assert!(
+            scene.plan.has(Stage::G2p)
+                != (scene.plan.has(Stage::G2pVelocity) && scene.plan.has(Stage::G2pStress)),
+            "{}: USL or MUSL, not both",
+            path.display()
+        );
+    }
+}
+
+/// A scene without fracture or contact runs the three core stages and the
+/// re-binning, nothing else; with MUSL the gather is split around the remap.
+#[test]
+fn a_plain_scene_runs_only_the_core_stages() {
+    let text = |musl: bool| {
+        format!(
+            r#"
+[grid]
+cell_size = 0.01
+min = [0.0, 0.0]
+max = [0.1, 0.1]
+[time]
+end = 1e-6
+[transfer]
+stress_update = "{}"
+[materials.steel]
+model = "linear_elastic"
+density = 8000.0
+youngs_modulus = 2.0e11
+poissons_ratio = 0.3
+[[bodies]]
+shape = {{ type = "box", min = [0.02, 0.02], max = [0.08, 0.08] }}
+material = "steel"
+"#,
+            if musl { "musl" } else { "usl" }
+        )
+    };
+    let usl = Scene::from_text(&text(false), None).unwrap();
+    assert_eq!(usl.plan.names(), ["p2g", "grid_update", "g2p", "rebin"]);
+    let musl = Scene::from_text(&text(true), None).unwrap();
+    assert_eq!(
+        musl.plan.names(),
+        [
+            "p2g",
+            "grid_update",
+            "g2p_velocity",
+            "remap",
+            "g2p_stress",
+            "rebin"
+        ]
+    );
+    let mut sim = Simulation::new(&musl);
+    sim.step().unwrap();
+    assert!(sim.stage_times().stages.iter().all(|t| t.runs == 1));
+}
