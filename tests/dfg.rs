@@ -54,8 +54,8 @@ fn a_bar_separates_through_a_failed_band_with_dfg_and_holds_together_without() {
     let dfg = parse(&format!("{BAR}\n[dfg]\n"));
     assert!(!single.plan.has(Stage::DamageField) && !single.plan.has(Stage::Contact));
     assert!(dfg.plan.has(Stage::DamageField) && dfg.plan.has(Stage::Contact));
-    let (s_sim, s_rec) = run(&single);
-    let (d_sim, d_rec) = run(&dfg);
+    let (mut s_sim, s_rec) = run(&single);
+    let (mut d_sim, d_rec) = run(&dfg);
     let k0 = d_rec.rows[0].kinetic_energy;
     let peak_strain = |r: &Recorder| r.rows.iter().map(|r| r.strain_energy).fold(0.0, f64::max);
     // With DFG the halves fly apart: they keep their kinetic energy and
@@ -135,7 +135,7 @@ separability = 0.1
 #[test]
 fn a_notched_bar_dissipates_the_fracture_energy_of_its_ligament() {
     let scene = parse(NOTCHED);
-    let (sim, rec) = run(&scene);
+    let (mut sim, rec) = run(&scene);
     let cols = sim.series_columns();
     let last = rec.rows.last().unwrap();
     let expected = 100.0 * 0.010 * 0.01; // G_f × ligament × thickness
@@ -505,7 +505,7 @@ fn the_crack_tip_follows_the_crack_from_its_origin() {
     .expect("scenes/d2_kalthoff.toml")
     .replace("end = 9.0e-5", "end = 3.5e-5");
     let scene = parse(&text);
-    let (sim, rec) = run(&scene);
+    let (mut sim, rec) = run(&scene);
     let cols = sim.series_columns();
     let col = |name: &str| {
         rec.rows

@@ -1,7 +1,8 @@
 //! The plan a scene prints is the list its step runs: for every shipped
 //! scene, two steps run exactly the plan's stages, in the plan's order,
-//! each once per step.
+//! each once per step, and its series has a value for every column.
 
+use cleave::diagnostics::SeriesRow;
 use cleave::mpm::Simulation;
 use cleave::scene::{Scene, Stage};
 
@@ -31,6 +32,15 @@ fn every_shipped_scene_runs_the_plan_it_prints() {
             .collect();
         let planned: Vec<(Stage, u64)> = scene.plan.stages.iter().map(|&s| (s, 2)).collect();
         assert_eq!(ran, planned, "{}", path.display());
+        // the fracture models declare and fill their columns in one function
+        let columns = sim.series_columns();
+        let row = sim.row();
+        assert_eq!(
+            columns.len(),
+            SeriesRow::COLUMNS.len() + row.extra.len(),
+            "{}: {columns:?}",
+            path.display()
+        );
         // the core of every explicit step, whatever else the scene asks for
         for core in [Stage::P2g, Stage::GridUpdate, Stage::Rebin] {
             assert!(scene.plan.has(core), "{}: no {core}", path.display());

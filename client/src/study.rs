@@ -174,7 +174,7 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
     // the metric's column must exist (the first variant's columns; a
     // setting such as dfg=off can still drop it for others: their rows say so)
     let mut first = local.then(|| Simulation::new(&variants[0].scene));
-    let columns = first.as_ref().map_or_else(
+    let columns = first.as_mut().map_or_else(
         || vec![metric.column().to_string()],
         Simulation::series_columns,
     );

@@ -3,4 +3,5 @@
 
 pub mod damage;
 pub mod dfg;
+pub mod model;
 pub mod phase_field;

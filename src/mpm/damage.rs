@@ -4,9 +4,12 @@
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::fragments::{FragmentFinder, Fragments, NONE};
+use crate::diagnostics::{Field, FieldData};
 use crate::fracture::damage::{DamageLaw, DamageStep};
+use crate::fracture::model::{body_suffix, FractureModel, RowContext, SeriesOut, StepContext};
 use crate::particles::Particles;
-use crate::scene::Scene;
+use crate::scene::{Scene, Stage};
+use rayon::prelude::*;
 
 /// Damage above this counts as cracked for the crack tip.
 const TIP_D: f64 = 0.9;
@@ -228,5 +231,72 @@ impl DamageState {
                 )
             })
             .collect()
+    }
+}
+
+impl FractureModel for DamageState {
+    fn name(&self) -> &'static str {
+        "damage"
+    }
+
+    fn stages(&self) -> &'static [Stage] {
+        &[Stage::Damage]
+    }
+
+    fn run(&mut self, stage: Stage, ctx: StepContext<'_>) -> Result<(), String> {
+        if stage == Stage::Damage {
+            self.update(ctx.parts, ctx.dt);
+        }
+        Ok(())
+    }
+
+    /// `energy_balance` (kinetic + strain + dissipated − initial − external
+    /// work; 0 at t = 0), `failed_particles`, `fragments` (connected
+    /// components of intact material), `mean_speed` (mass-weighted mean |v|
+    /// of the damage-model materials), and the crack tips of bodies with a
+    /// crack origin. The core `fracture_energy` is the energy dissipated.
+    fn series(&mut self, at: &RowContext<'_>, out: &mut SeriesOut) {
+        let tracked = self.tracked();
+        let (values, tips) = if out.declaring() {
+            ([0.0; 4], vec![CrackTip::UNKNOWN; tracked.len()])
+        } else {
+            out.set_fracture_energy(self.dissipated);
+            let balance = at.energy + self.dissipated - at.initial_energy - at.external_work;
+            let failed = at
+                .parts
+                .damage
+                .par_iter()
+                .filter(|&&x| x >= crate::fracture::damage::FAILED)
+                .count();
+            let fragments = self.fragments(at.parts).list.len();
+            let values = [
+                if at.step == 0 { 0.0 } else { balance },
+                failed as f64,
+                fragments as f64,
+                self.mean_speed(at.parts),
+            ];
+            (values, self.crack_tips(at.parts, at.time))
+        };
+        let names = [
+            "energy_balance",
+            "failed_particles",
+            "fragments",
+            "mean_speed",
+        ];
+        for (n, v) in names.into_iter().zip(values) {
+            out.push(n, v);
+        }
+        for (b, tip) in tracked.iter().zip(&tips) {
+            out.push_tip(&body_suffix(*b, tracked.len()), tip);
+        }
+    }
+
+    /// `fragment`: each particle's fragment label.
+    fn snapshot(&mut self, at: &RowContext<'_>, fields: &mut Vec<Field>) {
+        fields.push(Field {
+            name: "fragment".into(),
+            components: 1,
+            data: FieldData::U32(self.fragments(at.parts).label),
+        });
     }
 }

@@ -10,6 +10,23 @@
 //!
 //! Entry points: [`Simulation::new`] then [`Simulation::run`].
 
+/// Evaluates `body` with the type `K` bound to the kernel of `kind`: one
+/// dispatch from the scene's shape function to the generic stages.
+macro_rules! by_kernel {
+    ($kind:expr, $K:ident => $body:expr) => {
+        by_kernel!(@arms $kind, $K, $body, Linear, Gimp, QuadraticBspline, CubicBspline)
+    };
+    // each ShapeFunctionKind variant is named as its kernel type
+    (@arms $kind:expr, $K:ident, $body:expr, $($kernel:ident),*) => {
+        match $kind {
+            $($crate::scene::ShapeFunctionKind::$kernel => {
+                type $K = $crate::grid::shape::$kernel;
+                $body
+            })*
+        }
+    };
+}
+
 mod checkpoint;
 mod damage;
 mod g2p;
@@ -24,32 +41,15 @@ pub use g2p::BadKind;
 use crate::contact::{self, ContactLaw};
 use crate::diagnostics::{measure, Control, Observer, Progress, SeriesRow};
 use crate::fracture::dfg::{Dfg, DfgFields};
-use crate::grid::shape::{CubicBspline, Gimp, Kernel, Linear, QuadraticBspline};
+use crate::fracture::model::{FractureModel, RowContext, SeriesOut, StepContext};
+use crate::grid::shape::Kernel;
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::{Plan, Scene, ShapeFunctionKind, Stage};
 use grid_update::Boundary;
-use rayon::prelude::*;
 use serde::Serialize;
 use std::time::Instant;
-
-/// Evaluates `body` with the type `K` bound to the kernel of `kind`: one
-/// dispatch from the scene's shape function to the generic stages.
-macro_rules! by_kernel {
-    ($kind:expr, $K:ident => $body:expr) => {
-        by_kernel!(@arms $kind, $K, $body, Linear, Gimp, QuadraticBspline, CubicBspline)
-    };
-    // each ShapeFunctionKind variant is named as its kernel type
-    (@arms $kind:expr, $K:ident, $body:expr, $($kernel:ident),*) => {
-        match $kind {
-            $(ShapeFunctionKind::$kernel => {
-                type $K = $kernel;
-                $body
-            })*
-        }
-    };
-}
 
 /// Why a run stopped early.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -122,8 +122,9 @@ pub enum SimError {
         signal: f64,
         particle: u32,
     },
+    /// A fracture model's stage failed (a phase-field solve, say).
     #[error("step {step}, t = {time:.6e} s: {message}")]
-    PhaseField {
+    Fracture {
         step: u64,
         time: f64,
         message: String,
@@ -307,85 +308,53 @@ impl Simulation {
         &self.times
     }
 
-    /// The series' column names: [`SeriesRow::COLUMNS`], then the scene's.
-    /// With a phase field: the solver's mean seconds per step since the
-    /// last row (`pf_assembly_s`, `pf_factorization_s`, `pf_solve_s`), the
-    /// most stagger iterations of a step (`pf_stagger_iterations`), the
-    /// last stagger residual (`pf_residual`), the numeric factorizations
-    /// since the last row by kind and the mean seconds of one
-    /// (`pf_preconditioner_factorizations`, `pf_preconditioner_factorization_s`,
-    /// `pf_direct_factorizations`, `pf_direct_factorization_s`) and the
-    /// fall-backs to a direct solve (`pf_fallbacks`), Ψ_f per body
-    /// (`fracture_energy_b<i>`, with two or more phase-field bodies), and
-    /// per tracked body the crack tip (`crack_tip_x`, `crack_tip_y`,
-    /// `crack_length`, `crack_speed`, suffixed `_b<i>` with two or more).
-    /// With `[dfg]` (seed 000): the separated nodes of the last step and
-    /// the neighbour-list builds so far. With damage: `energy_balance`
-    /// (kinetic + strain + dissipated − initial − external work),
-    /// `failed_particles`, `fragments` (connected components of intact
-    /// material), `mean_speed` (mass-weighted mean |v| of the damage-model
-    /// materials), and the crack tips of bodies with a crack origin.
-    pub fn series_columns(&self) -> Vec<String> {
+    /// The series' column names: [`SeriesRow::COLUMNS`], then each
+    /// fracture model's ([`FractureModel::series`]: the phase field's, the
+    /// DFG's, the damage model's, in that order).
+    pub fn series_columns(&mut self) -> Vec<String> {
         let mut c: Vec<String> = SeriesRow::COLUMNS.iter().map(|s| s.to_string()).collect();
-        if let Some(pf) = &self.phase {
-            c.extend(
-                [
-                    "pf_assembly_s",
-                    "pf_factorization_s",
-                    "pf_solve_s",
-                    "pf_stagger_iterations",
-                    "pf_residual",
-                    "pf_preconditioner_factorizations",
-                    "pf_preconditioner_factorization_s",
-                    "pf_direct_factorizations",
-                    "pf_direct_factorization_s",
-                    "pf_fallbacks",
-                ]
-                .map(String::from),
-            );
-            let (all, tracked) = pf.bodies();
-            if all.len() > 1 {
-                c.extend(all.iter().map(|b| format!("fracture_energy_b{b}")));
-            }
-            for b in &tracked {
-                let suffix = if tracked.len() > 1 {
-                    format!("_b{b}")
-                } else {
-                    String::new()
-                };
-                c.extend(
-                    ["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"]
-                        .map(|n| format!("{n}{suffix}")),
-                );
-            }
+        let mut out = SeriesOut::declare();
+        let (at, models) = self.reporting(0.0);
+        for m in models {
+            m.series(&at, &mut out);
         }
-        if self.dfg.is_some() {
-            c.extend(["dfg_separated_nodes", "dfg_neighbour_builds"].map(String::from));
-        }
-        if let Some(d) = &self.damage {
-            c.extend(
-                [
-                    "energy_balance",
-                    "failed_particles",
-                    "fragments",
-                    "mean_speed",
-                ]
-                .map(String::from),
-            );
-            let tracked = d.tracked();
-            for b in &tracked {
-                let suffix = if tracked.len() > 1 {
-                    format!("_b{b}")
-                } else {
-                    String::new()
-                };
-                c.extend(
-                    ["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"]
-                        .map(|n| format!("{n}{suffix}")),
-                );
-            }
-        }
+        c.extend(out.names());
         c
+    }
+
+    /// What the models report from (with kinetic + strain `energy` now),
+    /// and the models.
+    fn reporting(
+        &mut self,
+        energy: f64,
+    ) -> (
+        RowContext<'_>,
+        impl Iterator<Item = &mut dyn FractureModel> + '_,
+    ) {
+        let Simulation {
+            scene,
+            geom,
+            parts,
+            phase,
+            dfg,
+            damage,
+            step,
+            time,
+            initial_energy,
+            external_work,
+            ..
+        } = self;
+        let at = RowContext {
+            geom,
+            parts,
+            kernel: scene.file.grid.shape_function,
+            step: *step,
+            time: *time,
+            energy,
+            initial_energy: *initial_energy,
+            external_work: *external_work,
+        };
+        (at, models(phase, dfg, damage))
     }
 
     /// Runs to `time.end`, reporting rows, snapshots and progress to `obs`.
@@ -663,6 +632,7 @@ impl Simulation {
         let t_bc = self.time + dt;
         let transfer = g2p::Transfer { flip: self.flip };
         let mut moved_tile = false;
+        let mut gathered = false;
         for t in plan.iter_mut() {
             let t0 = Instant::now();
             // whether the stage found its state and ran
@@ -684,19 +654,6 @@ impl Simulation {
                             &mut self.grid,
                         );
                         self.add_work(w);
-                        true
-                    }
-                    // The implicit phase-field solve (c from the history so far)
-                    Stage::PhaseFieldSolve => {
-                        let Some(pf) = self.phase.as_mut() else {
-                            break 'stage false;
-                        };
-                        pf.solve::<K>(&self.geom, &self.bins, &mut self.parts, self.output_due)
-                            .map_err(|e| SimError::PhaseField {
-                                step: self.step + 1,
-                                time: self.time + dt,
-                                message: e.to_string(),
-                            })?;
                         true
                     }
                     Stage::GridUpdate => {
@@ -741,6 +698,7 @@ impl Simulation {
                             )
                         };
                         moved_tile = stats.moved_tile;
+                        gathered = true;
                         self.finish_gather(dt, stats)?;
                         true
                     }
@@ -767,21 +725,8 @@ impl Simulation {
                             dt,
                         );
                         moved_tile = stats.moved_tile;
+                        gathered = true;
                         self.finish_gather(dt, stats)?;
-                        true
-                    }
-                    Stage::PhaseFieldHistory => {
-                        let Some(pf) = self.phase.as_mut() else {
-                            break 'stage false;
-                        };
-                        pf.degrade(&mut self.parts, &self.mats);
-                        true
-                    }
-                    Stage::Damage => {
-                        let Some(d) = self.damage.as_mut() else {
-                            break 'stage false;
-                        };
-                        d.update(&mut self.parts, dt);
                         true
                     }
                     Stage::Rebin => {
@@ -790,27 +735,40 @@ impl Simulation {
                         }
                         true
                     }
-                    Stage::PhaseFieldStagger => {
-                        let Some(pf) = self.phase.as_mut() else {
-                            break 'stage false;
-                        };
-                        pf.stagger::<K>(
-                            &self.geom,
-                            &self.bins,
-                            &mut self.parts,
-                            &self.mats,
-                            self.row_due,
-                            self.output_due,
-                        )
-                        .map_err(|e| SimError::PhaseField {
-                            step: self.step,
-                            time: self.time,
-                            message: e.to_string(),
-                        })?;
-                        true
-                    }
                     // these run before the scatter (`execute`)
                     Stage::DamageField | Stage::FieldPartition => false,
+                    // the fracture models' own stages
+                    stage => {
+                        let ctx = StepContext {
+                            geom: &self.geom,
+                            bins: &self.bins,
+                            parts: &mut self.parts,
+                            mats: &self.mats,
+                            kernel: self.scene.file.grid.shape_function,
+                            dt,
+                            row_due: self.row_due,
+                            output_due: self.output_due,
+                        };
+                        let mut owner = models(&mut self.phase, &mut self.dfg, &mut self.damage)
+                            .filter(|m| m.stages().contains(&stage));
+                        let Some(model) = owner.next() else {
+                            break 'stage false;
+                        };
+                        // the step being computed: the clock moves at the gather
+                        let (step, time) = if gathered {
+                            (self.step, self.time)
+                        } else {
+                            (self.step + 1, self.time + dt)
+                        };
+                        model
+                            .run(stage, ctx)
+                            .map_err(|message| SimError::Fracture {
+                                step,
+                                time,
+                                message,
+                            })?;
+                        true
+                    }
                 }
             };
             t.seconds += t0.elapsed().as_secs_f64();
@@ -981,56 +939,13 @@ impl Simulation {
             None
         };
         let m = measure::measure(&self.parts, &self.mats, apic_d);
-        let mut extra = Vec::new();
-        let mut fracture_energy = 0.0;
-        if let Some(pf) = self.phase.as_mut() {
-            let energies = by_kernel!(self.scene.file.grid.shape_function, K => pf.fracture_energies::<K>(&self.geom, &self.parts));
-            fracture_energy = energies.iter().fold(0.0, |a, b| a + b); // (an empty f64 sum is −0.0)
-            let s = pf.row_stats();
-            extra.extend([
-                s.assembly,
-                s.factorization,
-                s.solve,
-                s.staggers as f64,
-                s.residual,
-                s.preconditioner_factorizations as f64,
-                s.preconditioner_factorization,
-                s.direct_factorizations as f64,
-                s.direct_factorization,
-                s.fallbacks as f64,
-            ]);
-            if energies.len() > 1 {
-                extra.extend(&energies);
-            }
-            for tip in pf.crack_tips(&self.parts, self.time) {
-                extra.extend([tip.x[0], tip.x[1], tip.length, tip.speed]);
-            }
+        let mut out = SeriesOut::fill();
+        let (at, models) = self.reporting(m.kinetic + m.strain);
+        for model in models {
+            model.series(&at, &mut out);
         }
-        if let Some(dfg) = &self.dfg {
-            let st = dfg.stats();
-            extra.extend([st.separated_nodes as f64, st.neighbour_builds as f64]);
-        }
-        if let Some(d) = self.damage.as_mut() {
-            fracture_energy = d.dissipated;
-            let balance =
-                m.kinetic + m.strain + d.dissipated - self.initial_energy - self.external_work;
-            let failed = self
-                .parts
-                .damage
-                .par_iter()
-                .filter(|&&x| x >= crate::fracture::damage::FAILED)
-                .count();
-            let fragments = d.fragments(&self.parts).list.len();
-            extra.extend([
-                if self.step == 0 { 0.0 } else { balance },
-                failed as f64,
-                fragments as f64,
-                d.mean_speed(&self.parts),
-            ]);
-            for tip in d.crack_tips(&self.parts, self.time) {
-                extra.extend([tip.x[0], tip.x[1], tip.length, tip.speed]);
-            }
-        }
+        let (extra, fracture_energy) = out.values();
+        let fracture_energy = fracture_energy.unwrap_or(0.0);
         let e = m.kinetic + m.strain;
         let row = SeriesRow {
             step: self.step,
@@ -1089,23 +1004,25 @@ impl Simulation {
             &self.mats,
             grid,
         );
-        if let Some(pf) = self.phase.as_mut() {
-            let kind = self.scene.file.grid.shape_function;
-            snap.fields.push(crate::diagnostics::Field {
-                name: "fracture_energy_density".into(),
-                components: 1,
-                data: crate::diagnostics::FieldData::F64(by_kernel!(kind, K => pf.fracture_energy_densities::<K>(&self.geom, &self.parts))),
-            });
-        }
-        if let Some(d) = self.damage.as_mut() {
-            snap.fields.push(crate::diagnostics::Field {
-                name: "fragment".into(),
-                components: 1,
-                data: crate::diagnostics::FieldData::U32(d.fragments(&self.parts).label),
-            });
+        let (at, models) = self.reporting(0.0);
+        for model in models {
+            model.snapshot(&at, &mut snap.fields);
         }
         self.snapshot_index += 1;
         self.times.diagnostics += t0.elapsed().as_secs_f64();
         obs.snapshot(&snap).map_err(SimError::Observer)
     }
+}
+
+/// The scene's fracture models, in the series' column order. A new model
+/// is one more entry here (and its state in [`Simulation`]).
+fn models<'a>(
+    phase: &'a mut Option<phase::PhaseFields>,
+    dfg: &'a mut Option<Dfg>,
+    damage: &'a mut Option<damage::DamageState>,
+) -> impl Iterator<Item = &'a mut dyn FractureModel> + 'a {
+    let phase = phase.as_mut().map(|m| m as &mut dyn FractureModel);
+    let dfg = dfg.as_mut().map(|m| m as &mut dyn FractureModel);
+    let damage = damage.as_mut().map(|m| m as &mut dyn FractureModel);
+    [phase, dfg, damage].into_iter().flatten()
 }

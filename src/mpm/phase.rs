@@ -21,6 +21,8 @@
 //! in `Particles::phase` and `Particles::history`.
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
+use crate::diagnostics::{Field, FieldData};
+use crate::fracture::model::{body_suffix, FractureModel, RowContext, SeriesOut, StepContext};
 use crate::fracture::phase_field::system::{
     self, FactorKind, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem,
     SolveMethod, SolveStats,
@@ -31,7 +33,7 @@ use crate::material::{miehe_split, Elastic};
 use crate::particles::Particles;
 use crate::scene::{
     phase_field_gamma, CrackProfile, CrackSpec, PhaseFieldMethod, PlaneKind, PlaneStressSplit,
-    Scene,
+    Scene, Stage,
 };
 use rayon::prelude::*;
 
@@ -103,7 +105,7 @@ struct Interval {
 }
 
 /// Per-step phase-field figures of a series row.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(super) struct RowStats {
     /// Mean wall seconds per step since the last row.
     pub assembly: f64,
@@ -619,6 +621,114 @@ impl PhaseFields {
             b.system.factorize_kind(kind)?;
         }
         Ok(())
+    }
+}
+
+impl FractureModel for PhaseFields {
+    fn name(&self) -> &'static str {
+        "phase_field"
+    }
+
+    fn stages(&self) -> &'static [Stage] {
+        &[
+            Stage::PhaseFieldSolve,
+            Stage::PhaseFieldHistory,
+            Stage::PhaseFieldStagger,
+        ]
+    }
+
+    fn run(&mut self, stage: Stage, ctx: StepContext<'_>) -> Result<(), String> {
+        let StepContext {
+            geom,
+            bins,
+            parts,
+            mats,
+            kernel,
+            row_due,
+            output_due,
+            ..
+        } = ctx;
+        let r = match stage {
+            Stage::PhaseFieldSolve => {
+                by_kernel!(kernel, K => self.solve::<K>(geom, bins, parts, output_due))
+            }
+            Stage::PhaseFieldHistory => {
+                self.degrade(parts, mats);
+                Ok(())
+            }
+            Stage::PhaseFieldStagger => by_kernel!(kernel, K => {
+                self.stagger::<K>(geom, bins, parts, mats, row_due, output_due)
+            }),
+            _ => Ok(()),
+        };
+        r.map_err(|e| e.to_string())
+    }
+
+    /// The solver's mean seconds per step since the last row
+    /// (`pf_assembly_s`, `pf_factorization_s`, `pf_solve_s`), the most
+    /// stagger iterations of a step (`pf_stagger_iterations`), the last
+    /// stagger residual (`pf_residual`), the numeric factorizations since
+    /// the last row by kind and the mean seconds of one
+    /// (`pf_preconditioner_factorizations`,
+    /// `pf_preconditioner_factorization_s`, `pf_direct_factorizations`,
+    /// `pf_direct_factorization_s`), the fall-backs to a direct solve
+    /// (`pf_fallbacks`), Ψ_f per body (`fracture_energy_b<i>`, with two or
+    /// more phase-field bodies), and per tracked body the crack tip
+    /// (`crack_tip_x`, `crack_tip_y`, `crack_length`, `crack_speed`,
+    /// suffixed `_b<i>` with two or more). The core `fracture_energy` is
+    /// Σ Ψ_f.
+    fn series(&mut self, at: &RowContext<'_>, out: &mut SeriesOut) {
+        let (all, tracked) = self.bodies();
+        let (energies, s, tips) = if out.declaring() {
+            (
+                vec![0.0; all.len()],
+                RowStats::default(),
+                vec![CrackTip::UNKNOWN; tracked.len()],
+            )
+        } else {
+            let energies =
+                by_kernel!(at.kernel, K => self.fracture_energies::<K>(at.geom, at.parts));
+            // (an empty f64 sum is −0.0)
+            out.set_fracture_energy(energies.iter().fold(0.0, |a, b| a + b));
+            let s = self.row_stats();
+            (energies, s, self.crack_tips(at.parts, at.time))
+        };
+        out.push("pf_assembly_s", s.assembly);
+        out.push("pf_factorization_s", s.factorization);
+        out.push("pf_solve_s", s.solve);
+        out.push("pf_stagger_iterations", s.staggers as f64);
+        out.push("pf_residual", s.residual);
+        out.push(
+            "pf_preconditioner_factorizations",
+            s.preconditioner_factorizations as f64,
+        );
+        out.push(
+            "pf_preconditioner_factorization_s",
+            s.preconditioner_factorization,
+        );
+        out.push("pf_direct_factorizations", s.direct_factorizations as f64);
+        out.push("pf_direct_factorization_s", s.direct_factorization);
+        out.push("pf_fallbacks", s.fallbacks as f64);
+        if all.len() > 1 {
+            for (b, e) in all.iter().zip(&energies) {
+                out.push(&format!("fracture_energy_b{b}"), *e);
+            }
+        }
+        for (b, tip) in tracked.iter().zip(&tips) {
+            out.push_tip(&body_suffix(*b, tracked.len()), tip);
+        }
+    }
+
+    /// `fracture_energy_density`: Ḡc·Z per particle, J/m³
+    /// ([`PhaseFields::fracture_energy_densities`]).
+    fn snapshot(&mut self, at: &RowContext<'_>, fields: &mut Vec<Field>) {
+        fields.push(Field {
+            name: "fracture_energy_density".into(),
+            components: 1,
+            data: FieldData::F64(by_kernel!(at.kernel, K => {
+                self.fracture_energy_densities::<K>(at.geom, at.parts)
+            })),
+        });
     }
 }
 

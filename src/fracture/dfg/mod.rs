@@ -57,6 +57,8 @@
 //! per node over all contact groups; they differ from the paper's per-field
 //! sums only at nodes where two groups and damage meet.
 
+mod model;
+
 use crate::contact::unit;
 use crate::fracture::damage::FAILED;
 use crate::fracture::phase_field::dfg_damage;

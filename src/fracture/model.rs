@@ -1,0 +1,183 @@
+//! The seam every fracture model plugs into: [`FractureModel`].
+//!
+//! A model runs the plan stages it owns ([`FractureModel::stages`]), adds
+//! its series columns and their values in one function
+//! ([`FractureModel::series`], so the header and the rows cannot drift
+//! apart) and its snapshot fields ([`FractureModel::snapshot`]). The step,
+//! the run loop, the series and the snapshots call models only through
+//! this trait. What is not behind it yet (its checkpoint state, its part
+//! of the summary, its scene section) is listed in `docs/architecture.md`.
+
+use crate::diagnostics::crack::CrackTip;
+use crate::diagnostics::Field;
+use crate::grid::{Bins, GridGeom};
+use crate::material::Elastic;
+use crate::particles::Particles;
+use crate::scene::{ShapeFunctionKind, Stage};
+
+/// What a model's stage works on: the step's particles (mutable), grid
+/// geometry, bins, materials and kernel, and where the step is.
+pub struct StepContext<'a> {
+    pub geom: &'a GridGeom,
+    pub bins: &'a Bins,
+    pub parts: &'a mut Particles,
+    pub mats: &'a [Elastic],
+    pub kernel: ShapeFunctionKind,
+    /// The step's Δt, s.
+    pub dt: f64,
+    /// The step ends on a series row.
+    pub row_due: bool,
+    /// The step ends on a series row or a snapshot.
+    pub output_due: bool,
+}
+
+/// What a model reports from: the present particles and the run's energy
+/// account at a series row or snapshot.
+pub struct RowContext<'a> {
+    pub geom: &'a GridGeom,
+    pub parts: &'a Particles,
+    pub kernel: ShapeFunctionKind,
+    pub step: u64,
+    pub time: f64,
+    /// Kinetic + strain energy now, J.
+    pub energy: f64,
+    /// Kinetic + strain energy at t = 0, J.
+    pub initial_energy: f64,
+    /// Work of the boundary conditions and tractions so far, J.
+    pub external_work: f64,
+}
+
+/// The columns a model adds to the series. Called once to declare the
+/// names ([`SeriesOut::declaring`]: the values are ignored, and a model
+/// must skip work with side effects, such as measuring a crack tip's
+/// speed), then at every row to fill the values in the same order.
+#[derive(Debug, Default)]
+pub struct SeriesOut {
+    declaring: bool,
+    names: Vec<String>,
+    values: Vec<f64>,
+    fracture_energy: Option<f64>,
+}
+
+impl SeriesOut {
+    /// A sink that collects the column names.
+    pub fn declare() -> SeriesOut {
+        SeriesOut {
+            declaring: true,
+            ..SeriesOut::default()
+        }
+    }
+
+    /// A sink that collects one row's values.
+    pub fn fill() -> SeriesOut {
+        SeriesOut::default()
+    }
+
+    /// Only the names are wanted.
+    pub fn declaring(&self) -> bool {
+        self.declaring
+    }
+
+    pub fn push(&mut self, name: &str, value: f64) {
+        if self.declaring {
+            self.names.push(name.to_string());
+        } else {
+            self.values.push(value);
+        }
+    }
+
+    /// The four crack-tip columns `crack_tip_x`, `crack_tip_y`,
+    /// `crack_length`, `crack_speed`, each followed by `suffix`.
+    pub fn push_tip(&mut self, suffix: &str, tip: &CrackTip) {
+        let names = ["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"];
+        let values = [tip.x[0], tip.x[1], tip.length, tip.speed];
+        for (n, v) in names.into_iter().zip(values) {
+            if self.declaring {
+                self.names.push(format!("{n}{suffix}"));
+            } else {
+                self.values.push(v);
+            }
+        }
+    }
+
+    /// The core column `fracture_energy` (J); with two models in a scene,
+    /// the later one's value stands.
+    pub fn set_fracture_energy(&mut self, e: f64) {
+        self.fracture_energy = Some(e);
+    }
+
+    pub fn names(self) -> Vec<String> {
+        self.names
+    }
+
+    /// The values and the fracture energy (if a model set one).
+    pub fn values(self) -> (Vec<f64>, Option<f64>) {
+        (self.values, self.fracture_energy)
+    }
+}
+
+/// The suffix of a per-body column: `_b<i>` when several bodies report it,
+/// none for one.
+pub fn body_suffix(body: usize, bodies: usize) -> String {
+    if bodies > 1 {
+        format!("_b{body}")
+    } else {
+        String::new()
+    }
+}
+
+/// A fracture model in the explicit step.
+pub trait FractureModel: Send {
+    /// The model's name as the scene and the docs know it.
+    fn name(&self) -> &'static str;
+
+    /// The plan stages this model runs (each at its place in the plan).
+    fn stages(&self) -> &'static [Stage];
+
+    /// Runs one of [`Self::stages`]. An error stops the run with its
+    /// message.
+    fn run(&mut self, stage: Stage, ctx: StepContext<'_>) -> Result<(), String>;
+
+    /// Declares (see [`SeriesOut::declaring`]) or fills this model's
+    /// series columns.
+    fn series(&mut self, at: &RowContext<'_>, out: &mut SeriesOut);
+
+    /// Adds this model's per-particle fields to a snapshot.
+    fn snapshot(&mut self, _at: &RowContext<'_>, _fields: &mut Vec<Field>) {}
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One function declares and fills: the names and values line up.
+    #[test]
+    fn declaring_and_filling_line_up() {
+        let tip = CrackTip {
+            x: [1.0, 2.0],
+            length: 3.0,
+            speed: 4.0,
+        };
+        let run = |out: &mut SeriesOut| {
+            out.push("a", 7.0);
+            out.push_tip(&body_suffix(2, 3), &tip);
+        };
+        let mut names = SeriesOut::declare();
+        run(&mut names);
+        let mut values = SeriesOut::fill();
+        run(&mut values);
+        values.set_fracture_energy(0.5);
+        assert_eq!(
+            names.names(),
+            [
+                "a",
+                "crack_tip_x_b2",
+                "crack_tip_y_b2",
+                "crack_length_b2",
+                "crack_speed_b2"
+            ]
+        );
+        assert_eq!(values.values(), (vec![7.0, 1.0, 2.0, 3.0, 4.0], Some(0.5)));
+        assert_eq!(body_suffix(0, 1), "");
+    }
+}
