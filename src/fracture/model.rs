@@ -144,6 +144,32 @@ pub trait FractureModel: Send {
 
     /// Adds this model's per-particle fields to a snapshot.
     fn snapshot(&mut self, _at: &RowContext<'_>, _fields: &mut Vec<Field>) {}
+
+    /// The state a checkpoint keeps beyond the particle arrays (postcard
+    /// bytes of the model's own type, whose layout the checkpoint's layout
+    /// test traces).
+    fn save(&self) -> Vec<u8>;
+
+    /// Takes up the state [`Self::save`] wrote, for the freshly built
+    /// model of the same scene; an error names what does not fit.
+    fn restore(&mut self, state: &[u8], at: RestoreContext<'_>) -> Result<(), String>;
+}
+
+/// What a model restores against: the resumed particles and the grid.
+pub struct RestoreContext<'a> {
+    pub geom: &'a GridGeom,
+    pub parts: &'a Particles,
+}
+
+/// A model's state in postcard bytes ([`FractureModel::save`]).
+pub fn encode<T: serde::Serialize>(state: &T) -> Vec<u8> {
+    // plain structs of numbers and vectors: postcard cannot fail on them
+    postcard::to_stdvec(state).expect("a model state encodes")
+}
+
+/// The state [`encode`] wrote.
+pub fn decode<'de, T: serde::Deserialize<'de>>(bytes: &'de [u8]) -> Result<T, String> {
+    postcard::from_bytes(bytes).map_err(|e| format!("its state does not decode: {e}"))
 }
 
 #[cfg(test)]

@@ -36,6 +36,7 @@
 
 use super::{Simulation, StageTimes};
 use crate::diagnostics::SeriesRow;
+use crate::fracture::model::RestoreContext;
 use crate::particles::Particles;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -112,11 +113,18 @@ pub(super) struct State<'a> {
     pub clock: RunClock,
     pub parts: Cow<'a, Particles>,
     pub bins_order: Cow<'a, [u32]>,
-    pub phase: Option<super::phase::PhaseState>,
-    pub damage: Option<super::damage::DamageSaved>,
-    /// DFG's neighbour lists: the positions they were built at and the
-    /// builds so far.
-    pub dfg: Option<(Vec<[f64; 2]>, u64)>,
+    /// Each fracture model's own state ([`FractureModel::save`]), in the
+    /// order of `mpm::models`.
+    pub models: Vec<SavedModel>,
+}
+
+/// One fracture model's state in a checkpoint.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(super) struct SavedModel {
+    /// [`FractureModel::name`].
+    pub name: String,
+    /// Its postcard bytes.
+    pub state: Vec<u8>,
 }
 
 impl Checkpoint<'_> {
@@ -388,9 +396,13 @@ impl Simulation {
                 clock,
                 parts: Cow::Borrowed(&self.parts),
                 bins_order: Cow::Borrowed(&self.bins.order),
-                phase: self.phase.as_ref().map(|p| p.state()),
-                damage: self.damage.as_ref().map(|d| d.saved()),
-                dfg: self.dfg.as_ref().map(|d| d.neighbour_state()),
+                models: self
+                    .model_list()
+                    .map(|m| SavedModel {
+                        name: m.name().to_string(),
+                        state: m.save(),
+                    })
+                    .collect(),
             },
         }
     }
@@ -437,9 +449,11 @@ impl Simulation {
                 "its particle array `{array}` does not have the scene's length"
             )));
         }
-        if s.phase.is_some() != sim.phase.is_some()
-            || s.damage.is_some() != sim.damage.is_some()
-            || s.dfg.is_some() != sim.dfg.is_some()
+        if !s
+            .models
+            .iter()
+            .map(|m| m.name.as_str())
+            .eq(sim.model_list().map(|m| m.name()))
             || !s
                 .times
                 .stages
@@ -454,19 +468,19 @@ impl Simulation {
         sim.bins
             .restore(&sim.geom, &sim.parts.x, s.bins_order.into_owned())
             .map_err(bad)?;
-        if let (Some(pf), Some(st)) = (sim.phase.as_mut(), s.phase) {
-            pf.restore(st, sim.geom.node_count()).map_err(bad)?;
-        }
-        if let (Some(d), Some(st)) = (sim.damage.as_mut(), s.damage) {
-            d.restore(st).map_err(bad)?;
-        }
-        if let (Some(d), Some((x_built, builds))) = (sim.dfg.as_mut(), s.dfg) {
-            if x_built.len() != sim.parts.len() && !x_built.is_empty() {
-                return Err(bad(
-                    "DFG's neighbour positions are not one per particle".into()
-                ));
-            }
-            d.restore_neighbours(&sim.geom, &sim.parts, &x_built, builds);
+        let Simulation {
+            geom,
+            parts,
+            phase,
+            dfg,
+            damage,
+            ..
+        } = &mut sim;
+        let at = || RestoreContext { geom, parts };
+        for (model, saved) in super::models(phase, dfg, damage).zip(&s.models) {
+            model
+                .restore(&saved.state, at())
+                .map_err(|e| bad(format!("{}: {e}", saved.name)))?;
         }
         sim.step = s.step;
         sim.time = s.time;
@@ -526,6 +540,16 @@ mod tests {
         tracer
             .trace_simple_type::<crate::jobs::ObserverState>()
             .expect("trace a job's state");
+        // the fracture models' states, saved as bytes in `State::models`
+        tracer
+            .trace_simple_type::<crate::mpm::phase::PhaseState>()
+            .expect("trace the phase field's state");
+        tracer
+            .trace_simple_type::<crate::mpm::damage::DamageSaved>()
+            .expect("trace the damage model's state");
+        tracer
+            .trace_simple_type::<crate::fracture::dfg::model::DfgSaved>()
+            .expect("trace DFG's state");
         let registry = tracer.registry().expect("every saved type is known");
         let layout = serde_json::to_string_pretty(&registry).expect("layout as JSON") + "\n";
         let path =

@@ -6,7 +6,9 @@ use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::fragments::{FragmentFinder, Fragments, NONE};
 use crate::diagnostics::{Field, FieldData};
 use crate::fracture::damage::{DamageLaw, DamageStep};
-use crate::fracture::model::{body_suffix, FractureModel, RowContext, SeriesOut, StepContext};
+use crate::fracture::model::{
+    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, StepContext,
+};
 use crate::particles::Particles;
 use crate::scene::{Scene, Stage};
 use rayon::prelude::*;
@@ -128,14 +130,14 @@ impl DamageState {
         }
     }
 
-    pub(super) fn saved(&self) -> DamageSaved {
+    fn saved(&self) -> DamageSaved {
         DamageSaved {
             dissipated: self.dissipated,
             tips: self.tips.iter().map(|t| t.tracker).collect(),
         }
     }
 
-    pub(super) fn restore(&mut self, s: DamageSaved) -> Result<(), String> {
+    fn restore_saved(&mut self, s: DamageSaved) -> Result<(), String> {
         if s.tips.len() != self.tips.len() {
             return Err(format!(
                 "{} tracked cracks in the checkpoint, {} in the scene",
@@ -289,6 +291,14 @@ impl FractureModel for DamageState {
         for (b, tip) in tracked.iter().zip(&tips) {
             out.push_tip(&body_suffix(*b, tracked.len()), tip);
         }
+    }
+
+    fn save(&self) -> Vec<u8> {
+        encode(&self.saved())
+    }
+
+    fn restore(&mut self, state: &[u8], _at: RestoreContext<'_>) -> Result<(), String> {
+        self.restore_saved(decode(state)?)
     }
 
     /// `fragment`: each particle's fragment label.

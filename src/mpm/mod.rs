@@ -322,6 +322,14 @@ impl Simulation {
         c
     }
 
+    /// The scene's fracture models, read-only, in the order of [`models`].
+    fn model_list(&self) -> impl Iterator<Item = &dyn FractureModel> {
+        let phase = self.phase.as_ref().map(|m| m as &dyn FractureModel);
+        let dfg = self.dfg.as_ref().map(|m| m as &dyn FractureModel);
+        let damage = self.damage.as_ref().map(|m| m as &dyn FractureModel);
+        [phase, dfg, damage].into_iter().flatten()
+    }
+
     /// What the models report from (with kinetic + strain `energy` now),
     /// and the models.
     fn reporting(
@@ -1015,7 +1023,8 @@ impl Simulation {
 }
 
 /// The scene's fracture models, in the series' column order. A new model
-/// is one more entry here (and its state in [`Simulation`]).
+/// is one more entry here and in [`Simulation::model_list`] (and its state
+/// in [`Simulation`]).
 fn models<'a>(
     phase: &'a mut Option<phase::PhaseFields>,
     dfg: &'a mut Option<Dfg>,

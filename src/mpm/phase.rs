@@ -22,7 +22,9 @@
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::{Field, FieldData};
-use crate::fracture::model::{body_suffix, FractureModel, RowContext, SeriesOut, StepContext};
+use crate::fracture::model::{
+    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, StepContext,
+};
 use crate::fracture::phase_field::system::{
     self, FactorKind, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem,
     SolveMethod, SolveStats,
@@ -256,7 +258,7 @@ impl PhaseFields {
         })
     }
 
-    pub(super) fn state(&self) -> PhaseState {
+    fn state(&self) -> PhaseState {
         PhaseState {
             c: self.bodies.iter().map(|b| b.c.clone()).collect(),
             tips: self.bodies.iter().map(|b| b.tip).collect(),
@@ -266,7 +268,7 @@ impl PhaseFields {
 
     /// Takes up a checkpoint's [`PhaseState`] for a grid of `nodes` nodes;
     /// the solver starts afresh (analysis and factor on the next solve).
-    pub(super) fn restore(&mut self, s: PhaseState, nodes: usize) -> Result<(), String> {
+    fn restore_state(&mut self, s: PhaseState, nodes: usize) -> Result<(), String> {
         if s.c.len() != self.bodies.len() || s.tips.len() != self.bodies.len() {
             return Err(format!(
                 "{} phase-field bodies in the checkpoint, {} in the scene",
@@ -717,6 +719,14 @@ impl FractureModel for PhaseFields {
         for (b, tip) in tracked.iter().zip(&tips) {
             out.push_tip(&body_suffix(*b, tracked.len()), tip);
         }
+    }
+
+    fn save(&self) -> Vec<u8> {
+        encode(&self.state())
+    }
+
+    fn restore(&mut self, state: &[u8], at: RestoreContext<'_>) -> Result<(), String> {
+        self.restore_state(decode(state)?, at.geom.node_count())
     }
 
     /// `fracture_energy_density`: Ḡc·Z per particle, J/m³

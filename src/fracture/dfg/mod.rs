@@ -57,7 +57,7 @@
 //! per node over all contact groups; they differ from the paper's per-field
 //! sums only at nodes where two groups and damage meet.
 
-mod model;
+pub(crate) mod model;
 
 use crate::contact::unit;
 use crate::fracture::damage::FAILED;

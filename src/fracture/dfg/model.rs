@@ -5,8 +5,18 @@
 //! [`FractureModel::run`].
 
 use super::Dfg;
-use crate::fracture::model::{FractureModel, RowContext, SeriesOut, StepContext};
+use crate::fracture::model::{
+    decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, StepContext,
+};
 use crate::scene::Stage;
+
+/// What a checkpoint keeps of DFG: the positions its neighbour lists were
+/// built at and the builds so far.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub(crate) struct DfgSaved {
+    pub x_built: Vec<[f64; 2]>,
+    pub builds: u64,
+}
 
 impl FractureModel for Dfg {
     fn name(&self) -> &'static str {
@@ -28,5 +38,20 @@ impl FractureModel for Dfg {
         let st = self.stats();
         out.push("dfg_separated_nodes", st.separated_nodes as f64);
         out.push("dfg_neighbour_builds", st.neighbour_builds as f64);
+    }
+
+    fn save(&self) -> Vec<u8> {
+        let (x_built, builds) = self.neighbour_state();
+        encode(&DfgSaved { x_built, builds })
+    }
+
+    /// The neighbour lists built again at the saved positions.
+    fn restore(&mut self, state: &[u8], at: RestoreContext<'_>) -> Result<(), String> {
+        let s: DfgSaved = decode(state)?;
+        if s.x_built.len() != at.parts.len() && !s.x_built.is_empty() {
+            return Err("DFG's neighbour positions are not one per particle".into());
+        }
+        self.restore_neighbours(at.geom, at.parts, &s.x_built, s.builds);
+        Ok(())
     }
 }
