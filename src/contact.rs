@@ -1,6 +1,6 @@
 //! Frictional contact between velocity fields at multi-field nodes
 //! (Bardenhagen et al. 2001, as summarised in Homel & Herbold 2017,
-//! seed 000, eqs. 11–16 and Algorithm 3 without the DFG separability test).
+//! eqs. 11–16 and Algorithm 3 without the DFG separability test).
 //!
 //! At a node with fields ς = 1..k (each holding at least
 //! [`MIN_FIELD_FRACTION`] of the node's mass):

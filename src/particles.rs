@@ -45,7 +45,7 @@ pub struct Particles {
     /// History field H = max ψ⁺, J/m³; empty unless a body has a phase
     /// field.
     pub history: Vec<f64>,
-    /// Scalar damage D in [0, 1] (seed 000); empty unless a material has a
+    /// Scalar damage D in [0, 1] (Homel & Herbold 2017); empty unless a material has a
     /// damage model.
     pub damage: Vec<f64>,
     /// Tensile strength σ_f of the particle, Pa (Weibull-distributed where

@@ -252,7 +252,7 @@ pub enum Metric {
     /// `crack_length`) is shorter than 10 % of its greatest length to the
     /// first row where it has 99 %. (Not "the last row without a crack": a
     /// speck of c < 0.1 at an impact face long before the crack runs would
-    /// move the start.) Seed 001 measures P3 this way: Ψ_f from its
+    /// move the start.) Kakouris & Triantafyllou measure the sphere–beam impact (`scenes/p3_*`) this way: Ψ_f from its
     /// point (4), where the median crack starts, to (6), where it is
     /// through (Fig. 23a, 311.82 − 94.29 = 217.53 mJ against Ḡc·A_f).
     PropagationEnergy { energy: String, length: String },

@@ -1,5 +1,5 @@
 //! `cleave gc-polar`: the effective surface energy Gc(θ) of the 4th-order
-//! anisotropic phase field (eq. 8 of seed 001) as a table and a polar plot.
+//! anisotropic phase field (eq. 8 of Kakouris & Triantafyllou) as a table and a polar plot.
 
 use cleave::fracture::phase_field::anisotropy::{polar, Gamma};
 use serde_json::json;

@@ -109,7 +109,7 @@ enum Command {
     },
     /// Where the time of a phase-field step goes (MPM, assembly,
     /// factorization, solve): the direct solve, PCG with the last factor
-    /// and PCG with the multigrid, for a scene with a fixed dt (default: P1
+    /// and PCG with the multigrid, for a scene with a fixed dt (default: `scenes/p1_plate.toml`
     /// at the paper's resolution).
     BenchPhaseField {
         /// Scene file with a phase field and a fixed time step.
@@ -138,7 +138,7 @@ enum Command {
         factor_repeats: usize,
     },
     /// DFG against single field for a damage scene (default: the dynamic
-    /// Brazilian disk, seed 000 D4/D5) at several cell sizes: wall time per
+    /// Brazilian disk, Homel & Herbold's D4/D5) at several cell sizes: wall time per
     /// step, fragments and mean speed, cumulative fragment-size plot.
     BenchDfg {
         /// Scene file with damage.

@@ -1,5 +1,5 @@
 //! Fragments: connected components of undamaged material (Homel &
-//! Herbold, seed 000, section 3.4: "a connected components algorithm to
+//! Herbold 2017, section 3.4: "a connected components algorithm to
 //! identify fragments of undamaged material").
 //!
 //! A particle is undamaged when its damage is below the scene's

@@ -38,7 +38,7 @@ pub struct SeriesRow {
     pub angular_momentum: f64,
     /// The time step used for the last step, s.
     pub dt: f64,
-    /// Ψ_f = Σ Ḡc Z V over phase-field bodies (seed 001 eq. 3), J; zero
+    /// Ψ_f = Σ Ḡc Z V over phase-field bodies (Kakouris & Triantafyllou, eq. 3), J; zero
     /// without a fracture model.
     pub fracture_energy: f64,
     /// The scene's stage-specific columns, after the core ones.

@@ -1,4 +1,4 @@
-//! Continuum damage for brittle failure (Homel & Herbold, seed 000,
+//! Continuum damage for brittle failure (Homel & Herbold 2017,
 //! section 2.7), evaluated per particle after the G2P stress update.
 //!
 //! - Rankine with linear strain softening (eq. 23, after Cervera et al.):

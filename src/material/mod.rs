@@ -134,7 +134,7 @@ impl Elastic {
 }
 
 /// Miehe's spectral split of the small-strain energy (Miehe et al. 2010,
-/// as used in seed 001 eqs. 14–16): with principal strains ε_a (the two
+/// as used by Kakouris & Triantafyllou, eqs. 14–16): with principal strains ε_a (the two
 /// in-plane ones and ε_zz),
 /// ψ⁺ = λ/2 ⟨tr ε⟩₊² + μ Σ ⟨ε_a⟩₊², and the in-plane stresses
 /// σ± = λ⟨tr ε⟩± I + 2μ Σ_{a in-plane} ⟨ε_a⟩± n_a⊗n_a.

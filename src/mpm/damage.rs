@@ -1,4 +1,4 @@
-//! The damage stage (seed 000, section 2.7) as the step runs it: the
+//! The damage stage (Homel & Herbold 2017, section 2.7) as the step runs it: the
 //! per-material laws of [`crate::fracture::damage`], the energy they have
 //! released, and the crack tips of the bodies that track one.
 

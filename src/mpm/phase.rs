@@ -1,4 +1,4 @@
-//! The phase-field stage (seed 001, Algorithm 1):
+//! The phase-field stage (Kakouris & Triantafyllou, Algorithm 1):
 //!
 //! - [`PhaseFields::solve`], after P2G: per phase-field body, assemble
 //!   K(H) c = F on its active nodes (eq. 57), solve, and map c to its
@@ -326,7 +326,7 @@ impl PhaseFields {
     /// (c = 1 there) next to cracked ones (c ≈ 0) gets the quadratic
     /// B-spline's second derivative, 1/h², on the jump, and l₀³ γ (∇²c)²
     /// of the few such particles added 12 % to the beam's Ψ_f for one row
-    /// (P3 (iii) at the paper's resolution: 0.210 → 0.235 → 0.210 J over
+    /// (`scenes/p3_sphere_beam_iii.toml` at the paper's resolution: 0.210 → 0.235 → 0.210 J over
     /// three rows 0.5 µs apart, before this).
     fn record<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles) {
         self.energy.resize(parts.len(), 0.0);

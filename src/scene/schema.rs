@@ -40,7 +40,7 @@ pub struct SceneFile {
     /// How the phase-field systems are solved (scenes with a phase field).
     #[serde(default)]
     pub phase_field_solver: PhaseFieldSolverSpec,
-    /// Damage-field-gradient partitioning (Homel & Herbold, seed 000):
+    /// Damage-field-gradient partitioning (Homel & Herbold 2017):
     /// cracks of damaged material, and self-contact, as contacting
     /// velocity fields. Absent: damage models and phase fields run in
     /// single-field mode. With a phase field, a particle's damage is
@@ -50,7 +50,7 @@ pub struct SceneFile {
     pub dfg: Option<DfgSpec>,
 }
 
-/// Options of damage-field-gradient partitioning (seed 000, section 2).
+/// Options of damage-field-gradient partitioning (Homel & Herbold 2017, section 2).
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct DfgSpec {
@@ -134,7 +134,7 @@ pub struct PhaseFieldSolverSpec {
     /// iterations is redone with a fresh factor.
     #[serde(default = "default_pcg_refactor")]
     pub refactor_after: u32,
-    /// Staggered iterations per step (seed 001 Algorithm 1): after the
+    /// Staggered iterations per step (Kakouris & Triantafyllou, Algorithm 1): after the
     /// history update, c is solved again while the relative phase-field
     /// residual exceeds `stagger_tolerance`, up to this many solves per step.
     /// 1 (the default, the paper's finding) does no re-solve.
@@ -481,10 +481,10 @@ pub struct MaterialSpec {
     pub youngs_modulus: f64,
     /// Poisson's ratio ν, in (−1, 0.5).
     pub poissons_ratio: f64,
-    /// Phase-field fracture for bodies of this material (seed 001).
+    /// Phase-field fracture for bodies of this material (Kakouris & Triantafyllou).
     #[serde(default)]
     pub phase_field: Option<PhaseFieldSpec>,
-    /// A continuum damage model (seed 000, section 2.7), run in
+    /// A continuum damage model (Homel & Herbold 2017, section 2.7), run in
     /// single-field mode or, with `[dfg]`, with field-gradient partitioning.
     #[serde(default)]
     pub damage: Option<DamageSpec>,
@@ -501,7 +501,7 @@ pub enum DamageModel {
     TimeToFailure,
 }
 
-/// Damage parameters (seed 000, section 2.7).
+/// Damage parameters (Homel & Herbold 2017, section 2.7).
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct DamageSpec {
@@ -536,7 +536,7 @@ pub struct WeibullSpec {
     pub seed: u64,
 }
 
-/// Phase-field fracture parameters (Kakouris & Triantafyllou, seed 001).
+/// Phase-field fracture parameters (Kakouris & Triantafyllou).
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct PhaseFieldSpec {
@@ -560,7 +560,7 @@ pub struct PhaseFieldSpec {
     pub plane_stress_split: PlaneStressSplit,
 }
 
-/// Miehe's spectral split in plane stress, where seed 001 does not say
+/// Miehe's spectral split in plane stress, where Kakouris & Triantafyllou do not say
 /// which strain it decomposes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -703,7 +703,7 @@ pub struct CrackSpec {
     pub profile: CrackProfile,
 }
 
-/// The initial history of a phase-field crack (seed 001 §5.1: "an initial
+/// The initial history of a phase-field crack (Kakouris & Triantafyllou §5.1: "an initial
 /// history field at the corresponding material points as in [18]", Borden
 /// et al. 2012).
 #[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
@@ -757,7 +757,7 @@ pub struct OutputSpec {
     #[serde(default = "yes")]
     pub grid_fields: bool,
     /// With damage: particles with damage below this are intact material
-    /// for the fragment count (connected components, seed 000 section 3.4).
+    /// for the fragment count (connected components, Homel & Herbold 2017, section 3.4).
     #[serde(default = "default_fragment_damage")]
     pub fragment_damage: f64,
 }

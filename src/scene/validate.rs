@@ -43,7 +43,7 @@ pub struct ResolvedMaterial {
     pub wave_speed: f64,
 }
 
-/// A damage model with the constants the update uses (seed 000, section 2.7).
+/// A damage model with the constants the update uses (Homel & Herbold 2017, section 2.7).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ResolvedDamage {
     pub model: DamageModel,

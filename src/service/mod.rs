@@ -675,7 +675,7 @@ pub async fn serve_on(
         .await?;
     jobs.shutdown();
     // the running jobs' last step and checkpoint (a minute is ample for
-    // the largest scenes' checkpoint: P1 at the paper's size writes ~0.4 GB)
+    // the largest scenes' checkpoint: `scenes/p1_plate.toml` writes ~0.4 GB)
     let j = jobs.clone();
     let stopped =
         tokio::task::spawn_blocking(move || j.wait_stopped(std::time::Duration::from_secs(60)))

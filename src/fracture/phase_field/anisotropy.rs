@@ -1,5 +1,5 @@
 //! Surface-energy anisotropy of the 4th-order phase field (Kakouris &
-//! Triantafyllou, seed 001, section 2.2).
+//! Triantafyllou, section 2.2).
 //!
 //! The 2D Voigt tensor γ (eq. 6) acts on the second derivatives
 //! `[c,11, c,22, c,12]`, so along a unit normal n the crack-profile term of

@@ -1,4 +1,4 @@
-//! Phase-field fracture (Kakouris & Triantafyllou, seed 001): 2nd-order and
+//! Phase-field fracture (Kakouris & Triantafyllou): 2nd-order and
 //! 4th-order anisotropic crack density functionals.
 //!
 //! The anisotropy tensor and the effective surface energy Gc(θ) (eq. 8),
@@ -17,7 +17,7 @@ pub mod trisolve;
 pub const CRACKED_C: f64 = 0.1;
 
 /// The damage a phase-field particle contributes to DFG partitioning
-/// (seed 000, eqs. 17–21): 1 − c scaled so that a cracked particle
+/// (Homel & Herbold 2017, eqs. 17–21): 1 − c scaled so that a cracked particle
 /// (c ≤ [`CRACKED_C`]) is fully damaged, d = min(1, (1 − c)/(1 − CRACKED_C)).
 pub fn dfg_damage(c: f64) -> f64 {
     ((1.0 - c) / (1.0 - CRACKED_C)).clamp(0.0, 1.0)
