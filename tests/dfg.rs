@@ -205,14 +205,14 @@ fn the_same_seed_gives_the_same_weibull_run_on_any_thread_count_and_no_dfg_runs_
     );
     let mut sim = Simulation::new(&single);
     let summary = sim.run(&mut Recorder::default()).unwrap();
-    assert!(summary.dfg.is_none());
+    assert!(!summary.fracture.contains_key("dfg"));
     assert_eq!(summary.stage_seconds.get(Stage::DamageField), 0.0);
     assert_eq!(summary.stage_seconds.get(Stage::FieldPartition), 0.0);
     assert!(summary.stage_seconds.get(Stage::Damage) > 0.0);
     // with it, the lists are built and rebuilt only as particles move
     let mut sim = Simulation::new(&a);
     let summary = sim.run(&mut Recorder::default()).unwrap();
-    let st = summary.dfg.unwrap();
+    let st: cleave::fracture::dfg::DfgStats = summary.model("dfg").unwrap();
     assert!(
         st.neighbour_builds >= 1 && st.neighbour_builds < summary.steps / 10,
         "{st:?} in {} steps",

@@ -259,7 +259,7 @@ fn the_plan_runs_only_what_the_scene_asks_for() {
     let summary = Simulation::new(&plain)
         .run(&mut Recorder::default())
         .unwrap();
-    assert!(summary.phase_field.is_none());
+    assert!(!summary.fracture.contains_key("phase_field"));
     assert_eq!(summary.stage_seconds.sum(Stage::is_phase_field), 0.0);
     // a short phase-field run: one analysis (the node set barely changes),
     // one factorization per step, the pre-crack's energy Gc·a from the start
@@ -269,7 +269,7 @@ fn the_plan_runs_only_what_the_scene_asks_for() {
     let short = Scene::from_text(&text, None).unwrap();
     let mut rec = Recorder::default();
     let s = Simulation::new(&short).run(&mut rec).unwrap();
-    let stats = s.phase_field.expect("phase-field stats");
+    let stats = pf_stats(&s);
     assert_eq!(stats.factorizations, s.steps);
     assert!(
         stats.analyses >= 1 && stats.analyses <= 3,
@@ -535,7 +535,7 @@ fn warm_started_pcg_agrees_with_the_direct_solve() {
             "{what}: direct {a} vs pcg {b}"
         );
     }
-    let (ds, ps) = (ds.phase_field.unwrap(), ps.phase_field.unwrap());
+    let (ds, ps) = (pf_stats(&ds), pf_stats(&ps));
     assert_eq!(ds.pcg_solves, 0);
     assert!(ps.pcg_solves > 0);
     assert!(
@@ -592,10 +592,7 @@ fn staggered_iterations_resolve_the_history_update_at_no_extra_solve() {
     let res = many.column("pf_residual").unwrap();
     assert!(iters[1..].iter().all(|&k| k == 2.0), "{iters:?}");
     assert!(res[1..].iter().all(|&r| r <= 1e-6), "{res:?}");
-    let (f1, f4) = (
-        s1.phase_field.unwrap().factorizations,
-        s4.phase_field.unwrap().factorizations,
-    );
+    let (f1, f4) = (pf_stats(&s1).factorizations, pf_stats(&s4).factorizations);
     assert_eq!(f1, s1.steps);
     assert!(
         f4 <= s4.steps + 1,
@@ -1079,7 +1076,7 @@ fn the_factorizations_are_counted_by_kind_in_the_summary_and_the_series() {
         let (rec, summary) = run_text(&format!(
             "{base}\n[phase_field_solver]\nmethod = \"{method}\"\nrefactor_after = 2\n"
         ));
-        let s = summary.phase_field.unwrap();
+        let s = pf_stats(&summary);
         assert_eq!(
             s.preconditioner_factorizations + s.direct_factorizations,
             s.factorizations,
@@ -1126,4 +1123,11 @@ fn the_factorizations_are_counted_by_kind_in_the_summary_and_the_series() {
         }
         assert_eq!(column_sum(&rec, "pf_fallbacks"), s.fallbacks as f64);
     }
+}
+
+/// The phase-field solver's counters of a run's summary.
+fn pf_stats(
+    summary: &cleave::mpm::RunSummary,
+) -> cleave::fracture::phase_field::system::SolveStats {
+    summary.model("phase_field").expect("a phase-field summary")
 }

@@ -911,7 +911,7 @@ fn run_valid(
                         "energy_error": row.energy_error,
                         "energy_error_relative": energy_error_relative,
                         "stage_seconds": summary.stage_seconds,
-                        "phase_field": summary.phase_field,
+                        "fracture": summary.fracture,
                         "outputs": paths,
                     })
                 );

@@ -145,6 +145,10 @@ pub trait FractureModel: Send {
     /// Adds this model's per-particle fields to a snapshot.
     fn snapshot(&mut self, _at: &RowContext<'_>, _fields: &mut Vec<Field>) {}
 
+    /// This model's part of the run summary (its counters and times), as
+    /// JSON.
+    fn summary(&self) -> serde_json::Value;
+
     /// The state a checkpoint keeps beyond the particle arrays (postcard
     /// bytes of the model's own type, whose layout the checkpoint's layout
     /// test traces).

@@ -293,6 +293,14 @@ impl FractureModel for DamageState {
         }
     }
 
+    /// The energy dissipated, J, and the number of tracked cracks.
+    fn summary(&self) -> serde_json::Value {
+        serde_json::json!({
+            "dissipated": self.dissipated,
+            "tracked_cracks": self.tips.len(),
+        })
+    }
+
     fn save(&self) -> Vec<u8> {
         encode(&self.saved())
     }

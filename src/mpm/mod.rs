@@ -200,10 +200,20 @@ pub struct RunSummary {
     pub stage_seconds: StageTimes,
     /// Steps in which at least one node had fields in contact.
     pub contact_steps: u64,
-    /// Phase-field solver times and counts (with a phase field).
-    pub phase_field: Option<crate::fracture::phase_field::system::SolveStats>,
-    /// Neighbour-list builds and separated nodes (with `[dfg]`).
-    pub dfg: Option<crate::fracture::dfg::DfgStats>,
+    /// Each fracture model's part ([`FractureModel::summary`]) under its
+    /// name: `phase_field` (the solver's times and counts, `SolveStats`),
+    /// `dfg` (neighbour-list builds, separated nodes, `DfgStats`), `damage`.
+    pub fracture: serde_json::Map<String, serde_json::Value>,
+}
+
+impl RunSummary {
+    /// A model's part of the summary read as `T` (e.g. `SolveStats` for
+    /// `phase_field`); None when the scene has no such model.
+    pub fn model<T: serde::de::DeserializeOwned>(&self, name: &str) -> Option<T> {
+        self.fracture
+            .get(name)
+            .and_then(|v| serde_json::from_value(v.clone()).ok())
+    }
 }
 
 /// A simulation in progress: the particles, the grid, and the clock.
@@ -467,8 +477,10 @@ impl Simulation {
             last_row: last.clone(),
             stage_seconds: self.times.clone(),
             contact_steps: self.contact_steps,
-            phase_field: self.phase.as_ref().map(|p| p.stats()),
-            dfg: self.dfg.as_ref().map(|d| d.stats()),
+            fracture: self
+                .model_list()
+                .map(|m| (m.name().to_string(), m.summary()))
+                .collect(),
         })
     }
 

@@ -721,6 +721,11 @@ impl FractureModel for PhaseFields {
         }
     }
 
+    /// The solver's times and counts ([`SolveStats`]).
+    fn summary(&self) -> serde_json::Value {
+        serde_json::to_value(self.stats()).unwrap_or_default()
+    }
+
     fn save(&self) -> Vec<u8> {
         encode(&self.state())
     }

@@ -349,7 +349,7 @@ struct SideSums {
 }
 
 /// What the partitioning did this run.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DfgStats {
     /// Neighbour-list builds.
     pub neighbour_builds: u64,

@@ -40,6 +40,12 @@ impl FractureModel for Dfg {
         out.push("dfg_neighbour_builds", st.neighbour_builds as f64);
     }
 
+    /// Neighbour-list builds, separated nodes, surface particles
+    /// ([`super::DfgStats`]).
+    fn summary(&self) -> serde_json::Value {
+        serde_json::to_value(self.stats()).unwrap_or_default()
+    }
+
     fn save(&self) -> Vec<u8> {
         let (x_built, builds) = self.neighbour_state();
         encode(&DfgSaved { x_built, builds })

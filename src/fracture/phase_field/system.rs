@@ -65,7 +65,7 @@ pub enum PhaseFieldError {
 }
 
 /// Wall time spent in each part of the solves so far, s.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SolveStats {
     pub assembly: f64,
     pub analysis: f64,
