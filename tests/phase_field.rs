@@ -1064,6 +1064,18 @@ fn the_preconditioner_is_rounded_to_f32_with_no_subnormal_entry() {
     // normal f32 numbers are rounded, the rest flushed to zero
     assert_eq!(single[..4], [1.0, -2.5e-4, 3.0e-30, f32::MIN_POSITIVE]);
     assert_eq!(single[4..], [0.0; 4]);
+    // a factor of many chunks (rounded on rayon's threads), into a longer
+    // vector: every value as rounded alone, and the length of the factor
+    let long: Vec<f64> = (0..300_000i32)
+        .map(|i| (i as f64 - 1.5e5) * 10f64.powi(-(i % 90)))
+        .collect();
+    let mut single = vec![7.0f32; 400_000];
+    round_to_single(&long, &mut single);
+    assert_eq!(single.len(), long.len());
+    for (s, &v) in single.iter().zip(&long) {
+        let e = if v.abs() < tiny { 0.0 } else { v as f32 };
+        assert_eq!(s.to_bits(), e.to_bits(), "{v}");
+    }
 }
 
 #[test]

@@ -1286,15 +1286,25 @@ struct PcgWork {
 /// An entry that small is more than 30 orders of magnitude below the
 /// factor's diagonal here: dropping it changes the preconditioner by far
 /// less than the rounding to f32 does.
+///
+/// In chunks on rayon's threads (45.5 M values at P1's size, once per
+/// factorization); each value is rounded on its own, so the bits do not
+/// depend on the thread count.
 pub fn round_to_single(l: &[f64], single: &mut Vec<f32>) {
-    single.clear();
-    single.extend(l.iter().map(|&v| {
-        if v.abs() < f32::MIN_POSITIVE as f64 {
-            0.0
-        } else {
-            v as f32
-        }
-    }));
+    const CHUNK: usize = 1 << 16;
+    single.resize(l.len(), 0.0);
+    single
+        .par_chunks_mut(CHUNK)
+        .zip(l.par_chunks(CHUNK))
+        .for_each(|(s, l)| {
+            for (s, &v) in s.iter_mut().zip(l) {
+                *s = if v.abs() < f32::MIN_POSITIVE as f64 {
+                    0.0
+                } else {
+                    v as f32
+                };
+            }
+        });
 }
 
 /// The numeric factorization of `values` (on `pattern`, lower triangle)
