@@ -18,6 +18,7 @@ use crate::particles::Particles;
 use rayon::prelude::*;
 use shape::{Kernel, Weights1};
 
+use std::marker::PhantomData;
 use std::ops::Range;
 
 /// Ghost nodes beyond the domain on each side.
@@ -474,27 +475,48 @@ pub fn scatter_coloured<K: Kernel>(
     }
 }
 
-/// A raw pointer that may be shared between rayon tasks. Used only where the
-/// colouring (or disjoint index ranges) guarantees that no two tasks touch
-/// the same element.
-#[derive(Clone, Copy)]
-pub struct SyncPtr<T>(pub *mut T);
+/// A slice's elements for rayon tasks to write, each task its own:
+/// shared between tasks, it hands out `&mut` to single elements. Used only
+/// where the colouring (or disjoint index ranges) guarantees that no two
+/// tasks touch the same element. It borrows the slice mutably for `'a`, so
+/// the slice can neither be read nor moved while it is in use; in debug
+/// builds every access is bounds-checked.
+pub struct SyncPtr<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    slice: PhantomData<&'a mut [T]>,
+}
+
+// (no `T: Copy` bound, which a derive would add)
+impl<T> Clone for SyncPtr<'_, T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for SyncPtr<'_, T> {}
 
 // SAFETY: callers guarantee that concurrent tasks access disjoint elements.
-unsafe impl<T> Send for SyncPtr<T> {}
-unsafe impl<T> Sync for SyncPtr<T> {}
+unsafe impl<T: Send> Send for SyncPtr<'_, T> {}
+unsafe impl<T: Send> Sync for SyncPtr<'_, T> {}
 
-impl<T> SyncPtr<T> {
-    pub fn new(v: &mut [T]) -> Self {
-        SyncPtr(v.as_mut_ptr())
+impl<'a, T> SyncPtr<'a, T> {
+    pub fn new(v: &'a mut [T]) -> Self {
+        SyncPtr {
+            ptr: v.as_mut_ptr(),
+            len: v.len(),
+            slice: PhantomData,
+        }
     }
 
+    /// Element `i`.
+    ///
     /// # Safety
     /// `i` is in bounds and no other task accesses element `i` concurrently.
     #[inline(always)]
     #[allow(clippy::mut_from_ref)]
     pub unsafe fn at(&self, i: usize) -> &mut T {
-        unsafe { &mut *self.0.add(i) }
+        debug_assert!(i < self.len, "SyncPtr: index {i} out of {}", self.len);
+        unsafe { &mut *self.ptr.add(i) }
     }
 }
 

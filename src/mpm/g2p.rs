@@ -76,9 +76,9 @@ unsafe fn constitutive(
     l: [f64; 4],
     dt: f64,
     p: usize,
-    strain: SyncPtr<[f64; 3]>,
-    def_grad: SyncPtr<[f64; 4]>,
-    vol: SyncPtr<f64>,
+    strain: SyncPtr<'_, [f64; 3]>,
+    def_grad: SyncPtr<'_, [f64; 4]>,
+    vol: SyncPtr<'_, f64>,
     vol0: &[f64],
 ) -> ([f64; 3], f64) {
     match mat.model {
@@ -356,7 +356,7 @@ unsafe fn finish(
     sig: [f64; 3],
     j_ratio: f64,
     mat: &Elastic,
-    tile_of: SyncPtr<u32>,
+    tile_of: SyncPtr<'_, u32>,
     st: &mut G2pStats,
 ) {
     if let Some(k) = guard(geom, x, v, sig, j_ratio) {

@@ -818,10 +818,16 @@ impl Dfg {
     /// back on: the reference ones, or rotated by cof F (empty without
     /// self-contact).
     pub fn normals(&self) -> &[[f64; 2]] {
-        if self.normal.is_empty() {
-            &self.normal0
+        Self::normals_of(&self.normal, &self.normal0)
+    }
+
+    /// [`Dfg::normals`] from the two fields alone (borrowing them, not all
+    /// of `self`, so the sums can be written meanwhile).
+    fn normals_of<'a>(normal: &'a [[f64; 2]], normal0: &'a [[f64; 2]]) -> &'a [[f64; 2]] {
+        if normal.is_empty() {
+            normal0
         } else {
-            &self.normal
+            normal
         }
     }
 
@@ -844,7 +850,7 @@ impl Dfg {
         let mask = SyncPtr::new(&mut multi.mask);
         let sums = SyncPtr::new(&mut self.sums);
         let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
-        let (cut, normal) = (&self.cut, self.normals());
+        let (cut, normal) = (&self.cut, Self::normals_of(&self.normal, &self.normal0));
         let paper = normal.is_empty();
         scatter_coloured::<K>(geom, parts, bins, |p, _, wx, wy| {
             let (gp, xp) = (grad[p], parts.x[p]);

@@ -224,8 +224,8 @@ struct Accumulate<'a> {
     fourth: bool,
     dof_of: &'a [u32],
     nbr: &'a [u32],
-    values: SyncPtr<f64>,
-    rhs: SyncPtr<f64>,
+    values: SyncPtr<'a, f64>,
+    rhs: SyncPtr<'a, f64>,
 }
 
 // SAFETY: the raw pointers are written only under the colouring rule.
