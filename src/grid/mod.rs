@@ -13,10 +13,12 @@
 //! node belongs to its lowest group present. Single-field nodes pay nothing.
 
 pub mod shape;
+pub mod support;
 
 use crate::particles::Particles;
 use rayon::prelude::*;
-use shape::{Kernel, Weights1};
+use shape::Kernel;
+pub use support::{Support, SupportNode};
 
 use std::marker::PhantomData;
 use std::ops::Range;
@@ -439,20 +441,14 @@ impl Bins {
     }
 }
 
-/// Kernel weights of particle `p`: its position in node units and the 1D
-/// weights along x and y (GIMP uses the particle's half-width).
+/// The support of particle `p` (GIMP uses the particle's half-width).
 #[inline(always)]
-pub fn weights<K: Kernel>(
-    geom: &GridGeom,
-    parts: &Particles,
-    p: usize,
-) -> ([f64; 2], Weights1, Weights1) {
-    let xi = geom.xi(parts.x[p]);
+pub fn particle_support<K: Kernel>(geom: &GridGeom, parts: &Particles, p: usize) -> Support<K> {
     let lp = parts.half_size.get(p).copied().unwrap_or(0.0);
-    (xi, K::eval(xi[0], lp), K::eval(xi[1], lp))
+    Support::new(geom, parts.x[p], lp)
 }
 
-/// Runs `scatter(p, xi, wx, wy)` for every particle: colour by colour, the
+/// Runs `scatter(p, support)` for every particle: colour by colour, the
 /// tiles of one colour in parallel, the particles of a tile in ascending
 /// order. Writes from one tile never meet writes from another tile of the
 /// same colour (see [`crate::grid::TILE`]), so `scatter` may add into the
@@ -462,14 +458,13 @@ pub fn scatter_coloured<K: Kernel>(
     geom: &GridGeom,
     parts: &Particles,
     bins: &Bins,
-    scatter: impl Fn(usize, [f64; 2], Weights1, Weights1) + Sync,
+    scatter: impl Fn(usize, &Support<K>) + Sync,
 ) {
     for colour in &bins.colours {
         colour.par_iter().for_each(|&tile| {
             for &p in bins.particles_of(tile) {
                 let p = p as usize;
-                let (xi, wx, wy) = weights::<K>(geom, parts, p);
-                scatter(p, xi, wx, wy);
+                scatter(p, &particle_support::<K>(geom, parts, p));
             }
         });
     }
