@@ -519,6 +519,17 @@ impl<'a, T> SyncPtr<'a, T> {
 mod tests {
     use super::*;
 
+    /// A debug build stops an access past the end of the slice.
+    #[test]
+    #[cfg(debug_assertions)]
+    #[should_panic(expected = "SyncPtr: index 3 out of 3")]
+    fn sync_ptr_checks_bounds_in_debug_builds() {
+        let mut v = vec![0u32; 3];
+        let p = SyncPtr::new(&mut v);
+        // SAFETY: in a debug build the check panics before the access.
+        unsafe { *p.at(3) = 1 };
+    }
+
     /// Within each tile, the particles of one kernel support come as one
     /// run (what the phase-field assembly's `CellBlock` needs), for odd and
     /// even supports.
