@@ -13,11 +13,14 @@
 //! node belongs to its lowest group present. Single-field nodes pay nothing.
 
 pub mod shape;
+pub mod support;
 
 use crate::particles::Particles;
 use rayon::prelude::*;
-use shape::{Kernel, Weights1};
+use shape::Kernel;
+pub use support::{Support, SupportNode};
 
+use std::marker::PhantomData;
 use std::ops::Range;
 
 /// Ghost nodes beyond the domain on each side.
@@ -438,20 +441,14 @@ impl Bins {
     }
 }
 
-/// Kernel weights of particle `p`: its position in node units and the 1D
-/// weights along x and y (GIMP uses the particle's half-width).
+/// The support of particle `p` (GIMP uses the particle's half-width).
 #[inline(always)]
-pub fn weights<K: Kernel>(
-    geom: &GridGeom,
-    parts: &Particles,
-    p: usize,
-) -> ([f64; 2], Weights1, Weights1) {
-    let xi = geom.xi(parts.x[p]);
+pub fn particle_support<K: Kernel>(geom: &GridGeom, parts: &Particles, p: usize) -> Support<K> {
     let lp = parts.half_size.get(p).copied().unwrap_or(0.0);
-    (xi, K::eval(xi[0], lp), K::eval(xi[1], lp))
+    Support::new(geom, parts.x[p], lp)
 }
 
-/// Runs `scatter(p, xi, wx, wy)` for every particle: colour by colour, the
+/// Runs `scatter(p, support)` for every particle: colour by colour, the
 /// tiles of one colour in parallel, the particles of a tile in ascending
 /// order. Writes from one tile never meet writes from another tile of the
 /// same colour (see [`crate::grid::TILE`]), so `scatter` may add into the
@@ -461,46 +458,77 @@ pub fn scatter_coloured<K: Kernel>(
     geom: &GridGeom,
     parts: &Particles,
     bins: &Bins,
-    scatter: impl Fn(usize, [f64; 2], Weights1, Weights1) + Sync,
+    scatter: impl Fn(usize, &Support<K>) + Sync,
 ) {
     for colour in &bins.colours {
         colour.par_iter().for_each(|&tile| {
             for &p in bins.particles_of(tile) {
                 let p = p as usize;
-                let (xi, wx, wy) = weights::<K>(geom, parts, p);
-                scatter(p, xi, wx, wy);
+                scatter(p, &particle_support::<K>(geom, parts, p));
             }
         });
     }
 }
 
-/// A raw pointer that may be shared between rayon tasks. Used only where the
-/// colouring (or disjoint index ranges) guarantees that no two tasks touch
-/// the same element.
-#[derive(Clone, Copy)]
-pub struct SyncPtr<T>(pub *mut T);
+/// A slice's elements for rayon tasks to write, each task its own:
+/// shared between tasks, it hands out `&mut` to single elements. Used only
+/// where the colouring (or disjoint index ranges) guarantees that no two
+/// tasks touch the same element. It borrows the slice mutably for `'a`, so
+/// the slice can neither be read nor moved while it is in use; in debug
+/// builds every access is bounds-checked.
+pub struct SyncPtr<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    slice: PhantomData<&'a mut [T]>,
+}
+
+// (no `T: Copy` bound, which a derive would add)
+impl<T> Clone for SyncPtr<'_, T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for SyncPtr<'_, T> {}
 
 // SAFETY: callers guarantee that concurrent tasks access disjoint elements.
-unsafe impl<T> Send for SyncPtr<T> {}
-unsafe impl<T> Sync for SyncPtr<T> {}
+unsafe impl<T: Send> Send for SyncPtr<'_, T> {}
+unsafe impl<T: Send> Sync for SyncPtr<'_, T> {}
 
-impl<T> SyncPtr<T> {
-    pub fn new(v: &mut [T]) -> Self {
-        SyncPtr(v.as_mut_ptr())
+impl<'a, T> SyncPtr<'a, T> {
+    pub fn new(v: &'a mut [T]) -> Self {
+        SyncPtr {
+            ptr: v.as_mut_ptr(),
+            len: v.len(),
+            slice: PhantomData,
+        }
     }
 
+    /// Element `i`.
+    ///
     /// # Safety
     /// `i` is in bounds and no other task accesses element `i` concurrently.
     #[inline(always)]
     #[allow(clippy::mut_from_ref)]
     pub unsafe fn at(&self, i: usize) -> &mut T {
-        unsafe { &mut *self.0.add(i) }
+        debug_assert!(i < self.len, "SyncPtr: index {i} out of {}", self.len);
+        unsafe { &mut *self.ptr.add(i) }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A debug build stops an access past the end of the slice.
+    #[test]
+    #[cfg(debug_assertions)]
+    #[should_panic(expected = "SyncPtr: index 3 out of 3")]
+    fn sync_ptr_checks_bounds_in_debug_builds() {
+        let mut v = vec![0u32; 3];
+        let p = SyncPtr::new(&mut v);
+        // SAFETY: in a debug build the check panics before the access.
+        unsafe { *p.at(3) = 1 };
+    }
 
     /// Within each tile, the particles of one kernel support come as one
     /// run (what the phase-field assembly's `CellBlock` needs), for odd and

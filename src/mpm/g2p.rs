@@ -17,7 +17,7 @@
 //! order-independent, so results do not depend on the thread count.
 
 use crate::grid::shape::Kernel;
-use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, SyncPtr};
+use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, Support, SyncPtr};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::MaterialModel;
@@ -76,9 +76,9 @@ unsafe fn constitutive(
     l: [f64; 4],
     dt: f64,
     p: usize,
-    strain: SyncPtr<[f64; 3]>,
-    def_grad: SyncPtr<[f64; 4]>,
-    vol: SyncPtr<f64>,
+    strain: SyncPtr<'_, [f64; 3]>,
+    def_grad: SyncPtr<'_, [f64; 4]>,
+    vol: SyncPtr<'_, f64>,
     vol0: &[f64],
 ) -> ([f64; 3], f64) {
     match mat.model {
@@ -198,43 +198,36 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
             for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 // SAFETY: particle p belongs to this chunk only.
                 let (xp, vp) = unsafe { (x.at(p), v.at(p)) };
-                let xi = geom.xi(*xp);
                 let lp = if gimp { half_size[p] } else { 0.0 };
-                let wx = K::eval(xi[0], lp);
-                let wy = K::eval(xi[1], lp);
+                let sup = Support::<K>::new(geom, *xp, lp);
+                let xi = sup.xi();
                 let mut vpic = [0.0; 2];
                 let mut dflip = [0.0; 2];
                 let mut l = [0.0; 4]; // ∂v_a/∂x_b: (xx, xy, yx, yy)
                 let mut b = [0.0; 4];
-                for j in 0..K::N {
-                    let ny = (wy.base + j as isize) as usize;
-                    let dy = (wy.base + j as isize) as f64 - xi[1];
-                    for i in 0..K::N {
-                        let node = (wx.base + i as isize) as usize + ny * geom.nodes[0];
-                        let s = slots.slot(node, p);
-                        let w = wx.w[i] * wy.w[j];
-                        let gx = wx.dw[i] * wy.w[j] * geom.inv_h;
-                        let gy = wx.w[i] * wy.dw[j] * geom.inv_h;
-                        let vi = vel[s];
-                        vpic[0] += w * vi[0];
-                        vpic[1] += w * vi[1];
-                        if !APIC {
-                            let vo = vel_old[s];
-                            dflip[0] += w * (vi[0] - vo[0]);
-                            dflip[1] += w * (vi[1] - vo[1]);
-                        } else if dinv.is_some() {
-                            let dx = (wx.base + i as isize) as f64 - xi[0];
-                            b[0] += w * vi[0] * dx;
-                            b[1] += w * vi[0] * dy;
-                            b[2] += w * vi[1] * dx;
-                            b[3] += w * vi[1] * dy;
-                        }
-                        l[0] += vi[0] * gx;
-                        l[1] += vi[0] * gy;
-                        l[2] += vi[1] * gx;
-                        l[3] += vi[1] * gy;
+                sup.for_each(|n| {
+                    let s = slots.slot(n.node, p);
+                    let (w, [gx, gy]) = (n.w, n.grad);
+                    let vi = vel[s];
+                    vpic[0] += w * vi[0];
+                    vpic[1] += w * vi[1];
+                    if !APIC {
+                        let vo = vel_old[s];
+                        dflip[0] += w * (vi[0] - vo[0]);
+                        dflip[1] += w * (vi[1] - vo[1]);
+                    } else if dinv.is_some() {
+                        let dx = n.at[0] as f64 - xi[0];
+                        let dy = n.at[1] as f64 - xi[1];
+                        b[0] += w * vi[0] * dx;
+                        b[1] += w * vi[0] * dy;
+                        b[2] += w * vi[1] * dx;
+                        b[3] += w * vi[1] * dy;
                     }
-                }
+                    l[0] += vi[0] * gx;
+                    l[1] += vi[0] * gy;
+                    l[2] += vi[1] * gx;
+                    l[3] += vi[1] * gy;
+                });
                 // velocity and position
                 let vnew = if APIC {
                     // SAFETY: as above.
@@ -310,24 +303,16 @@ pub fn musl_stress<K: Kernel, S: FieldSlots>(
             for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 // SAFETY: particle p belongs to this chunk only.
                 let xp = unsafe { x.at(p) };
-                let xi = geom.xi(*xp);
                 let lp = if gimp { half_size[p] } else { 0.0 };
-                let wx = K::eval(xi[0], lp);
-                let wy = K::eval(xi[1], lp);
                 let mut l = [0.0; 4];
-                for j in 0..K::N {
-                    let ny = (wy.base + j as isize) as usize;
-                    for i in 0..K::N {
-                        let node = (wx.base + i as isize) as usize + ny * geom.nodes[0];
-                        let vi = vel[slots.slot(node, p)];
-                        let gx = wx.dw[i] * wy.w[j] * geom.inv_h;
-                        let gy = wx.w[i] * wy.dw[j] * geom.inv_h;
-                        l[0] += vi[0] * gx;
-                        l[1] += vi[0] * gy;
-                        l[2] += vi[1] * gx;
-                        l[3] += vi[1] * gy;
-                    }
-                }
+                Support::<K>::new(geom, *xp, lp).for_each(|n| {
+                    let vi = vel[slots.slot(n.node, p)];
+                    let [gx, gy] = n.grad;
+                    l[0] += vi[0] * gx;
+                    l[1] += vi[0] * gy;
+                    l[2] += vi[1] * gx;
+                    l[3] += vi[1] * gy;
+                });
                 let mat = &mats[material[p] as usize];
                 // SAFETY: as above.
                 let (sig, j_ratio) =
@@ -356,7 +341,7 @@ unsafe fn finish(
     sig: [f64; 3],
     j_ratio: f64,
     mat: &Elastic,
-    tile_of: SyncPtr<u32>,
+    tile_of: SyncPtr<'_, u32>,
     st: &mut G2pStats,
 ) {
     if let Some(k) = guard(geom, x, v, sig, j_ratio) {

@@ -15,7 +15,6 @@
 //! therefore taken in the same order for any number of threads.
 
 use crate::grid::shape::Kernel;
-pub(super) use crate::grid::weights;
 use crate::grid::{scatter_coloured, Bins, FieldSlots, GridFields, GridGeom, SyncPtr};
 use crate::particles::Particles;
 use rayon::prelude::*;
@@ -32,51 +31,44 @@ pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
     let mom = SyncPtr::new(&mut grid.momentum);
     let force = SyncPtr::new(&mut grid.force);
     let mgrad = SyncPtr::new(&mut grid.mass_grad);
-    scatter_coloured::<K>(geom, parts, bins, |p, xi, wx, wy| {
+    scatter_coloured::<K>(geom, parts, bins, |p, sup| {
         let m = parts.mass[p];
         let v = parts.v[p];
         let vol = parts.vol[p];
         let s = parts.stress[p];
         let c = if APIC { parts.affine[p] } else { [0.0; 4] };
         let h = geom.h;
-        let inv_h = geom.inv_h;
-        for j in 0..K::N {
-            let ny = (wy.base + j as isize) as usize;
-            let dy = ((wy.base + j as isize) as f64 - xi[1]) * h;
-            for i in 0..K::N {
-                let nx = (wx.base + i as isize) as usize;
-                let node = nx + ny * geom.nodes[0];
-                let w = wx.w[i] * wy.w[j];
-                let gx = wx.dw[i] * wy.w[j] * inv_h;
-                let gy = wx.w[i] * wy.dw[j] * inv_h;
-                let slot = slots.slot(node, p);
-                let wm = w * m;
-                let (mx, my) = if APIC {
-                    let dx = ((wx.base + i as isize) as f64 - xi[0]) * h;
-                    (
-                        wm * (v[0] + c[0] * dx + c[1] * dy),
-                        wm * (v[1] + c[2] * dx + c[3] * dy),
-                    )
-                } else {
-                    (wm * v[0], wm * v[1])
-                };
-                // SAFETY: coloured scatter (see `scatter_coloured`).
-                unsafe {
-                    *mass.at(slot) += wm;
-                    let q = mom.at(slot);
-                    q[0] += mx;
-                    q[1] += my;
-                    let f = force.at(slot);
-                    f[0] -= vol * (s[0] * gx + s[2] * gy);
-                    f[1] -= vol * (s[2] * gx + s[1] * gy);
-                    if MGRAD {
-                        let mg = mgrad.at(slot);
-                        mg[0] += m * gx;
-                        mg[1] += m * gy;
-                    }
+        let xi = sup.xi();
+        sup.for_each(|n| {
+            let (w, [gx, gy]) = (n.w, n.grad);
+            let slot = slots.slot(n.node, p);
+            let wm = w * m;
+            let (mx, my) = if APIC {
+                let dx = (n.at[0] as f64 - xi[0]) * h;
+                let dy = (n.at[1] as f64 - xi[1]) * h;
+                (
+                    wm * (v[0] + c[0] * dx + c[1] * dy),
+                    wm * (v[1] + c[2] * dx + c[3] * dy),
+                )
+            } else {
+                (wm * v[0], wm * v[1])
+            };
+            // SAFETY: coloured scatter (see `scatter_coloured`).
+            unsafe {
+                *mass.at(slot) += wm;
+                let q = mom.at(slot);
+                q[0] += mx;
+                q[1] += my;
+                let f = force.at(slot);
+                f[0] -= vol * (s[0] * gx + s[2] * gy);
+                f[1] -= vol * (s[2] * gx + s[1] * gy);
+                if MGRAD {
+                    let mg = mgrad.at(slot);
+                    mg[0] += m * gx;
+                    mg[1] += m * gy;
                 }
             }
-        }
+        });
     });
 }
 
@@ -93,18 +85,14 @@ pub fn partition_fields<K: Kernel>(
     multi.mask.clear();
     multi.mask.resize(nodes, 0);
     let mask = SyncPtr::new(&mut multi.mask);
-    scatter_coloured::<K>(geom, parts, bins, |p, _, wx, wy| {
+    scatter_coloured::<K>(geom, parts, bins, |p, sup| {
         let bit = 1u32 << parts.group[p];
         // Every node of the support, even at zero weight: P2G writes the
         // gradient there, so the slot must exist.
-        for j in 0..K::N {
-            for i in 0..K::N {
-                let node = (wx.base + i as isize) as usize
-                    + (wy.base + j as isize) as usize * geom.nodes[0];
-                // SAFETY: coloured scatter; a bitwise OR is order-independent.
-                unsafe { *mask.at(node) |= bit };
-            }
-        }
+        sup.for_each(|n| {
+            // SAFETY: coloured scatter; a bitwise OR is order-independent.
+            unsafe { *mask.at(n.node) |= bit };
+        });
     });
     multi.layout()
 }
@@ -128,22 +116,19 @@ pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
     }
     grid.momentum[nodes..].fill([0.0; 2]);
     let mom = SyncPtr::new(&mut grid.momentum);
-    scatter_coloured::<K>(geom, parts, bins, |p, xi, wx, wy| {
+    scatter_coloured::<K>(geom, parts, bins, |p, sup| {
         let (m, v) = (parts.mass[p], parts.v[p]);
         let c = if APIC { parts.affine[p] } else { [0.0; 4] };
-        for j in 0..K::N {
-            let dy = ((wy.base + j as isize) as f64 - xi[1]) * geom.h;
-            for i in 0..K::N {
-                let node = (wx.base + i as isize) as usize
-                    + (wy.base + j as isize) as usize * geom.nodes[0];
-                let wm = wx.w[i] * wy.w[j] * m;
-                let dx = ((wx.base + i as isize) as f64 - xi[0]) * geom.h;
-                // SAFETY: coloured scatter (see `scatter_coloured`).
-                let q = unsafe { mom.at(slots.slot(node, p)) };
-                q[0] += wm * (v[0] + c[0] * dx + c[1] * dy);
-                q[1] += wm * (v[1] + c[2] * dx + c[3] * dy);
-            }
-        }
+        let xi = sup.xi();
+        sup.for_each(|n| {
+            let dy = (n.at[1] as f64 - xi[1]) * geom.h;
+            let wm = n.w * m;
+            let dx = (n.at[0] as f64 - xi[0]) * geom.h;
+            // SAFETY: coloured scatter (see `scatter_coloured`).
+            let q = unsafe { mom.at(slots.slot(n.node, p)) };
+            q[0] += wm * (v[0] + c[0] * dx + c[1] * dy);
+            q[1] += wm * (v[1] + c[2] * dx + c[3] * dy);
+        });
     });
     let (mass, mom) = (&grid.mass, &grid.momentum);
     grid.vel.par_iter_mut().enumerate().for_each(|(s, v)| {

@@ -6,7 +6,7 @@ use super::{Simulation, StageTimes};
 use crate::contact::ContactLaw;
 use crate::geometry;
 use crate::grid::shape::{self, Kernel};
-use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, MultiField};
+use crate::grid::{particle_support, Bins, FieldSlots, GridFields, GridGeom, MultiField};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::{
@@ -325,17 +325,11 @@ impl Tractions {
                 let f = [tr[0] * area, tr[1] * area];
                 let v = parts.v[p];
                 work += (f[0] * v[0] + f[1] * v[1]) * dt;
-                let (_, wx, wy) = super::p2g::weights::<K>(geom, parts, p);
-                for j in 0..K::N {
-                    for i in 0..K::N {
-                        let node = (wx.base + i as isize) as usize
-                            + (wy.base + j as isize) as usize * geom.nodes[0];
-                        let s = slots.slot(node, p);
-                        let w = wx.w[i] * wy.w[j];
-                        grid.force[s][0] += w * f[0];
-                        grid.force[s][1] += w * f[1];
-                    }
-                }
+                particle_support::<K>(geom, parts, p).for_each(|n| {
+                    let s = slots.slot(n.node, p);
+                    grid.force[s][0] += n.w * f[0];
+                    grid.force[s][1] += n.w * f[1];
+                });
             }
         }
         work

@@ -64,7 +64,7 @@ use crate::fracture::damage::FAILED;
 use crate::fracture::phase_field::dfg_damage;
 use crate::grid::shape::Kernel;
 use crate::grid::{
-    scatter_coloured, weights, Bins, FieldSlots, GridGeom, MultiField, SyncPtr, TILE,
+    particle_support, scatter_coloured, Bins, FieldSlots, GridGeom, MultiField, SyncPtr, TILE,
 };
 use crate::particles::Particles;
 use rayon::prelude::*;
@@ -154,14 +154,8 @@ fn scatter_hot<K: Kernel>(
                     if !take(p) {
                         continue;
                     }
-                    let (_, wx, wy) = weights::<K>(geom, parts, p);
-                    for j in 0..K::N {
-                        for i in 0..K::N {
-                            let node = (wx.base + i as isize) as usize
-                                + (wy.base + j as isize) as usize * geom.nodes[0];
-                            f(p, node, wx.w[i] * wy.w[j] * parts.mass[p]);
-                        }
-                    }
+                    particle_support::<K>(geom, parts, p)
+                        .for_each(|n| f(p, n.node, n.w * parts.mass[p]));
                 }
             });
     }
@@ -820,10 +814,16 @@ impl Dfg {
     /// back on: the reference ones, or rotated by cof F (empty without
     /// self-contact).
     pub fn normals(&self) -> &[[f64; 2]] {
-        if self.normal.is_empty() {
-            &self.normal0
+        Self::normals_of(&self.normal, &self.normal0)
+    }
+
+    /// [`Dfg::normals`] from the two fields alone (borrowing them, not all
+    /// of `self`, so the sums can be written meanwhile).
+    fn normals_of<'a>(normal: &'a [[f64; 2]], normal0: &'a [[f64; 2]]) -> &'a [[f64; 2]] {
+        if normal.is_empty() {
+            normal0
         } else {
-            &self.normal
+            normal
         }
     }
 
@@ -846,37 +846,34 @@ impl Dfg {
         let mask = SyncPtr::new(&mut multi.mask);
         let sums = SyncPtr::new(&mut self.sums);
         let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
-        let (cut, normal) = (&self.cut, self.normals());
+        let (cut, normal) = (&self.cut, Self::normals_of(&self.normal, &self.normal0));
         let paper = normal.is_empty();
-        scatter_coloured::<K>(geom, parts, bins, |p, _, wx, wy| {
+        scatter_coloured::<K>(geom, parts, bins, |p, sup| {
             let (gp, xp) = (grad[p], parts.x[p]);
             let op = normal.get(p).copied().unwrap_or([0.0; 2]);
             let base = 2 * parts.group[p] as u32;
             let m = parts.mass[p];
-            for j in 0..K::N {
-                for i in 0..K::N {
-                    let node = (wx.base + i as isize) as usize
-                        + (wy.base + j as isize) as usize * geom.nodes[0];
-                    let gi = ngrad[node];
-                    // (a node without a direction has everything on side 0)
-                    let side = if gi == [0.0; 2] {
-                        0
-                    } else {
-                        side_at(paper, gp, op, gi, xp, cut[node]) as usize
-                    };
-                    // SAFETY: coloured scatter; every write is to `node`.
-                    unsafe {
-                        *mask.at(node) |= 1 << (base + side as u32);
-                        if gi != [0.0; 2] {
-                            let s = sums.at(node);
-                            let w = wx.w[i] * wy.w[j] * m;
-                            s.w[side] += w;
-                            s.wd[side] += w * d[p];
-                            s.dmax[side] = s.dmax[side].max(d[p]);
-                        }
+            sup.for_each(|n| {
+                let node = n.node;
+                let gi = ngrad[node];
+                // (a node without a direction has everything on side 0)
+                let side = if gi == [0.0; 2] {
+                    0
+                } else {
+                    side_at(paper, gp, op, gi, xp, cut[node]) as usize
+                };
+                // SAFETY: coloured scatter; every write is to `node`.
+                unsafe {
+                    *mask.at(node) |= 1 << (base + side as u32);
+                    if gi != [0.0; 2] {
+                        let s = sums.at(node);
+                        let w = n.w * m;
+                        s.w[side] += w;
+                        s.wd[side] += w * d[p];
+                        s.dmax[side] = s.dmax[side].max(d[p]);
                     }
                 }
-            }
+            });
         });
         // Section 2.3: merge the sides of a group where not separable.
         let dmin = self.params.separability;

@@ -19,7 +19,7 @@ use super::anisotropy::Gamma;
 use super::multigrid::Multigrid;
 use super::trisolve::{SolveScratch, SupernodalSolve};
 use crate::grid::shape::{Kernel, MAX_SUPPORT};
-use crate::grid::{Bins, GridGeom, SyncPtr};
+use crate::grid::{Bins, GridGeom, Support, SyncPtr};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{
@@ -165,8 +165,9 @@ impl<'a> FieldParticles<'a> {
     }
 }
 
-/// Shape-function values, gradients and Hessians of one particle's support.
-struct Support {
+/// Shape-function values, gradients and Hessians of one particle's support,
+/// by local index (the assembly pairs every two nodes of it).
+struct SupportTable {
     n: usize,
     node: [usize; MAX_SUPPORT * MAX_SUPPORT],
     w: [f64; MAX_SUPPORT * MAX_SUPPORT],
@@ -177,41 +178,22 @@ struct Support {
 
 /// The support of a particle at `x`; with `HESS`, the Hessians too (the
 /// 2nd-order system needs none, and they are left zero).
-fn support<K: Kernel, const HESS: bool>(geom: &GridGeom, x: [f64; 2]) -> Support {
-    let xi = geom.xi(x);
-    let eval = |xi: f64| {
-        if HESS {
-            K::eval2(xi, 0.0)
-        } else {
-            (K::eval(xi, 0.0), [0.0; MAX_SUPPORT])
-        }
-    };
-    let (wx, d2x) = eval(xi[0]);
-    let (wy, d2y) = eval(xi[1]);
-    let (ih, ih2) = (geom.inv_h, geom.inv_h * geom.inv_h);
-    let mut s = Support {
+fn support<K: Kernel, const HESS: bool>(geom: &GridGeom, x: [f64; 2]) -> SupportTable {
+    let mut s = SupportTable {
         n: K::N * K::N,
         node: [0; MAX_SUPPORT * MAX_SUPPORT],
         w: [0.0; MAX_SUPPORT * MAX_SUPPORT],
         g: [[0.0; 2]; MAX_SUPPORT * MAX_SUPPORT],
         hess: [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT],
     };
-    for j in 0..K::N {
-        for i in 0..K::N {
-            let k = i + j * K::N;
-            s.node[k] =
-                (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
-            s.w[k] = wx.w[i] * wy.w[j];
-            s.g[k] = [wx.dw[i] * wy.w[j] * ih, wx.w[i] * wy.dw[j] * ih];
-            if HESS {
-                s.hess[k] = [
-                    d2x[i] * wy.w[j] * ih2,
-                    wx.w[i] * d2y[j] * ih2,
-                    wx.dw[i] * wy.dw[j] * ih2,
-                ];
-            }
+    Support::<K, HESS>::eval(geom, x, 0.0).for_each(|n| {
+        s.node[n.a] = n.node;
+        s.w[n.a] = n.w;
+        s.g[n.a] = n.grad;
+        if HESS {
+            s.hess[n.a] = n.hess;
         }
-    }
+    });
     s
 }
 
@@ -224,8 +206,8 @@ struct Accumulate<'a> {
     fourth: bool,
     dof_of: &'a [u32],
     nbr: &'a [u32],
-    values: SyncPtr<f64>,
-    rhs: SyncPtr<f64>,
+    values: SyncPtr<'a, f64>,
+    rhs: SyncPtr<'a, f64>,
 }
 
 // SAFETY: the raw pointers are written only under the colouring rule.
@@ -541,26 +523,23 @@ impl PhaseFieldSystem {
                     let key = if parts.member(p) {
                         let mut mask = 0u64;
                         let node0 = if fourth {
-                            let s = support::<K, true>(geom, parts.x[p]);
-                            for k in 0..s.n {
-                                if s.w[k] > 0.0 || s.hess[k].iter().any(|&h| h != 0.0) {
-                                    mask |= 1 << k;
+                            let s = Support::<K, true>::with_hessian(geom, parts.x[p], 0.0);
+                            s.for_each(|n| {
+                                if n.w > 0.0 || n.hess.iter().any(|&h| h != 0.0) {
+                                    mask |= 1 << n.a;
                                 }
-                            }
-                            s.node[0]
+                            });
+                            s.first_node()
                         } else {
                             // the weights alone: no second derivatives on
                             // the 2nd-order path
-                            let xi = geom.xi(parts.x[p]);
-                            let (wx, wy) = (K::eval(xi[0], 0.0), K::eval(xi[1], 0.0));
-                            for j in 0..K::N {
-                                for i in 0..K::N {
-                                    if wx.w[i] * wy.w[j] > 0.0 {
-                                        mask |= 1 << (i + j * K::N);
-                                    }
+                            let s = Support::<K>::new(geom, parts.x[p], 0.0);
+                            s.for_each(|n| {
+                                if n.w > 0.0 {
+                                    mask |= 1 << n.a;
                                 }
-                            }
-                            wx.base as usize + wy.base as usize * geom.nodes[0]
+                            });
+                            s.first_node()
                         };
                         ((node0 as u64) << 16) | mask
                     } else {
@@ -586,15 +565,14 @@ impl PhaseFieldSystem {
     fn set_active<K: Kernel>(&mut self, geom: &GridGeom) {
         let nodes = geom.node_count();
         let mut active = vec![false; nodes];
-        let nx = geom.nodes[0];
         for &key in &self.keys {
             if key >= u64::MAX - 1 {
                 continue;
             }
             let base = (key >> 16) as usize;
-            for k in 0..K::N * K::N {
-                if key & (1 << k) != 0 {
-                    active[base + (k % K::N) + (k / K::N) * nx] = true;
+            for a in 0..Support::<K>::LEN {
+                if key & (1 << a) != 0 {
+                    active[base + Support::<K>::local_offset(geom, a)] = true;
                 }
             }
         }
@@ -750,11 +728,10 @@ impl PhaseFieldSystem {
             if w[q] == 0.0 || !parts.member(q) {
                 return;
             }
-            let s = support::<K, false>(geom, parts.x[q]);
-            for k in 0..s.n {
+            Support::<K>::new(geom, parts.x[q], 0.0).for_each(|n| {
                 // SAFETY: the caller's colouring (or a serial loop).
-                unsafe { *r.at(s.node[k]) += w[q] * s.w[k] };
-            }
+                unsafe { *r.at(n.node) += w[q] * n.w };
+            });
         };
         match parts.bins {
             Some(bins) => {
@@ -1335,32 +1312,23 @@ fn numeric_llt(
 /// the same value as [`field_at`]'s, without the derivatives).
 #[inline]
 pub fn value_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> f64 {
-    let xi = geom.xi(x);
-    let (wx, wy) = (K::eval(xi[0], 0.0), K::eval(xi[1], 0.0));
     let mut v = 0.0;
-    for j in 0..K::N {
-        for i in 0..K::N {
-            let node =
-                (wx.base + i as isize) as usize + (wy.base + j as isize) as usize * geom.nodes[0];
-            v += wx.w[i] * wy.w[j] * c[node];
-        }
-    }
+    Support::<K>::new(geom, x, 0.0).for_each(|n| v += n.w * c[n.node]);
     v
 }
 
 /// c, ∇c and ∇²c = [c,11, c,22, c,12] at a point from nodal values.
 pub fn field_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> (f64, [f64; 2], [f64; 3]) {
-    let s = support::<K, true>(geom, x);
     let (mut v, mut g, mut h) = (0.0, [0.0; 2], [0.0; 3]);
-    for k in 0..s.n {
-        let ci = c[s.node[k]];
-        v += s.w[k] * ci;
-        g[0] += s.g[k][0] * ci;
-        g[1] += s.g[k][1] * ci;
+    Support::<K, true>::with_hessian(geom, x, 0.0).for_each(|n| {
+        let ci = c[n.node];
+        v += n.w * ci;
+        g[0] += n.grad[0] * ci;
+        g[1] += n.grad[1] * ci;
         for r in 0..3 {
-            h[r] += s.hess[k][r] * ci;
+            h[r] += n.hess[r] * ci;
         }
-    }
+    });
     (v, g, h)
 }
 
