@@ -1,5 +1,5 @@
 //! `cleave bench-phase-field`: where the time of a phase-field step goes,
-//! for a scene (by default P1 at the paper's resolution), with the direct
+//! for a scene (by default `p1_plate.toml` at the paper's resolution), with the direct
 //! solve (the baseline) and the two warm-started PCGs (the last factor, the
 //! multigrid) in the same run, from t = 0 or from a checkpoint; then every
 //! kind of numeric factorization a run makes, timed alone on the PCG run's

@@ -17,7 +17,7 @@ use crate::scene::ShapeFunctionKind;
 
 /// ⌊x⌋, inlined. `f64::floor` is a call into libm on the default x86-64
 /// target (no SSE4.1 `roundsd`), and every kernel evaluation of every
-/// stage makes one or two: 3.4 % of a P1 phase-field step's profile.
+/// stage makes one or two: 3.4 % of a `p1_plate.toml` phase-field step's profile.
 /// Exact for |x| < 2⁶³ (the cast truncates toward zero; from 2⁵² on every
 /// f64 is an integer); beyond that, and for NaN, the result differs from
 /// `floor` only where a later `as isize` saturates alike.

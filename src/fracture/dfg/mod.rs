@@ -1,4 +1,4 @@
-//! Damage-field-gradient (DFG) partitioning (Homel & Herbold, seed 000,
+//! Damage-field-gradient (DFG) partitioning (Homel & Herbold 2017,
 //! section 2): the particles at a node are split into two velocity fields
 //! by the direction of the gradient of a smooth damage field, so that
 //! material on either side of a band of failed particles can separate,

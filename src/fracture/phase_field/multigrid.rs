@@ -1,11 +1,11 @@
 //! Geometric multigrid for the phase-field system `K c = F` (eq. 57 of
-//! seed 001): one V-cycle preconditions conjugate gradients, in place of the
+//! Kakouris & Triantafyllou): one V-cycle preconditions conjugate gradients, in place of the
 //! Cholesky factor of [`super::system`]'s "pcg" method.
 //!
 //! Why: the factor must be made again whenever the active-node set changes
 //! (a free body whose edges cross the grid, fragments that fly apart) and
 //! whenever the history has grown enough that the old factor no longer
-//! preconditions well; at h = l₀/4 on P3 that was 0.8 s of a ~2 s step
+//! preconditions well; at h = l₀/4 on `p3_sphere_beam.toml` that was 0.8 s of a ~2 s step
 //! (`docs/phase-field.md`). A multigrid hierarchy costs a few operator
 //! products to build and nothing symbolic.
 //!
@@ -48,7 +48,7 @@ use rayon::prelude::*;
 
 /// Unknowns at or below which a level is solved directly.
 pub const COARSEST: usize = 400;
-/// Degree of the Chebyshev smoother. On P3 at h = l₀/4 (from one
+/// Degree of the Chebyshev smoother. On `p3_sphere_beam.toml` at h = l₀/4 (from one
 /// checkpoint, 30 steps each) degrees 2, 3 and 4 cost the same per step
 /// (8.5, 6.1 and 5.1 iterations per solve); 3 needs a quarter fewer
 /// iterations than 2 on the 4th-order and cubic systems of the tests.

@@ -1,5 +1,5 @@
 //! The phase-field system `K c = F` on the active grid nodes of one discrete
-//! field (eq. 57 of seed 001), its sparse Cholesky solve, and the fracture
+//! field (eq. 57 of Kakouris & Triantafyllou), its sparse Cholesky solve, and the fracture
 //! energy.
 //!
 //! Weak form of eq. 20 (the phase-field equation):
@@ -384,9 +384,9 @@ pub struct PhaseFieldSystem {
     /// orders of magnitude away from the diagonal (the entries of K are
     /// ~1e-7 in SI units, and a factor of a mass-dominated operator decays
     /// geometrically along the fill), so an f32 factorization holds ~1e5
-    /// subnormal entries (0.2 % of P1's 45.5 M at t = 0) and makes far more
+    /// subnormal entries (0.2 % of `p1_plate.toml`'s 45.5 M at t = 0) and makes far more
     /// subnormal intermediate products. x86 cores without flush-to-zero
-    /// handle those in microcode, tens of times slower: P1's f32
+    /// handle those in microcode, tens of times slower: `p1_plate.toml`'s f32
     /// factorization took 3.1 s inside a run against 0.80 s for f64 on the
     /// same machine (issue 40; docs/phase-field-performance.md). In f64 the
     /// subnormal range (below 2.2e-308) is out of reach, and the rounding
@@ -701,7 +701,7 @@ impl PhaseFieldSystem {
     }
 
     /// The relative phase-field residual that a history update leaves,
-    /// ‖ΔK c‖ / ‖F‖ with ΔK c = Σ_p w_p N_I(x_p) (seed 001 eq. 50 with the
+    /// ‖ΔK c‖ / ‖F‖ with ΔK c = Σ_p w_p N_I(x_p) (Kakouris & Triantafyllou eq. 50 with the
     /// K of eq. 57: only its reaction term depends on H, so for a history
     /// increment ΔH_p the caller passes w_p = V_p·4l₀(1−k_f)ΔH_p/Ḡc·c_p,
     /// zero where H did not grow). ‖F‖ is that of the last assembly; 0 if
@@ -811,7 +811,7 @@ impl PhaseFieldSystem {
         let n = self.dofs.len();
         if self.last.len() != n && c.len() == nodes && n > 0 {
             // A body whose edges cross the grid changes its node set every
-            // few steps (P3 at h = l0/4: every other step); its c has
+            // few steps (`p3_sphere_beam.toml` at h = l0/4: every other step); its c has
             // barely changed.
             self.last.clear();
             self.last.extend(self.dofs.iter().map(|&d| c[d as usize]));
@@ -861,7 +861,7 @@ impl PhaseFieldSystem {
                 // took: they are spent, and the rule above renews the factor
                 // for the next step. (Redoing every solve over
                 // `refactor_after` iterations threw away 2389 of the 5589
-                // solves of P1 (iii) at the paper's resolution;
+                // solves of `p1_plate.toml` (iii) at the paper's resolution;
                 // docs/phase-field.md.) Without convergence within the cap:
                 // a fresh factor, which also preconditions the next steps.
                 if !converged {
@@ -928,13 +928,13 @@ impl PhaseFieldSystem {
     /// from a warm start is not worth its build; after [`POOR_BUILDS`] such
     /// builds in a row this system goes on with PCG and the factor for
     /// good (one alone can be a large change of the history in one step:
-    /// P3 at h = l₀/4 handed over at 36.5 µs on a single one, and ran the
+    /// `p3_sphere_beam.toml` at h = l₀/4 handed over at 36.5 µs on a single one, and ran the
     /// next 10 steps from its checkpoint with 4.35 iterations per solve).
     /// Poor builds in a row happen once a crack has
     /// opened: its stretched particles push the reaction term 4l₀H/Ḡc orders
     /// of magnitude above the diffusion, K is a mass matrix there, and its
     /// high-frequency modes are the ones neither the smoother nor the coarse
-    /// levels reach (P1 at 42 µs: 16.7 iterations per solve with a fresh
+    /// levels reach (`p1_plate.toml` at 42 µs: 16.7 iterations per solve with a fresh
     /// hierarchy every step, Gauss-Seidel smoothing no better; the module
     /// doc of [`super::multigrid`] and `docs/phase-field-performance.md`,
     /// "Multigrid").
@@ -1264,7 +1264,7 @@ struct PcgWork {
 /// factor's diagonal here: dropping it changes the preconditioner by far
 /// less than the rounding to f32 does.
 ///
-/// In chunks on rayon's threads (45.5 M values at P1's size, once per
+/// In chunks on rayon's threads (45.5 M values at `p1_plate.toml`'s size, once per
 /// factorization); each value is rounded on its own, so the bits do not
 /// depend on the thread count.
 pub fn round_to_single(l: &[f64], single: &mut Vec<f32>) {

@@ -4,7 +4,7 @@
 //!
 //! PCG spends nearly all of an iteration here (docs/phase-field-performance.md:
 //! 0.069 s for the two solves against 0.0045 s for the product with K at
-//! P1 size). faer's solve walks the supernodes one by one and calls its
+//! `p1_plate.toml` size). faer's solve walks the supernodes one by one and calls its
 //! general dense kernels for each; most supernodes of a 2D grid's factor
 //! are a few columns wide, so the calls cost more than the arithmetic, and
 //! the walk runs on one thread. Here each supernode is one pass over its
@@ -90,7 +90,7 @@ pub struct SupernodalSolve {
 /// Below-diagonal values from which a supernode of the top part is split
 /// over two threads: the top runs after (forward) or before (backward) the
 /// two groups, alone, and its supernodes are the separators of the
-/// largest subtrees, hundreds of columns wide with long patterns (P1 at
+/// largest subtrees, hundreds of columns wide with long patterns (`p1_plate.toml` at
 /// the paper's size: 12.6 % of the factor's values, all of them serial
 /// before). A join costs a few microseconds, the split pays from some
 /// thousands of multiply-adds.
@@ -374,7 +374,7 @@ impl SupernodalSolve {
     /// turn, each divided by its diagonal and subtracted from the rows
     /// below (inside the block directly, the pattern's rows summed in
     /// `tmp` and subtracted once). (Four columns at a time, as a blocked
-    /// matrix-vector product, was no faster: P1 at the paper's size.)
+    /// matrix-vector product, was no faster: `p1_plate.toml` at the paper's size.)
     #[inline]
     fn forward<T: Real>(&self, s: usize, l: &[T], x: &mut [T], tmp: &mut [T]) {
         let (f, w, pat, vals) = self.supernode(s, l);
