@@ -859,11 +859,10 @@ impl PhaseFieldSystem {
                 self.count_cycle(iterations);
                 // A converged solve is kept however many iterations it
                 // took: they are spent, and the rule above renews the factor
-                // for the next step. (Redoing every solve over
-                // `refactor_after` iterations threw away 2389 of the 5589
-                // solves of `p1_plate.toml` (iii) at the paper's resolution;
-                // docs/phase-field.md.) Without convergence within the cap:
-                // a fresh factor, which also preconditions the next steps.
+                // for the next step (redoing the slow ones costs more; the
+                // measurement is in docs/phase-field.md). Without
+                // convergence within the cap: a fresh factor, which also
+                // preconditions the next steps.
                 if !converged {
                     self.renew(tolerance, max_iterations, refactor_after)?;
                 }
