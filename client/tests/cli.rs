@@ -173,7 +173,19 @@ fn run_writes_results_and_reports_json() {
     assert_eq!(v["particles"], 1600);
     assert_eq!(
         v["stages"],
-        serde_json::json!(["p2g", "grid_update", "g2p"])
+        serde_json::json!(["p2g", "grid_update", "g2p", "rebin"])
+    );
+    // each stage's time and runs, in the plan's order
+    let timed: Vec<_> = v["stage_seconds"]["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| (t["stage"].clone(), t["runs"].as_u64().unwrap()))
+        .collect();
+    let steps = v["steps"].as_u64().unwrap();
+    assert_eq!(
+        timed,
+        ["p2g", "grid_update", "g2p", "rebin"].map(|s| (serde_json::json!(s), steps))
     );
     assert!(v["wall_seconds"].as_f64().unwrap() > 0.0);
     assert!(v["kinetic_energy"].as_f64().unwrap() > 0.0);

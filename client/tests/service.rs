@@ -247,7 +247,14 @@ fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
     assert_eq!(v["status"], "succeeded");
     assert_eq!(
         v["stages"],
-        serde_json::json!(["field_partition", "p2g", "grid_update", "contact", "g2p"])
+        serde_json::json!([
+            "field_partition",
+            "p2g",
+            "grid_update",
+            "contact",
+            "g2p",
+            "rebin"
+        ])
     );
     same_files(&local, &remote2);
     // list and get
