@@ -229,7 +229,7 @@ pub struct Simulation {
     bins: Bins,
     boundary: Boundary,
     tractions: setup::Tractions,
-    /// Present iff the plan has the phase-field stage.
+    /// Present iff the plan has the phase-field stages.
     phase: Option<phase::PhaseFields>,
     /// Present iff the plan has the damage stage.
     damage: Option<damage::DamageState>,
