@@ -2,7 +2,7 @@
 //!
 //! The tip of a body's crack is the broken particle (phase field c < 0.1,
 //! or damage D > 0.9 and connected to the origin, see
-//! `mpm::damage::DamageState::crack_tips`) farthest from the body's crack
+//! `fracture::damage::model::DamageState::crack_tips`) farthest from the body's crack
 //! origin; its distance
 //! from the origin is the crack length, and the change of that length
 //! between two series rows over their time apart is the tip speed.

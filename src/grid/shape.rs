@@ -15,6 +15,24 @@
 
 use crate::scene::ShapeFunctionKind;
 
+/// Evaluates `body` with the type `K` bound to the kernel of `kind`: one
+/// dispatch from the scene's shape function to the generic stages.
+macro_rules! by_kernel {
+    ($kind:expr, $K:ident => $body:expr) => {
+        by_kernel!(@arms $kind, $K, $body, Linear, Gimp, QuadraticBspline, CubicBspline)
+    };
+    // each ShapeFunctionKind variant is named as its kernel type
+    (@arms $kind:expr, $K:ident, $body:expr, $($kernel:ident),*) => {
+        match $kind {
+            $($crate::scene::ShapeFunctionKind::$kernel => {
+                type $K = $crate::grid::shape::$kernel;
+                $body
+            })*
+        }
+    };
+}
+pub(crate) use by_kernel;
+
 /// ⌊x⌋, inlined. `f64::floor` is a call into libm on the default x86-64
 /// target (no SSE4.1 `roundsd`), and every kernel evaluation of every
 /// stage makes one or two: 3.4 % of a `p1_plate.toml` phase-field step's profile.

@@ -542,10 +542,10 @@ mod tests {
             .expect("trace a job's state");
         // the fracture models' states, saved as bytes in `State::models`
         tracer
-            .trace_simple_type::<crate::mpm::phase::PhaseState>()
+            .trace_simple_type::<crate::fracture::phase_field::model::PhaseState>()
             .expect("trace the phase field's state");
         tracer
-            .trace_simple_type::<crate::mpm::damage::DamageSaved>()
+            .trace_simple_type::<crate::fracture::damage::model::DamageSaved>()
             .expect("trace the damage model's state");
         tracer
             .trace_simple_type::<crate::fracture::dfg::model::DfgSaved>()

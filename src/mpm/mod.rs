@@ -10,29 +10,10 @@
 //!
 //! Entry points: [`Simulation::new`] then [`Simulation::run`].
 
-/// Evaluates `body` with the type `K` bound to the kernel of `kind`: one
-/// dispatch from the scene's shape function to the generic stages.
-macro_rules! by_kernel {
-    ($kind:expr, $K:ident => $body:expr) => {
-        by_kernel!(@arms $kind, $K, $body, Linear, Gimp, QuadraticBspline, CubicBspline)
-    };
-    // each ShapeFunctionKind variant is named as its kernel type
-    (@arms $kind:expr, $K:ident, $body:expr, $($kernel:ident),*) => {
-        match $kind {
-            $($crate::scene::ShapeFunctionKind::$kernel => {
-                type $K = $crate::grid::shape::$kernel;
-                $body
-            })*
-        }
-    };
-}
-
 mod checkpoint;
-mod damage;
 mod g2p;
 mod grid_update;
 mod p2g;
-mod phase;
 mod setup;
 
 pub use checkpoint::{Checkpoint, CheckpointError, CheckpointTimer};
@@ -40,9 +21,11 @@ pub use g2p::BadKind;
 
 use crate::contact::{self, ContactLaw};
 use crate::diagnostics::{measure, Control, Observer, Progress, SeriesRow};
+use crate::fracture::damage::model as damage;
 use crate::fracture::dfg::{Dfg, DfgFields};
 use crate::fracture::model::{FractureModel, RowContext, SeriesOut, StepContext};
-use crate::grid::shape::Kernel;
+use crate::fracture::phase_field::model as phase;
+use crate::grid::shape::{by_kernel, Kernel};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
 use crate::material::Elastic;
 use crate::particles::Particles;
@@ -219,18 +202,19 @@ impl RunSummary {
 /// A simulation in progress: the particles, the grid, and the clock.
 pub struct Simulation {
     scene: Scene,
-    geom: GridGeom,
+    // (crate-visible: the phase-field model's tests step one by hand)
+    pub(crate) geom: GridGeom,
     mats: Vec<Elastic>,
-    parts: Particles,
+    pub(crate) parts: Particles,
     grid: GridFields,
     /// Present iff the plan has contact.
     multi: Option<MultiField>,
     friction: ContactLaw,
-    bins: Bins,
+    pub(crate) bins: Bins,
     boundary: Boundary,
     tractions: setup::Tractions,
     /// Present iff the plan has the phase-field stages.
-    phase: Option<phase::PhaseFields>,
+    pub(crate) phase: Option<phase::PhaseFields>,
     /// Present iff the plan has the damage stage.
     damage: Option<damage::DamageState>,
     /// Present iff the plan has the damage-field stage.

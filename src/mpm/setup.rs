@@ -89,7 +89,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     }
 
     // Damage strengths are drawn in seeding order (same seed, same result).
-    let mut damage = super::damage::DamageState::new(scene, &mut parts);
+    let mut damage = crate::fracture::damage::model::DamageState::new(scene, &mut parts);
 
     // Store the particles in the bins' order (by tile, and by support in a
     // tile): the coloured stages then walk memory in order.
@@ -155,7 +155,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             &damaged,
         )
     });
-    let phase = super::phase::PhaseFields::new(scene, &mut parts);
+    let phase = crate::fracture::phase_field::model::PhaseFields::new(scene, &mut parts);
     let tractions = Tractions::new(scene, &parts);
     Simulation {
         scene: scene.clone(),

@@ -4,9 +4,11 @@
 //! The anisotropy tensor and the effective surface energy Gc(θ) (eq. 8),
 //! [`anisotropy`]; the assembled system of eq. 57 with its sparse Cholesky
 //! solve and the fracture energy, [`system`]. The coupling to the explicit
-//! step (staggered loop, history, degradation) is `mpm::phase`.
+//! step (staggered loop, history, degradation) is [`model`], the phase
+//! field's [`crate::fracture::model::FractureModel`].
 
 pub mod anisotropy;
+pub mod model;
 pub mod multigrid;
 pub mod system;
 pub mod trisolve;

@@ -26,6 +26,8 @@
 //! dissipated energy; kinetic + strain + dissipated − external work is then
 //! constant up to the discretization's own error.
 
+pub mod model;
+
 use crate::particles::Particles;
 use crate::scene::{DamageModel, ResolvedDamage};
 use rand_core::{RngCore, SeedableRng};

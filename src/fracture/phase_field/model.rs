@@ -29,7 +29,7 @@ use crate::fracture::phase_field::system::{
     self, FactorKind, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem,
     SolveMethod, SolveStats,
 };
-use crate::grid::shape::Kernel;
+use crate::grid::shape::{by_kernel, Kernel};
 use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, Elastic};
 use crate::particles::Particles;
@@ -108,7 +108,7 @@ struct Interval {
 
 /// Per-step phase-field figures of a series row.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub(super) struct RowStats {
+pub(crate) struct RowStats {
     /// Mean wall seconds per step since the last row.
     pub assembly: f64,
     /// Symbolic analysis plus numeric factorization.
@@ -131,7 +131,7 @@ pub(super) struct RowStats {
 }
 
 /// The phase fields of a simulation.
-pub(super) struct PhaseFields {
+pub(crate) struct PhaseFields {
     bodies: Vec<Body>,
     method: SolveMethod,
     max_staggers: u32,
@@ -159,7 +159,7 @@ pub(super) struct PhaseFields {
 /// c and H are in the particle arrays) and the crack-tip tracker, and
 /// whether c is current for the next step.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub(super) struct PhaseState {
+pub(crate) struct PhaseState {
     c: Vec<Vec<f64>>,
     tips: Vec<Option<TipTracker>>,
     current: bool,
@@ -180,7 +180,7 @@ impl PhaseFields {
     /// Builds the phase fields of the scene's phase-field bodies, sets up the
     /// particles' c (1) and history (with the initial cracks). None if no
     /// body has a phase field.
-    pub(super) fn new(scene: &Scene, parts: &mut Particles) -> Option<PhaseFields> {
+    pub(crate) fn new(scene: &Scene, parts: &mut Particles) -> Option<PhaseFields> {
         let mut bodies = Vec::new();
         for (b, spec) in scene.file.bodies.iter().enumerate() {
             let mat = &scene.materials[scene.body_material[b]];
@@ -301,7 +301,7 @@ impl PhaseFields {
     /// the previous step already did so for the same positions and history.
     /// With `record` (the step ends on a series row or a snapshot), also
     /// measures Ψ_f ([`Self::fracture_energies`]).
-    pub(super) fn solve<K: Kernel>(
+    pub(crate) fn solve<K: Kernel>(
         &mut self,
         geom: &GridGeom,
         bins: &Bins,
@@ -383,7 +383,7 @@ impl PhaseFields {
     /// docs); `bins` must hold the particles' present tiles. With a row
     /// due (`measure`), the residual is measured even when one iteration is
     /// allowed; with `record`, a new solve measures Ψ_f again.
-    pub(super) fn stagger<K: Kernel>(
+    pub(crate) fn stagger<K: Kernel>(
         &mut self,
         geom: &GridGeom,
         bins: &Bins,
@@ -433,7 +433,7 @@ impl PhaseFields {
     /// History update and stress degradation after the particles' strains
     /// were updated (linear elastic, small strain). Also records each
     /// particle's history increment for the stagger residual.
-    pub(super) fn degrade(&mut self, parts: &mut Particles, mats: &[Elastic]) {
+    pub(crate) fn degrade(&mut self, parts: &mut Particles, mats: &[Elastic]) {
         let history = SyncPtr::new(&mut parts.history);
         let stress = SyncPtr::new(&mut parts.stress);
         let dh = SyncPtr::new(&mut self.dh);
@@ -477,7 +477,7 @@ impl PhaseFields {
     /// solved for when the present step was asked to ([`Self::record`]),
     /// otherwise recorded now, at the present positions (the t = 0 row, or
     /// a caller's own row between output steps).
-    pub(super) fn fracture_energies<K: Kernel>(
+    pub(crate) fn fracture_energies<K: Kernel>(
         &mut self,
         geom: &GridGeom,
         parts: &Particles,
@@ -494,7 +494,7 @@ impl PhaseFields {
     /// [`Self::fracture_energies`]: V_p times it, summed over a body's
     /// particles, is the body's Ψ_f, and over a region, the energy
     /// dissipated there.
-    pub(super) fn fracture_energy_densities<K: Kernel>(
+    pub(crate) fn fracture_energy_densities<K: Kernel>(
         &mut self,
         geom: &GridGeom,
         parts: &Particles,
@@ -512,7 +512,7 @@ impl PhaseFields {
 
     /// The scene indices of the phase-field bodies, and of those whose
     /// crack tip is tracked.
-    pub(super) fn bodies(&self) -> (Vec<usize>, Vec<usize>) {
+    pub(crate) fn bodies(&self) -> (Vec<usize>, Vec<usize>) {
         let all = self.bodies.iter().map(|b| b.body as usize).collect();
         let tracked = self
             .bodies
@@ -525,7 +525,7 @@ impl PhaseFields {
 
     /// The crack tips of the tracked bodies at `time`; the speeds are
     /// measured from the previous call.
-    pub(super) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
+    pub(crate) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
         let mut tips = Vec::new();
         for body in &mut self.bodies {
             let Some(tracker) = body.tip.as_mut() else {
@@ -541,7 +541,7 @@ impl PhaseFields {
     }
 
     /// The per-step solver figures since the last call.
-    pub(super) fn row_stats(&mut self) -> RowStats {
+    pub(crate) fn row_stats(&mut self) -> RowStats {
         let now = self.stats();
         let i = std::mem::replace(
             &mut self.interval,
@@ -590,7 +590,7 @@ impl PhaseFields {
     }
 
     /// Solver times and counts summed over the bodies.
-    pub(super) fn stats(&self) -> SolveStats {
+    pub(crate) fn stats(&self) -> SolveStats {
         let mut s = SolveStats::default();
         for b in &self.bodies {
             let t = b.system.stats;
@@ -612,13 +612,13 @@ impl PhaseFields {
     }
 
     /// Unknowns of the last assemblies, summed over the bodies.
-    pub(super) fn unknowns(&self) -> usize {
+    pub(crate) fn unknowns(&self) -> usize {
         self.bodies.iter().map(|b| b.system.len()).sum()
     }
 
     /// One numeric factorization of the given kind of every body's
     /// system, counted in [`Self::stats`] (`cleave bench-phase-field`).
-    pub(super) fn factorize_kind(&mut self, kind: FactorKind) -> Result<(), PhaseFieldError> {
+    pub(crate) fn factorize_kind(&mut self, kind: FactorKind) -> Result<(), PhaseFieldError> {
         for b in &mut self.bodies {
             b.system.factorize_kind(kind)?;
         }

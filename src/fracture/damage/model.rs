@@ -16,7 +16,7 @@ use rayon::prelude::*;
 /// Damage above this counts as cracked for the crack tip.
 const TIP_D: f64 = 0.9;
 
-pub(super) struct DamageState {
+pub(crate) struct DamageState {
     law: DamageLaw,
     /// Energy released by damage since t = 0, J.
     pub dissipated: f64,
@@ -35,7 +35,7 @@ pub(super) struct DamageState {
 /// far and the crack-tip trackers (the rest follows from the scene and the
 /// particle arrays).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub(super) struct DamageSaved {
+pub(crate) struct DamageSaved {
     dissipated: f64,
     tips: Vec<TipTracker>,
 }
@@ -55,7 +55,7 @@ struct TrackedCrack {
 impl DamageState {
     /// The laws of the scene's materials, or `None` without damage. Fills
     /// `parts.damage` and `parts.strength` (particles in seeding order).
-    pub(super) fn new(scene: &Scene, parts: &mut Particles) -> Option<DamageState> {
+    pub(crate) fn new(scene: &Scene, parts: &mut Particles) -> Option<DamageState> {
         // the plan decides: a named damage material no body uses adds nothing
         if !scene.plan.has(crate::scene::Stage::Damage) {
             return None;
@@ -86,7 +86,7 @@ impl DamageState {
     /// crack-tip trackers of bodies with a crack origin (default: the first
     /// crack point; see [`DamageState::crack_tips`]). Call with the
     /// particles in their final order.
-    pub(super) fn place_cracks(&mut self, scene: &Scene, parts: &mut Particles) {
+    pub(crate) fn place_cracks(&mut self, scene: &Scene, parts: &mut Particles) {
         for (b, spec) in scene.file.bodies.iter().enumerate() {
             if scene
                 .materials
@@ -152,20 +152,20 @@ impl DamageState {
         Ok(())
     }
 
-    pub(super) fn update(&mut self, parts: &mut Particles, dt: f64) -> DamageStep {
+    pub(crate) fn update(&mut self, parts: &mut Particles, dt: f64) -> DamageStep {
         let s = self.law.update(parts, dt);
         self.dissipated += s.dissipated;
         s
     }
 
     /// Bodies with a crack tip.
-    pub(super) fn tracked(&self) -> Vec<usize> {
+    pub(crate) fn tracked(&self) -> Vec<usize> {
         self.tips.iter().map(|t| t.body).collect()
     }
 
     /// The fragments of undamaged material of the damage-model materials
     /// ([`crate::diagnostics::fragments`]).
-    pub(super) fn fragments(&mut self, parts: &Particles) -> Fragments {
+    pub(crate) fn fragments(&mut self, parts: &Particles) -> Fragments {
         let (models, limit) = (&self.law.models, self.fragment_damage);
         self.finder.find(
             &parts.x,
@@ -180,7 +180,7 @@ impl DamageState {
 
     /// Mass-weighted mean speed of the particles of damage-model materials
     /// (the paper's "average material velocity magnitude", Fig. 18), m/s.
-    pub(super) fn mean_speed(&self, parts: &Particles) -> f64 {
+    pub(crate) fn mean_speed(&self, parts: &Particles) -> f64 {
         let (mut m, mut mv) = (0.0, 0.0);
         for p in 0..parts.len() {
             if self.law.models[parts.material[p] as usize].is_some() {
@@ -203,7 +203,7 @@ impl DamageState {
     /// so the crack's root is found however far the body has moved): the
     /// crack that grows from the origin, not damage elsewhere (at an impact
     /// face, say). Its tip is its particle farthest from the origin.
-    pub(super) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
+    pub(crate) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
         let (finder, spacing) = (&mut self.finder, &self.spacing);
         self.tips
             .iter_mut()
