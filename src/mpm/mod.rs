@@ -547,12 +547,11 @@ impl Simulation {
     /// the field slots the rest of the step uses, so they run first and
     /// the slots are built from their result.
     fn advance_k<K: Kernel>(&mut self, dt: f64) -> Result<(), SimError> {
-        let plan = std::mem::take(&mut self.times.stages);
-        let split = plan
+        let mut times = std::mem::take(&mut self.times.stages);
+        let split = times
             .iter()
             .position(|t| !t.stage.before_scatter())
-            .unwrap_or(plan.len());
-        let mut times = plan;
+            .unwrap_or(times.len());
         let (pre, rest) = times.split_at_mut(split);
         let r = self.execute::<K>(dt, pre, rest);
         self.times.stages = times;
@@ -636,7 +635,7 @@ impl Simulation {
         let t_bc = self.time + dt;
         let transfer = g2p::Transfer { flip: self.flip };
         let mut moved_tile = false;
-        let mut gathered = false;
+        let step_before = self.step;
         for t in plan.iter_mut() {
             let t0 = Instant::now();
             // whether the stage found its state and ran
@@ -701,9 +700,7 @@ impl Simulation {
                                 dt,
                             )
                         };
-                        moved_tile = stats.moved_tile;
-                        gathered = true;
-                        self.finish_gather(dt, stats)?;
+                        moved_tile = self.finish_gather(dt, stats)?;
                         true
                     }
                     Stage::G2pVelocity => {
@@ -728,9 +725,7 @@ impl Simulation {
                             &self.mats,
                             dt,
                         );
-                        moved_tile = stats.moved_tile;
-                        gathered = true;
-                        self.finish_gather(dt, stats)?;
+                        moved_tile = self.finish_gather(dt, stats)?;
                         true
                     }
                     Stage::Rebin => {
@@ -759,7 +754,7 @@ impl Simulation {
                             break 'stage false;
                         };
                         // the step being computed: the clock moves at the gather
-                        let (step, time) = if gathered {
+                        let (step, time) = if self.step != step_before {
                             (self.step, self.time)
                         } else {
                             (self.step + 1, self.time + dt)
@@ -840,15 +835,16 @@ impl Simulation {
 
     /// After the gather that moves the particles: the clock advances, then
     /// the particle guards (non-finite values, leaving the grid, vanished
-    /// volume) turn a bad particle into the run's error.
-    fn finish_gather(&mut self, dt: f64, stats: g2p::G2pStats) -> Result<(), SimError> {
+    /// volume) turn a bad particle into the run's error. Returns whether a
+    /// particle changed tile (the re-binning's cue).
+    fn finish_gather(&mut self, dt: f64, stats: g2p::G2pStats) -> Result<bool, SimError> {
         self.step += 1;
         self.time += dt;
         self.dt = dt;
         self.grid_valid = true;
         self.max_signal = stats.max_signal;
         let Some((p, kind)) = stats.bad else {
-            return Ok(());
+            return Ok(stats.moved_tile);
         };
         let (step, time, particle) = (self.step, self.time, self.parts.id[p]);
         Err(match kind {

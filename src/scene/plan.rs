@@ -62,7 +62,8 @@ pub enum Stage {
 }
 
 impl Stage {
-    /// Every stage, in execution order.
+    /// Every stage, in execution order: the order [`Plan::build`] takes
+    /// (a new stage goes here, at its place, and gets its arm there).
     pub const ALL: [Stage; 15] = [
         Stage::DamageField,
         Stage::FieldPartition,
@@ -163,26 +164,22 @@ impl Plan {
         let phase_field = uses(|m| m.phase_field.is_some());
         let damage = uses(|m| m.damage.is_some());
         let musl = file.transfer.stress_update == StressUpdate::Musl;
-        let stages = [
-            (Stage::DamageField, dfg),
-            (Stage::FieldPartition, contact),
-            (Stage::P2g, true),
-            (Stage::Traction, traction),
-            (Stage::PhaseFieldSolve, phase_field),
-            (Stage::GridUpdate, true),
-            (Stage::Contact, contact),
-            (Stage::G2p, !musl),
-            (Stage::G2pVelocity, musl),
-            (Stage::Remap, musl),
-            (Stage::G2pStress, musl),
-            (Stage::PhaseFieldHistory, phase_field),
-            (Stage::Damage, damage),
-            (Stage::Rebin, true),
-            (Stage::PhaseFieldStagger, phase_field),
-        ]
-        .into_iter()
-        .filter_map(|(s, on)| on.then_some(s))
-        .collect();
+        // the order is `Stage::ALL`'s; each stage's condition, one arm each
+        let stages = Stage::ALL
+            .into_iter()
+            .filter(|s| match s {
+                Stage::DamageField => dfg,
+                Stage::FieldPartition | Stage::Contact => contact,
+                Stage::P2g | Stage::GridUpdate | Stage::Rebin => true,
+                Stage::Traction => traction,
+                Stage::PhaseFieldSolve | Stage::PhaseFieldHistory | Stage::PhaseFieldStagger => {
+                    phase_field
+                }
+                Stage::G2p => !musl,
+                Stage::G2pVelocity | Stage::Remap | Stage::G2pStress => musl,
+                Stage::Damage => damage,
+            })
+            .collect();
         Plan { stages }
     }
 
