@@ -5,6 +5,7 @@
 //! [`diagnostics::Observer`] such as [`output::OutputWriter`].
 //! `docs/architecture.md` maps the modules, the step and the data flow.
 
+pub mod checkpoint;
 pub mod contact;
 pub mod diagnostics;
 pub mod fracture;
@@ -12,9 +13,11 @@ pub mod geometry;
 pub mod grid;
 pub mod jobs;
 pub mod material;
+pub mod methods;
 pub mod mpm;
 pub mod output;
 pub mod particles;
+pub mod run;
 pub mod scene;
 pub mod service;
 pub mod study;

@@ -2,8 +2,9 @@
 //! after a checkpoint and is resumed from it writes what the uninterrupted
 //! run writes, bit for bit (with PCG, to the solver's tolerance).
 
+use cleave::checkpoint::{Checkpoint, CheckpointError};
 use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
-use cleave::mpm::{Checkpoint, CheckpointError, Simulation};
+use cleave::mpm::Simulation;
 use cleave::output::OutputWriter;
 use cleave::particles::Particles;
 use cleave::scene::Scene;

@@ -554,7 +554,7 @@ fn warm_started_pcg_agrees_with_the_direct_solve() {
 }
 
 /// Runs a text scene to the end and keeps everything.
-fn run_text(text: &str) -> (cleave::diagnostics::Recorder, cleave::mpm::RunSummary) {
+fn run_text(text: &str) -> (cleave::diagnostics::Recorder, cleave::run::RunSummary) {
     let scene = cleave::scene::Scene::from_text(text, None).unwrap();
     let mut rec = cleave::diagnostics::Recorder::default();
     let s = cleave::mpm::Simulation::new(&scene).run(&mut rec).unwrap();
@@ -1139,7 +1139,7 @@ fn the_factorizations_are_counted_by_kind_in_the_summary_and_the_series() {
 
 /// The phase-field solver's counters of a run's summary.
 fn pf_stats(
-    summary: &cleave::mpm::RunSummary,
+    summary: &cleave::run::RunSummary,
 ) -> cleave::fracture::phase_field::system::SolveStats {
     summary.model("phase_field").expect("a phase-field summary")
 }

@@ -9,7 +9,8 @@
 //! for CI.
 
 use cleave::diagnostics::Recorder;
-use cleave::mpm::{SimError, Simulation};
+use cleave::mpm::Simulation;
+use cleave::run::SimError;
 use cleave::scene::{MemoryBudget, Scene};
 use std::time::{Duration, Instant};
 
@@ -968,7 +969,7 @@ fn checkpoint_bytes() -> (Scene, Vec<u8>) {
                 _ => cleave::diagnostics::Control::Continue,
             }
         }
-        fn checkpoint(&mut self, cp: cleave::mpm::Checkpoint<'_>) -> Result<(), String> {
+        fn checkpoint(&mut self, cp: cleave::checkpoint::Checkpoint<'_>) -> Result<(), String> {
             cp.write_to(&mut self.0).map_err(|e| e.to_string())
         }
     }
@@ -984,7 +985,7 @@ fn checkpoint_bytes() -> (Scene, Vec<u8>) {
 /// resume into other results).
 #[test]
 fn every_damaged_checkpoint_is_refused() {
-    use cleave::mpm::{Checkpoint, CheckpointError};
+    use cleave::checkpoint::{Checkpoint, CheckpointError};
     let (scene, good) = checkpoint_bytes();
     let cp = Checkpoint::read_from(&mut &good[..]).unwrap();
     assert_eq!(cp.step(), 3);
@@ -1042,7 +1043,7 @@ fn a_damaged_checkpoint_names_its_file_and_keeps_the_results() {
     let at = bad.len() / 3;
     bad[at] ^= 0x10;
     std::fs::write(&path, &bad).unwrap();
-    let e = cleave::mpm::Checkpoint::load(&path)
+    let e = cleave::checkpoint::Checkpoint::load(&path)
         .err()
         .unwrap()
         .to_string();

@@ -10,8 +10,10 @@
 //! re-run.
 
 use anyhow::Context;
+use cleave::checkpoint::Checkpoint;
+use cleave::fracture::phase_field::model::PhaseFields;
 use cleave::fracture::phase_field::system::FactorKind;
-use cleave::mpm::{Checkpoint, Simulation};
+use cleave::mpm::Simulation;
 use cleave::scene::{PhaseFieldMethod, Scene, Stage};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -46,6 +48,12 @@ struct FactorTimes {
 
 /// Times `repeats` factorizations of each kind a run makes on the
 /// simulation's current matrices (the seconds the run's stats count).
+/// The scene's phase fields (the model whose solver is timed here).
+fn phase_fields(sim: &mut Simulation) -> anyhow::Result<&mut PhaseFields> {
+    sim.model_mut::<PhaseFields>()
+        .context("the scene has no phase field")
+}
+
 fn time_factorizations(sim: &mut Simulation, repeats: usize) -> anyhow::Result<FactorTimes> {
     let mut seconds = [0.0; 2];
     for _ in 0..repeats {
@@ -54,18 +62,13 @@ fn time_factorizations(sim: &mut Simulation, repeats: usize) -> anyhow::Result<F
             .into_iter()
             .enumerate()
         {
-            let before = sim
-                .phase_field_stats()
-                .context("the scene has no phase field")?;
-            sim.factorize_phase_field(kind)
-                .context("the scene has no phase field")??;
-            let after = sim
-                .phase_field_stats()
-                .context("the scene has no phase field")?;
-            seconds[k] += after.factorization - before.factorization;
+            let pf = phase_fields(sim)?;
+            let before = pf.stats();
+            pf.factorize_kind(kind)?;
+            seconds[k] += pf.stats().factorization - before.factorization;
         }
     }
-    let unknowns = sim.phase_field_unknowns();
+    let unknowns = phase_fields(sim)?.unknowns();
     Ok(FactorTimes {
         time: sim.time(),
         unknowns,
@@ -114,21 +117,14 @@ fn measure(
     for _ in 0..warmup {
         sim.step()?;
     }
-    let (t0, s0) = (
-        sim.stage_times().clone(),
-        sim.phase_field_stats()
-            .context("the scene has no phase field")?,
-    );
+    let (t0, s0) = (sim.stage_times().clone(), phase_fields(&mut sim)?.stats());
     let wall = Instant::now();
     for _ in 0..steps {
         sim.step()?;
     }
     let wall = wall.elapsed().as_secs_f64();
-    let (t1, s1) = (
-        sim.stage_times(),
-        sim.phase_field_stats()
-            .context("the scene has no phase field")?,
-    );
+    let s1 = phase_fields(&mut sim)?.stats();
+    let t1 = sim.stage_times();
     let per = |a: f64, b: f64| (a - b) / steps as f64;
     let mpm = per(
         t1.sum(|s| !s.is_phase_field()),

@@ -13,7 +13,6 @@ mod study;
 use anyhow::Context;
 use clap::{Args, CommandFactory, FromArgMatches, Parser, Subcommand};
 use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
-use cleave::mpm::Simulation;
 use cleave::output::OutputWriter;
 use cleave::scene::{Scene, SceneError};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -752,7 +751,7 @@ struct Checkpointing {
 struct RunObserver {
     writer: OutputWriter,
     bar: Option<ProgressBar>,
-    checkpoints: cleave::mpm::CheckpointTimer,
+    checkpoints: cleave::checkpoint::CheckpointTimer,
 }
 
 impl Observer for RunObserver {
@@ -778,7 +777,7 @@ impl Observer for RunObserver {
             Control::Continue
         }
     }
-    fn checkpoint(&mut self, cp: cleave::mpm::Checkpoint<'_>) -> Result<(), String> {
+    fn checkpoint(&mut self, cp: cleave::checkpoint::Checkpoint<'_>) -> Result<(), String> {
         let (step, time) = (cp.step(), cp.time());
         let t0 = std::time::Instant::now();
         self.writer.checkpoint(cp)?;
@@ -822,7 +821,7 @@ fn run_valid(
 ) -> anyhow::Result<ExitCode> {
     let checkpoint_every = ck
         .every
-        .map(cleave::mpm::CheckpointTimer::interval)
+        .map(cleave::checkpoint::CheckpointTimer::interval)
         .transpose()
         .map_err(anyhow::Error::msg)?;
     if !json {
@@ -849,7 +848,7 @@ fn run_valid(
             );
         }
         let state = std::mem::take(&mut cp.observer);
-        let sim = Simulation::resume(scene, cp).with_context(|| {
+        let sim = cleave::methods::resume(scene, cp).with_context(|| {
             format!(
                 "cannot resume {} from {}",
                 path.display(),
@@ -862,7 +861,7 @@ fn run_valid(
     } else {
         let writer = OutputWriter::create(out)
             .with_context(|| format!("cannot write results to {}", out.display()))?;
-        (writer, Simulation::new(scene))
+        (writer, cleave::methods::build(scene))
     };
     let bar = (!quiet && !json).then(|| {
         let bar = ProgressBar::new(1000);
@@ -877,7 +876,7 @@ fn run_valid(
     let mut obs = RunObserver {
         writer,
         bar,
-        checkpoints: cleave::mpm::CheckpointTimer::new(checkpoint_every),
+        checkpoints: cleave::checkpoint::CheckpointTimer::new(checkpoint_every),
     };
     let result = sim.run(&mut obs);
     if let Some(bar) = &obs.bar {

@@ -21,8 +21,9 @@
 use crate::remote::{self, Client};
 use crate::{report_invalid, EXIT_FAILED, EXIT_INVALID};
 use anyhow::Context;
+use cleave::checkpoint::CheckpointTimer;
 use cleave::diagnostics::{Control, Observer, Progress, Recorder, SeriesRow, Snapshot};
-use cleave::mpm::{CheckpointTimer, Simulation};
+use cleave::run::Method;
 use cleave::scene::{Format, SceneError};
 use cleave::study::{self, Axis, Metric, Reference, Variant};
 use serde_json::json;
@@ -56,7 +57,7 @@ pub struct Prepared {
     variants: Vec<Variant>,
     /// In this process: the first variant's simulation, built to check the
     /// metric's column and then run (seeded once).
-    first: Option<Simulation>,
+    first: Option<Box<dyn Method>>,
     /// With `--resume`: the runs an earlier study finished, kept.
     done: Vec<Option<Outcome>>,
 }
@@ -173,10 +174,10 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
         .map_err(|e| report_invalid(&opts.scene, &e, opts.json))?;
     // the metric's column must exist (the first variant's columns; a
     // setting such as dfg=off can still drop it for others: their rows say so)
-    let mut first = local.then(|| Simulation::new(&variants[0].scene));
+    let mut first = local.then(|| cleave::methods::build(&variants[0].scene));
     let columns = first.as_mut().map_or_else(
         || vec![metric.column().to_string()],
-        Simulation::series_columns,
+        |sim| sim.series_columns(),
     );
     if !columns.iter().any(|c| c == metric.column()) {
         return Err(usage(format!(
@@ -314,7 +315,7 @@ pub fn run_local(p: &mut Prepared) -> Vec<Outcome> {
         }
         let mut sim = resumed
             .or_else(|| first.take())
-            .unwrap_or_else(|| Simulation::new(&v.scene));
+            .unwrap_or_else(|| cleave::methods::build(&v.scene));
         first = None;
         obs.started = std::time::Instant::now();
         let result = sim.run(&mut obs);
@@ -346,7 +347,7 @@ fn resume_run(
     v: &Variant,
     dir: &Path,
     obs: &mut StudyObserver,
-) -> Result<Option<Simulation>, String> {
+) -> Result<Option<Box<dyn Method>>, String> {
     if !cleave::output::OutputWriter::checkpoint_path(dir).exists() {
         return Ok(None);
     }
@@ -364,7 +365,7 @@ fn resume_run(
         ));
     }
     rows.truncate(saved.rows);
-    let sim = Simulation::resume(&v.scene, cp).map_err(|e| e.to_string())?;
+    let sim = cleave::methods::resume(&v.scene, cp).map_err(|e| e.to_string())?;
     obs.rec.columns = columns;
     obs.rec.rows = rows;
     obs.wall_before = saved.wall_seconds;
@@ -408,7 +409,7 @@ impl Observer for StudyObserver<'_> {
             Control::Continue
         }
     }
-    fn checkpoint(&mut self, mut cp: cleave::mpm::Checkpoint<'_>) -> Result<(), String> {
+    fn checkpoint(&mut self, mut cp: cleave::checkpoint::Checkpoint<'_>) -> Result<(), String> {
         let wall_seconds = self.wall_before + self.started.elapsed().as_secs_f64();
         cleave::output::write_series_csv(
             &self.dir.join("series.csv"),

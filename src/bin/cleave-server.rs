@@ -74,8 +74,10 @@ fn main() -> anyhow::Result<()> {
             max_particles: a.max_particles,
             max_memory: a.max_memory,
             max_queued: a.max_queued_jobs,
-            checkpoint_every: match cleave::mpm::CheckpointTimer::interval(a.checkpoint_every)
-                .map_err(anyhow::Error::msg)?
+            checkpoint_every: match cleave::checkpoint::CheckpointTimer::interval(
+                a.checkpoint_every,
+            )
+            .map_err(anyhow::Error::msg)?
             {
                 std::time::Duration::ZERO => None,
                 every => Some(every),

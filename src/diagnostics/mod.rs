@@ -228,7 +228,7 @@ pub trait Observer {
     /// The run's state at the end of the step whose progress asked for it
     /// with [`Control::Checkpoint`], after that step's row and snapshot
     /// were handed over.
-    fn checkpoint(&mut self, _checkpoint: crate::mpm::Checkpoint<'_>) -> Result<(), String> {
+    fn checkpoint(&mut self, _checkpoint: crate::checkpoint::Checkpoint<'_>) -> Result<(), String> {
         Ok(())
     }
 }

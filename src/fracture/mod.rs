@@ -5,3 +5,13 @@ pub mod damage;
 pub mod dfg;
 pub mod model;
 pub mod phase_field;
+
+/// Every fracture model the engine knows, in the order of their series
+/// columns (and of the summary, snapshots and checkpoint state). A scene
+/// gets each model whose [`model::Build`] returns one. Adding a model: its
+/// folder, and one line here.
+pub(crate) const MODELS: &[model::Build] = &[
+    phase_field::model::build,
+    dfg::model::build,
+    damage::model::build,
+];

@@ -1,19 +1,35 @@
 //! The seam every fracture model plugs into: [`FractureModel`].
 //!
-//! A model runs the plan stages it owns ([`FractureModel::stages`]), adds
-//! its series columns and their values in one function
-//! ([`FractureModel::series`], so the header and the rows cannot drift
-//! apart) and its snapshot fields ([`FractureModel::snapshot`]). The step,
-//! the run loop, the series and the snapshots call models only through
-//! this trait. What is not behind it yet (its checkpoint state, its part
-//! of the summary, its scene section) is listed in `docs/architecture.md`.
+//! A model is built from the scene by its [`Build`] function (listed once,
+//! in [`crate::fracture::MODELS`]); it runs the plan stages it owns
+//! ([`FractureModel::stages`]), adds its series columns and their values
+//! in one function ([`FractureModel::series`], so the header and the rows
+//! cannot drift apart), its snapshot fields, its part of the summary and
+//! its checkpoint state. A model that splits the velocity fields at the
+//! nodes it cuts (DFG partitioning; explicit cracks to come) also offers
+//! a [`FieldSplit`]. The step, the run loop, the series, the snapshots,
+//! the summary and the checkpoints call models only through these traits.
 
 use crate::diagnostics::crack::CrackTip;
 use crate::diagnostics::Field;
-use crate::grid::{Bins, GridGeom};
+use crate::grid::{Bins, FieldSlots, GridGeom, MultiField};
 use crate::material::Elastic;
 use crate::particles::Particles;
-use crate::scene::{ShapeFunctionKind, Stage};
+use crate::scene::{Scene, ShapeFunctionKind, Stage};
+use std::any::Any;
+
+/// What a model is built from: the validated scene, the grid, and the
+/// seeded particles in their final order (a model sets up its own
+/// particle arrays, e.g. `Particles::phase`).
+pub struct SetupContext<'a> {
+    pub scene: &'a Scene,
+    pub geom: &'a GridGeom,
+    pub parts: &'a mut Particles,
+}
+
+/// Builds a model for a scene, or None when the scene's plan does not ask
+/// for it.
+pub type Build = fn(&mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>;
 
 /// What a model's stage works on: the step's particles (mutable), grid
 /// geometry, bins, materials and kernel, and where the step is.
@@ -126,8 +142,37 @@ pub fn body_suffix(body: usize, bodies: usize) -> String {
     }
 }
 
+/// A model's concrete type, for the callers that need more than the trait
+/// (a benchmark reading the phase-field solver's counters, say): any
+/// `'static` type has it.
+pub trait AsAny {
+    fn as_any(&self) -> &dyn Any;
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+}
+
+impl<T: Any> AsAny for T {
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
+
+/// The model of type `T` among `models`, if there is one.
+pub fn find<T: Any>(models: &[Box<dyn FractureModel>]) -> Option<&T> {
+    models.iter().find_map(|m| (**m).as_any().downcast_ref())
+}
+
+/// The model of type `T` among `models`, mutable.
+pub fn find_mut<T: Any>(models: &mut [Box<dyn FractureModel>]) -> Option<&mut T> {
+    models
+        .iter_mut()
+        .find_map(|m| (**m).as_any_mut().downcast_mut())
+}
+
 /// A fracture model in the explicit step.
-pub trait FractureModel: Send {
+pub trait FractureModel: Send + AsAny {
     /// The model's name as the scene and the docs know it.
     fn name(&self) -> &'static str;
 
@@ -157,6 +202,54 @@ pub trait FractureModel: Send {
     /// Takes up the state [`Self::save`] wrote, for the freshly built
     /// model of the same scene; an error names what does not fit.
     fn restore(&mut self, state: &[u8], at: RestoreContext<'_>) -> Result<(), String>;
+
+    /// The model's split of the velocity fields, if it splits them.
+    fn field_split(&mut self) -> Option<&mut dyn FieldSplit> {
+        None
+    }
+}
+
+/// A model that splits the velocity fields at the nodes it cuts: there a
+/// contact group has two fields (two sides, which the contact law keeps
+/// from interpenetrating), and each particle–node pair maps to one of
+/// them. DFG partitioning does this (Homel & Herbold 2017), and explicit
+/// cracks will (a crack's two sides, Nairn's CRAMP). With a split the
+/// plan has contact, and the split's stages run before the scatter,
+/// because they decide the field slots the rest of the step uses.
+pub trait FieldSplit {
+    /// Coulomb friction between a group's two sides where they touch.
+    fn self_friction(&self) -> f64;
+
+    /// Runs a stage that comes before the scatter (`damage_field`,
+    /// `field_partition`). The partition sets `multi`'s field masks, lays
+    /// out its slots and returns how many there are (nodes + extra); None
+    /// for a stage that is not the split's (the step then runs its own).
+    fn before_scatter(
+        &mut self,
+        stage: Stage,
+        at: ScatterContext<'_>,
+        multi: &mut MultiField,
+    ) -> Option<usize>;
+
+    /// Calls `run` with this step's field slots (after the partition).
+    fn with_slots(&self, at: SlotContext<'_>, run: &mut dyn FnMut(&dyn FieldSlots));
+}
+
+/// What the stages before the scatter read.
+pub struct ScatterContext<'a> {
+    pub geom: &'a GridGeom,
+    pub parts: &'a Particles,
+    pub bins: &'a Bins,
+    pub kernel: ShapeFunctionKind,
+}
+
+/// What the field slots map through: the grid's node count, the field
+/// masks and slot layout the partition made, and each particle's dense
+/// contact group.
+pub struct SlotContext<'a> {
+    pub nodes: usize,
+    pub multi: &'a MultiField,
+    pub group: &'a [u8],
 }
 
 /// What a model restores against: the resumed particles and the grid.

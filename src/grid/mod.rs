@@ -234,6 +234,18 @@ impl FieldSlots for SingleField {
     }
 }
 
+/// Field slots a model decides ([`crate::fracture::model::FieldSplit`]),
+/// behind a pointer: one indirect call per particle–node pair, the price
+/// of the model staying out of the step's code.
+pub struct DynSlots<'a>(pub &'a dyn FieldSlots);
+
+impl FieldSlots for DynSlots<'_> {
+    #[inline(always)]
+    fn slot(&self, node: usize, particle: usize) -> usize {
+        self.0.slot(node, particle)
+    }
+}
+
 /// One field per contact group present at a node.
 pub struct GroupFields<'a> {
     pub nodes: usize,

@@ -23,7 +23,6 @@ pub use bus::{JobBus, JobEvent};
 pub use store::Store;
 
 use crate::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
-use crate::mpm::Simulation;
 use crate::scene::{Format, Scene, SceneError};
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, VecDeque};
@@ -578,7 +577,7 @@ fn run_job(
         rows: saved.rows,
         last_row: saved.last_row,
         wall_before: saved.wall_seconds,
-        checkpoints: crate::mpm::CheckpointTimer::new(inner.config.checkpoint_every),
+        checkpoints: crate::checkpoint::CheckpointTimer::new(inner.config.checkpoint_every),
         stopping: &inner.stopping,
         stop_next: false,
     };
@@ -591,9 +590,9 @@ fn run_job(
     let outcome = pool.install(|| {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             let mut sim = match cp {
-                Some(cp) => Simulation::resume(&scene, cp)
+                Some(cp) => crate::methods::resume(&scene, cp)
                     .map_err(|e| format!("cannot resume from its checkpoint: {e}"))?,
-                None => Simulation::new(&scene),
+                None => crate::methods::build(&scene),
             };
             sim.run(&mut observer).map_err(|e| e.to_string())
         }))
@@ -682,18 +681,19 @@ pub(crate) struct ObserverState {
 
 /// A job's checkpoint, read back: its series cut back to the checkpoint
 /// (and opened to append), the observer's counts, and the checkpoint for
-/// [`Simulation::resume`].
+/// [`crate::methods::resume`].
 fn resume_job(
     dir: &Path,
 ) -> Result<
     (
         std::fs::File,
         ObserverState,
-        crate::mpm::Checkpoint<'static>,
+        crate::checkpoint::Checkpoint<'static>,
     ),
     String,
 > {
-    let cp = crate::mpm::Checkpoint::load(&checkpoint_path(dir)).map_err(|e| e.to_string())?;
+    let cp =
+        crate::checkpoint::Checkpoint::load(&checkpoint_path(dir)).map_err(|e| e.to_string())?;
     let saved: ObserverState =
         postcard::from_bytes(&cp.observer).map_err(|e| format!("its observer state: {e}"))?;
     let series = crate::output::reopen_series(&dir.join("series.csv"), saved.series_bytes)
@@ -714,14 +714,14 @@ struct JobObserver<'a> {
     last_row: Option<SeriesRow>,
     /// Wall time of the job before its resume, s.
     wall_before: f64,
-    checkpoints: crate::mpm::CheckpointTimer,
+    checkpoints: crate::checkpoint::CheckpointTimer,
     stopping: &'a AtomicBool,
     /// A checkpoint for the server's shutdown was saved: stop.
     stop_next: bool,
 }
 
 impl Observer for JobObserver<'_> {
-    fn checkpoint(&mut self, mut cp: crate::mpm::Checkpoint<'_>) -> Result<(), String> {
+    fn checkpoint(&mut self, mut cp: crate::checkpoint::Checkpoint<'_>) -> Result<(), String> {
         let series_bytes =
             crate::output::flushed_len(&mut self.series, &self.dir.join("series.csv"))
                 .map_err(|e| e.to_string())?;

@@ -16,186 +16,61 @@ mod grid_update;
 mod p2g;
 mod setup;
 
-pub use checkpoint::{Checkpoint, CheckpointError, CheckpointTimer};
 pub use g2p::BadKind;
 
 use crate::contact::{self, ContactLaw};
 use crate::diagnostics::{measure, Control, Observer, Progress, SeriesRow};
-use crate::fracture::damage::model as damage;
-use crate::fracture::dfg::{Dfg, DfgFields};
-use crate::fracture::model::{FractureModel, RowContext, SeriesOut, StepContext};
-use crate::fracture::phase_field::model as phase;
+use crate::fracture::model::{
+    self as fm, FractureModel, RowContext, ScatterContext, SeriesOut, SlotContext, StepContext,
+};
 use crate::grid::shape::{by_kernel, Kernel};
-use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
+use crate::grid::{
+    Bins, DynSlots, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField,
+};
 use crate::material::Elastic;
+use crate::methods::MethodEntry;
 use crate::particles::Particles;
-use crate::scene::{Plan, Scene, ShapeFunctionKind, Stage};
+use crate::run::{Method, RunSummary, SimError, StageTime, StageTimes};
+use crate::scene::{Scene, ShapeFunctionKind, Stage};
 use grid_update::Boundary;
-use serde::Serialize;
 use std::time::Instant;
 
-/// Why a run stopped early.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum SimError {
-    #[error("step {step}, t = {time:.6e} s: particle {particle} has a non-finite {quantity}")]
-    NonFinite {
-        step: u64,
-        time: f64,
-        particle: u32,
-        quantity: &'static str,
-    },
-    #[error(
-        "step {step}, t = {time:.6e} s: particle {particle} left the grid at ({x:.6e}, {y:.6e}) m"
-    )]
-    LeftGrid {
-        step: u64,
-        time: f64,
-        particle: u32,
-        x: f64,
-        y: f64,
-    },
-    #[error("step {step}, t = {time:.6e} s: particle {particle} volume vanished or inverted (J = {j:.3e})")]
-    VolumeVanished {
-        step: u64,
-        time: f64,
-        particle: u32,
-        j: f64,
-    },
-    #[error("step {step}, t = {time:.6e} s: negative nodal mass {mass:.3e} kg at node {node} ({x:.6e}, {y:.6e}) m")]
-    NegativeMass {
-        step: u64,
-        time: f64,
-        node: usize,
-        mass: f64,
-        x: f64,
-        y: f64,
-    },
-    #[error(
-        "step {step}, t = {time:.6e} s: runaway energy: kinetic + strain = {energy:.6e} J exceeds {bound:.6e} J \
-         (guards.energy_growth × (initial energy + |external work|))"
-    )]
-    EnergyRunaway {
-        step: u64,
-        time: f64,
-        energy: f64,
-        bound: f64,
-    },
-    #[error(
-        "step {step}, t = {time:.6e} s: time.dt = {dt:.3e} s exceeds the CFL stability limit {limit:.3e} s \
-         (h / max(c + |v|), reached at particle {particle})"
-    )]
-    CflViolated {
-        step: u64,
-        time: f64,
-        dt: f64,
-        limit: f64,
-        particle: u32,
-    },
-    #[error("step {step}, t = {time:.6e} s: reached time.max_steps = {step} before time.end")]
-    MaxSteps { step: u64, time: f64 },
-    #[error(
-        "step {step}, t = {time:.6e} s: the time step dt = {dt:e} s does not advance the clock \
-         (cell size {h:e} m, signal speed max(c + |v|) = {signal:e} m/s, reached at particle {particle})"
-    )]
-    NoProgress {
-        step: u64,
-        time: f64,
-        dt: f64,
-        h: f64,
-        signal: f64,
-        particle: u32,
-    },
-    /// A fracture model's stage failed (a phase-field solve, say).
-    #[error("step {step}, t = {time:.6e} s: {message}")]
-    Fracture {
-        step: u64,
-        time: f64,
-        message: String,
-    },
-    #[error("writing results failed: {0}")]
-    Observer(String),
-}
+/// The grid MPM in the method registry ([`crate::methods`]): it runs
+/// every scene (the only method so far).
+pub const METHOD: MethodEntry = MethodEntry {
+    name: "grid_mpm",
+    runs: |_| true,
+    build: |scene| Box::new(Simulation::new(scene)),
+    resume: |scene, cp| Ok(Box::new(Simulation::resume(scene, cp)?)),
+};
 
-/// Wall time spent in each stage of the plan, s, in the plan's order, and
-/// in the diagnostics (series rows and snapshots, not a stage).
-#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
-pub struct StageTimes {
-    pub stages: Vec<StageTime>,
-    pub diagnostics: f64,
-}
-
-/// One stage's wall time, s.
-#[derive(Debug, Clone, Copy, Serialize, serde::Deserialize)]
-pub struct StageTime {
-    pub stage: Stage,
-    pub seconds: f64,
-    /// Steps in which the stage ran its code.
-    pub runs: u64,
-}
-
-impl StageTimes {
-    /// Zero for every stage of `plan`.
-    pub fn new(plan: &Plan) -> StageTimes {
-        StageTimes {
-            stages: plan
-                .stages
-                .iter()
-                .map(|&stage| StageTime {
-                    stage,
-                    seconds: 0.0,
-                    runs: 0,
-                })
-                .collect(),
-            diagnostics: 0.0,
-        }
+impl Method for Simulation {
+    fn name(&self) -> &'static str {
+        METHOD.name
     }
-
-    /// The seconds spent in the stages `pick` selects.
-    pub fn sum(&self, pick: impl Fn(Stage) -> bool) -> f64 {
-        self.stages
-            .iter()
-            .filter(|t| pick(t.stage))
-            .map(|t| t.seconds)
-            .sum()
+    fn scene(&self) -> &Scene {
+        Simulation::scene(self)
     }
-
-    /// The seconds spent in `stage` (0 when the plan does not have it).
-    pub fn get(&self, stage: Stage) -> f64 {
-        self.stages
-            .iter()
-            .find(|t| t.stage == stage)
-            .map_or(0.0, |t| t.seconds)
+    fn particles(&self) -> &Particles {
+        Simulation::particles(self)
     }
-}
-
-/// What a finished (or cancelled) run reports.
-#[derive(Debug, Clone, Serialize)]
-pub struct RunSummary {
-    pub steps: u64,
-    /// Simulated time reached, s.
-    pub time: f64,
-    pub wall_seconds: f64,
-    pub particles: usize,
-    /// The plan's stage names.
-    pub stages: Vec<&'static str>,
-    pub cancelled: bool,
-    pub last_row: SeriesRow,
-    pub stage_seconds: StageTimes,
-    /// Steps in which at least one node had fields in contact.
-    pub contact_steps: u64,
-    /// Each fracture model's part ([`FractureModel::summary`]) under its
-    /// name: `phase_field` (the solver's times and counts, `SolveStats`),
-    /// `dfg` (neighbour-list builds, separated nodes, `DfgStats`), `damage`.
-    pub fracture: serde_json::Map<String, serde_json::Value>,
-}
-
-impl RunSummary {
-    /// A model's part of the summary read as `T` (e.g. `SolveStats` for
-    /// `phase_field`); None when the scene has no such model.
-    pub fn model<T: serde::de::DeserializeOwned>(&self, name: &str) -> Option<T> {
-        self.fracture
-            .get(name)
-            .and_then(|v| serde_json::from_value(v.clone()).ok())
+    fn time(&self) -> f64 {
+        Simulation::time(self)
+    }
+    fn steps(&self) -> u64 {
+        Simulation::steps(self)
+    }
+    fn series_columns(&mut self) -> Vec<String> {
+        Simulation::series_columns(self)
+    }
+    fn step(&mut self) -> Result<f64, SimError> {
+        Simulation::step(self)
+    }
+    fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {
+        Simulation::run(self, obs)
+    }
+    fn stage_times(&self) -> &StageTimes {
+        Simulation::stage_times(self)
     }
 }
 
@@ -213,12 +88,9 @@ pub struct Simulation {
     pub(crate) bins: Bins,
     boundary: Boundary,
     tractions: setup::Tractions,
-    /// Present iff the plan has the phase-field stages.
-    pub(crate) phase: Option<phase::PhaseFields>,
-    /// Present iff the plan has the damage stage.
-    damage: Option<damage::DamageState>,
-    /// Present iff the plan has the damage-field stage.
-    dfg: Option<Dfg>,
+    /// The scene's fracture models, in the order of
+    /// [`crate::fracture::MODELS`].
+    pub(crate) models: Vec<Box<dyn FractureModel>>,
     /// Dense contact group of each particle (a copy of `parts.group` the
     /// field slots borrow while the step mutates the particles).
     group_of: Vec<u8>,
@@ -276,25 +148,16 @@ impl Simulation {
         self.step
     }
 
-    /// Phase-field solver times and counts so far (with a phase field).
-    pub fn phase_field_stats(&self) -> Option<crate::fracture::phase_field::system::SolveStats> {
-        self.phase.as_ref().map(|p| p.stats())
+    /// The scene's fracture model of type `T` (e.g.
+    /// [`crate::fracture::phase_field::model::PhaseFields`], whose solver
+    /// counters `cleave bench-phase-field` reads), if it has one.
+    pub fn model<T: std::any::Any>(&self) -> Option<&T> {
+        fm::find(&self.models)
     }
 
-    /// One numeric factorization of the given kind of every phase-field
-    /// system's current matrix, counted in [`Self::phase_field_stats`]
-    /// (`cleave bench-phase-field`); None without a phase field.
-    pub fn factorize_phase_field(
-        &mut self,
-        kind: crate::fracture::phase_field::system::FactorKind,
-    ) -> Option<Result<(), crate::fracture::phase_field::system::PhaseFieldError>> {
-        self.phase.as_mut().map(|p| p.factorize_kind(kind))
-    }
-
-    /// Unknowns of the phase-field systems' last assembly, summed over the
-    /// bodies (0 without a phase field).
-    pub fn phase_field_unknowns(&self) -> usize {
-        self.phase.as_ref().map_or(0, |p| p.unknowns())
+    /// [`Self::model`], mutable.
+    pub fn model_mut<T: std::any::Any>(&mut self) -> Option<&mut T> {
+        fm::find_mut(&mut self.models)
     }
 
     /// Wall time spent in each stage so far.
@@ -303,8 +166,8 @@ impl Simulation {
     }
 
     /// The series' column names: [`SeriesRow::COLUMNS`], then each
-    /// fracture model's ([`FractureModel::series`]: the phase field's, the
-    /// DFG's, the damage model's, in that order).
+    /// fracture model's ([`FractureModel::series`], in the order of
+    /// [`crate::fracture::MODELS`]).
     pub fn series_columns(&mut self) -> Vec<String> {
         let mut c: Vec<String> = SeriesRow::COLUMNS.iter().map(|s| s.to_string()).collect();
         let mut out = SeriesOut::declare();
@@ -316,12 +179,9 @@ impl Simulation {
         c
     }
 
-    /// The scene's fracture models, read-only, in the order of [`models`].
+    /// The scene's fracture models, read-only.
     fn model_list(&self) -> impl Iterator<Item = &dyn FractureModel> {
-        let phase = self.phase.as_ref().map(|m| m as &dyn FractureModel);
-        let dfg = self.dfg.as_ref().map(|m| m as &dyn FractureModel);
-        let damage = self.damage.as_ref().map(|m| m as &dyn FractureModel);
-        [phase, dfg, damage].into_iter().flatten()
+        self.models.iter().map(|m| m.as_ref())
     }
 
     /// What the models report from (with kinetic + strain `energy` now),
@@ -331,15 +191,13 @@ impl Simulation {
         energy: f64,
     ) -> (
         RowContext<'_>,
-        impl Iterator<Item = &mut dyn FractureModel> + '_,
+        impl Iterator<Item = &mut (dyn FractureModel + 'static)> + '_,
     ) {
         let Simulation {
             scene,
             geom,
             parts,
-            phase,
-            dfg,
-            damage,
+            models,
             step,
             time,
             initial_energy,
@@ -356,7 +214,7 @@ impl Simulation {
             initial_energy: *initial_energy,
             external_work: *external_work,
         };
-        (at, models(phase, dfg, damage))
+        (at, models.iter_mut().map(|m| m.as_mut()))
     }
 
     /// Runs to `time.end`, reporting rows, snapshots and progress to `obs`.
@@ -570,19 +428,33 @@ impl Simulation {
             return self.stages::<K, _>(dt, &SingleField, None, nodes, rest);
         };
         let group = std::mem::take(&mut self.group_of);
-        let mut dfg = self.dfg.take();
+        // A model that splits the fields runs the stages before the
+        // scatter and decides the slots; it is out of `self.models` for
+        // the step, so that the others run while its slots are borrowed.
+        let at = self
+            .models
+            .iter_mut()
+            .position(|m| m.field_split().is_some());
+        let mut split = at.map(|i| self.models.remove(i));
         let mut slots_n = nodes;
         for t in pre.iter_mut() {
             let t0 = Instant::now();
-            let ran = match (t.stage, dfg.as_mut()) {
-                (Stage::DamageField, Some(d)) => {
-                    d.field::<K>(&self.geom, &self.parts, &self.bins);
+            let ctx = ScatterContext {
+                geom: &self.geom,
+                parts: &self.parts,
+                bins: &self.bins,
+                kernel: self.scene.file.grid.shape_function,
+            };
+            let by_model = split
+                .as_mut()
+                .and_then(|m| m.field_split())
+                .and_then(|s| s.before_scatter(t.stage, ctx, &mut multi));
+            let ran = match (t.stage, by_model) {
+                (Stage::FieldPartition, Some(n)) => {
+                    slots_n = n;
                     true
                 }
-                (Stage::FieldPartition, Some(d)) => {
-                    slots_n = d.partition::<K>(&self.geom, &self.parts, &self.bins, &mut multi);
-                    true
-                }
+                (_, Some(_)) => true,
                 (Stage::FieldPartition, None) => {
                     slots_n =
                         p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi);
@@ -593,19 +465,18 @@ impl Simulation {
             t.seconds += t0.elapsed().as_secs_f64();
             t.runs += u64::from(ran);
         }
-        let r = match &dfg {
-            Some(d) => {
-                let slots = DfgFields {
-                    x: &d.x_partition,
-                    cut: &d.cut,
-                    normal: d.normals(),
-                    nodes,
-                    multi: &multi,
-                    group: &group,
-                    grad: &d.grad,
-                    node_grad: &d.node_grad,
-                };
-                self.stages::<K, _>(dt, &slots, Some(&multi), slots_n, rest)
+        let at_slots = SlotContext {
+            nodes,
+            multi: &multi,
+            group: &group,
+        };
+        let r = match split.as_mut().and_then(|m| m.field_split()) {
+            Some(s) => {
+                let mut r = Ok(());
+                s.with_slots(at_slots, &mut |slots| {
+                    r = self.stages::<K, _>(dt, &DynSlots(slots), Some(&multi), slots_n, rest);
+                });
+                r
             }
             None => {
                 let slots = GroupFields {
@@ -616,9 +487,11 @@ impl Simulation {
                 self.stages::<K, _>(dt, &slots, Some(&multi), slots_n, rest)
             }
         };
+        if let (Some(i), Some(m)) = (at, split) {
+            self.models.insert(i, m);
+        }
         self.multi = Some(multi);
         self.group_of = group;
-        self.dfg = dfg;
         r
     }
 
@@ -748,7 +621,9 @@ impl Simulation {
                             row_due: self.row_due,
                             output_due: self.output_due,
                         };
-                        let mut owner = models(&mut self.phase, &mut self.dfg, &mut self.damage)
+                        let mut owner = self
+                            .models
+                            .iter_mut()
                             .filter(|m| m.stages().contains(&stage));
                         let Some(model) = owner.next() else {
                             break 'stage false;
@@ -1012,18 +887,4 @@ impl Simulation {
         self.times.diagnostics += t0.elapsed().as_secs_f64();
         obs.snapshot(&snap).map_err(SimError::Observer)
     }
-}
-
-/// The scene's fracture models, in the series' column order. A new model
-/// is one more entry here and in [`Simulation::model_list`] (and its state
-/// in [`Simulation`]).
-fn models<'a>(
-    phase: &'a mut Option<phase::PhaseFields>,
-    dfg: &'a mut Option<Dfg>,
-    damage: &'a mut Option<damage::DamageState>,
-) -> impl Iterator<Item = &'a mut dyn FractureModel> + 'a {
-    let phase = phase.as_mut().map(|m| m as &mut dyn FractureModel);
-    let dfg = dfg.as_mut().map(|m| m as &mut dyn FractureModel);
-    let damage = damage.as_mut().map(|m| m as &mut dyn FractureModel);
-    [phase, dfg, damage].into_iter().flatten()
 }

@@ -4,6 +4,7 @@
 use super::grid_update::Boundary;
 use super::{Simulation, StageTimes};
 use crate::contact::ContactLaw;
+use crate::fracture::model::SetupContext;
 use crate::geometry;
 use crate::grid::shape::{self, Kernel};
 use crate::grid::{particle_support, Bins, FieldSlots, GridFields, GridGeom, MultiField};
@@ -88,9 +89,6 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         }
     }
 
-    // Damage strengths are drawn in seeding order (same seed, same result).
-    let mut damage = crate::fracture::damage::model::DamageState::new(scene, &mut parts);
-
     // Store the particles in the bins' order (by tile, and by support in a
     // tile): the coloured stages then walk memory in order.
     let support = shape::support(file.grid.shape_function);
@@ -107,12 +105,24 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         min_mass = min_mass.min(parts.mass[p]);
     }
 
+    // The scene's fracture models, in the order of the registry.
+    let mut at = SetupContext {
+        scene,
+        geom: &geom,
+        parts: &mut parts,
+    };
+    let mut models: Vec<_> = crate::fracture::MODELS
+        .iter()
+        .filter_map(|build| build(&mut at))
+        .collect();
+    let split = models.iter_mut().find_map(|m| m.field_split());
+
     let groups = scene.contact_groups.len();
     let mut friction = ContactLaw {
         groups,
         mu: vec![file.contact.friction; groups * groups],
-        fields_per_group: if file.dfg.is_some() { 2 } else { 1 },
-        self_friction: file.dfg.as_ref().map_or(0.0, |d| d.friction),
+        fields_per_group: if split.is_some() { 2 } else { 1 },
+        self_friction: split.map_or(0.0, |s| s.self_friction()),
         full_node_mass: mats.iter().map(|m| m.density).fold(f64::INFINITY, f64::min)
             * file.grid.cell_size
             * file.grid.cell_size
@@ -132,30 +142,6 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             friction.mu[b * groups + a] = pair.friction;
         }
     }
-
-    if let Some(d) = damage.as_mut() {
-        d.place_cracks(scene, &mut parts);
-    }
-    let dfg = file.dfg.as_ref().map(|spec| {
-        let params = crate::fracture::dfg::DfgParams {
-            radius: spec.radius * file.grid.cell_size * std::f64::consts::SQRT_2,
-            rebuild_fraction: spec.rebuild_fraction,
-            separability: spec.separability,
-        };
-        let damaged: Vec<bool> = scene
-            .materials
-            .iter()
-            .map(|m| m.damage.is_some() || m.phase_field.is_some())
-            .collect();
-        crate::fracture::dfg::Dfg::new(
-            params,
-            &geom,
-            &parts,
-            spec.self_contact.then_some(spec.surface_threshold),
-            &damaged,
-        )
-    });
-    let phase = crate::fracture::phase_field::model::PhaseFields::new(scene, &mut parts);
     let tractions = Tractions::new(scene, &parts);
     Simulation {
         scene: scene.clone(),
@@ -167,9 +153,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         friction,
         bins,
         tractions,
-        phase,
-        damage,
-        dfg,
+        models,
         group_of: parts.group.clone(),
         parts,
         apic,

@@ -16,8 +16,8 @@ pub use plot::{
 };
 pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
 
+use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::diagnostics::{Observer, SeriesRow, Snapshot};
-use crate::mpm::{Checkpoint, CheckpointError};
 use serde::Serialize;
 use std::fs::File;
 use std::io::{BufWriter, Write};

@@ -7,7 +7,8 @@ use crate::diagnostics::fragments::{FragmentFinder, Fragments, NONE};
 use crate::diagnostics::{Field, FieldData};
 use crate::fracture::damage::{DamageLaw, DamageStep};
 use crate::fracture::model::{
-    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, StepContext,
+    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut,
+    SetupContext, StepContext,
 };
 use crate::particles::Particles;
 use crate::scene::{Scene, Stage};
@@ -52,9 +53,18 @@ struct TrackedCrack {
     tracker: TipTracker,
 }
 
+/// The damage stage for a scene whose plan has it, with the initial
+/// cracks placed.
+pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>> {
+    let mut state = DamageState::new(at.scene, at.parts)?;
+    state.place_cracks(at.scene, at.parts);
+    Some(Box::new(state))
+}
+
 impl DamageState {
     /// The laws of the scene's materials, or `None` without damage. Fills
-    /// `parts.damage` and `parts.strength` (particles in seeding order).
+    /// `parts.damage` and `parts.strength` (drawn in seeding order, that
+    /// of `parts.id`, whatever order the particles are stored in).
     pub(crate) fn new(scene: &Scene, parts: &mut Particles) -> Option<DamageState> {
         // the plan decides: a named damage material no body uses adds nothing
         if !scene.plan.has(crate::scene::Stage::Damage) {
@@ -67,7 +77,14 @@ impl DamageState {
             failed_volume: 0.5 * h * h * scene.file.analysis.thickness,
         };
         parts.damage = vec![0.0; parts.len()];
-        parts.strength = law.strengths(&parts.material, &parts.vol0);
+        let mut seeded: Vec<usize> = (0..parts.len()).collect();
+        seeded.sort_unstable_by_key(|&p| parts.id[p]);
+        let material: Vec<u16> = seeded.iter().map(|&p| parts.material[p]).collect();
+        let vol0: Vec<f64> = seeded.iter().map(|&p| parts.vol0[p]).collect();
+        parts.strength = vec![0.0; parts.len()];
+        for (&p, s) in seeded.iter().zip(law.strengths(&material, &vol0)) {
+            parts.strength[p] = s;
+        }
         Some(DamageState {
             law,
             dissipated: 0.0,

@@ -331,6 +331,8 @@ pub struct DfgParams {
     pub rebuild_fraction: f64,
     /// D_min of the separability condition.
     pub separability: f64,
+    /// Coulomb friction between a group's two sides where they touch.
+    pub self_friction: f64,
 }
 
 /// Per-node sums of the separability test, for sides 0 and 1:

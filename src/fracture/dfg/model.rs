@@ -1,14 +1,86 @@
-//! DFG partitioning as a [`FractureModel`]: its series columns. Its two
-//! stages (`damage_field`, `field_partition`) decide the velocity field of
-//! every particle–node pair before the scatter, so the step runs them
-//! where it builds its field slots (`mpm::Simulation`), not through
+//! DFG partitioning as a [`FractureModel`]. Its two stages
+//! (`damage_field`, `field_partition`) decide the velocity field of every
+//! particle–node pair before the scatter, so they run through its
+//! [`FieldSplit`] (where the step builds its field slots), not through
 //! [`FractureModel::run`].
 
-use super::Dfg;
+use super::{Dfg, DfgFields, DfgParams};
 use crate::fracture::model::{
-    decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, StepContext,
+    decode, encode, FieldSplit, FractureModel, RestoreContext, RowContext, ScatterContext,
+    SeriesOut, SetupContext, SlotContext, StepContext,
 };
+use crate::grid::shape::by_kernel;
+use crate::grid::{FieldSlots, MultiField};
 use crate::scene::Stage;
+
+/// DFG partitioning for a scene with a `[dfg]` table: the kernel radius
+/// in cells of the diagonal, and the materials that can be damaged (those
+/// with a fracture model).
+pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>> {
+    let (scene, file) = (at.scene, &at.scene.file);
+    let spec = file.dfg.as_ref()?;
+    let params = DfgParams {
+        radius: spec.radius * file.grid.cell_size * std::f64::consts::SQRT_2,
+        rebuild_fraction: spec.rebuild_fraction,
+        separability: spec.separability,
+        self_friction: spec.friction,
+    };
+    let damaged: Vec<bool> = scene
+        .materials
+        .iter()
+        .map(|m| m.damage.is_some() || m.phase_field.is_some())
+        .collect();
+    Some(Box::new(Dfg::new(
+        params,
+        at.geom,
+        at.parts,
+        spec.self_contact.then_some(spec.surface_threshold),
+        &damaged,
+    )))
+}
+
+impl FieldSplit for Dfg {
+    fn self_friction(&self) -> f64 {
+        self.params.self_friction
+    }
+
+    fn before_scatter(
+        &mut self,
+        stage: Stage,
+        at: ScatterContext<'_>,
+        multi: &mut MultiField,
+    ) -> Option<usize> {
+        let ScatterContext {
+            geom,
+            parts,
+            bins,
+            kernel,
+        } = at;
+        match stage {
+            Stage::DamageField => {
+                by_kernel!(kernel, K => self.field::<K>(geom, parts, bins));
+                Some(geom.node_count())
+            }
+            Stage::FieldPartition => {
+                Some(by_kernel!(kernel, K => self.partition::<K>(geom, parts, bins, multi)))
+            }
+            _ => None,
+        }
+    }
+
+    fn with_slots(&self, at: SlotContext<'_>, run: &mut dyn FnMut(&dyn FieldSlots)) {
+        run(&DfgFields {
+            x: &self.x_partition,
+            cut: &self.cut,
+            normal: self.normals(),
+            nodes: at.nodes,
+            multi: at.multi,
+            group: at.group,
+            grad: &self.grad,
+            node_grad: &self.node_grad,
+        })
+    }
+}
 
 /// What a checkpoint keeps of DFG: the positions its neighbour lists were
 /// built at and the builds so far.
@@ -59,5 +131,9 @@ impl FractureModel for Dfg {
         }
         self.restore_neighbours(at.geom, at.parts, &s.x_built, s.builds);
         Ok(())
+    }
+
+    fn field_split(&mut self) -> Option<&mut dyn FieldSplit> {
+        Some(self)
     }
 }

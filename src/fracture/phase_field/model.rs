@@ -23,7 +23,8 @@
 use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::{Field, FieldData};
 use crate::fracture::model::{
-    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, StepContext,
+    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut,
+    SetupContext, StepContext,
 };
 use crate::fracture::phase_field::system::{
     self, FactorKind, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem,
@@ -131,7 +132,7 @@ pub(crate) struct RowStats {
 }
 
 /// The phase fields of a simulation.
-pub(crate) struct PhaseFields {
+pub struct PhaseFields {
     bodies: Vec<Body>,
     method: SolveMethod,
     max_staggers: u32,
@@ -174,6 +175,11 @@ fn of_body<'a>(parts: &'a Particles, body: u16, bins: Option<&'a Bins>) -> Field
         body: Some((&parts.body, body)),
         bins,
     }
+}
+
+/// The phase fields of a scene's phase-field bodies, if it has any.
+pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>> {
+    PhaseFields::new(at.scene, at.parts).map(|m| Box::new(m) as Box<dyn FractureModel>)
 }
 
 impl PhaseFields {
@@ -590,7 +596,7 @@ impl PhaseFields {
     }
 
     /// Solver times and counts summed over the bodies.
-    pub(crate) fn stats(&self) -> SolveStats {
+    pub fn stats(&self) -> SolveStats {
         let mut s = SolveStats::default();
         for b in &self.bodies {
             let t = b.system.stats;
@@ -612,13 +618,13 @@ impl PhaseFields {
     }
 
     /// Unknowns of the last assemblies, summed over the bodies.
-    pub(crate) fn unknowns(&self) -> usize {
+    pub fn unknowns(&self) -> usize {
         self.bodies.iter().map(|b| b.system.len()).sum()
     }
 
     /// One numeric factorization of the given kind of every body's
     /// system, counted in [`Self::stats`] (`cleave bench-phase-field`).
-    pub(crate) fn factorize_kind(&mut self, kind: FactorKind) -> Result<(), PhaseFieldError> {
+    pub fn factorize_kind(&mut self, kind: FactorKind) -> Result<(), PhaseFieldError> {
         for b in &mut self.bodies {
             b.system.factorize_kind(kind)?;
         }
@@ -824,7 +830,7 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
 "#;
         let scene = Scene::from_text(text, None).unwrap();
         let mut sim = crate::mpm::Simulation::new(&scene);
-        let pf = sim.phase.as_mut().unwrap();
+        let pf = crate::fracture::model::find_mut::<PhaseFields>(&mut sim.models).unwrap();
         pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, true)
             .unwrap();
         let c = pf.bodies[0].c.clone();
@@ -862,7 +868,7 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
             moved > 1.5 * solved,
             "measured after the move: {moved} against {solved}"
         );
-        let pf = sim.phase.as_mut().unwrap();
+        let pf = crate::fracture::model::find_mut::<PhaseFields>(&mut sim.models).unwrap();
         assert_eq!(
             pf.fracture_energies::<K>(&sim.geom, &sim.parts),
             vec![solved]
@@ -873,7 +879,7 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
             .sum();
         assert!((sum - solved).abs() < 1e-12 * solved);
         // the next step starts without the record
-        let pf = sim.phase.as_mut().unwrap();
+        let pf = crate::fracture::model::find_mut::<PhaseFields>(&mut sim.models).unwrap();
         pf.current = true;
         pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, false)
             .unwrap();
