@@ -5,9 +5,8 @@
 
 use super::{Field, FieldData, GridSnapshot, Snapshot};
 use crate::grid::{GridFields, GridGeom, MultiField};
-use crate::material::Elastic;
+use crate::material::{Elastic, MaterialModel};
 use crate::particles::Particles;
-use crate::scene::MaterialModel;
 use rayon::prelude::*;
 
 const CHUNK: usize = 4096;

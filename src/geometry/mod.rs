@@ -4,7 +4,38 @@
 //! sub-grid of every background cell whose sub-cell centre lies inside the
 //! body's shape and outside its holes.
 
-use crate::scene::ShapeSpec;
+use serde::{Deserialize, Serialize};
+
+/// A region of the plane: a body's `shape` and its `holes` in a scene.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ShapeSpec {
+    /// Axis-aligned rectangle.
+    Box {
+        min: [f64; 2],
+        max: [f64; 2],
+    },
+    Disk {
+        center: [f64; 2],
+        radius: f64,
+    },
+    Ring {
+        center: [f64; 2],
+        inner_radius: f64,
+        outer_radius: f64,
+    },
+    /// Simple polygon, vertices in order (either orientation).
+    Polygon {
+        vertices: Vec<[f64; 2]>,
+    },
+    /// A straight slot of the given width from `start` to `end` (a notch
+    /// when subtracted from a body).
+    Slot {
+        start: [f64; 2],
+        end: [f64; 2],
+        width: f64,
+    },
+}
 
 /// Axis-aligned bounding box.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -291,11 +322,12 @@ pub fn distance_to_polyline(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
 
 /// Whether a particle at `p` with lattice spacing `spacing` lies on one of
 /// the initial cracks: within 0.55 spacings of its polyline (one particle
-/// row for a crack along a row, two for a crack between rows).
-pub fn on_cracks(p: [f64; 2], cracks: &[crate::scene::CrackSpec], spacing: f64) -> bool {
+/// row for a crack along a row, two for a crack between rows). A crack is
+/// anything that gives its polyline's points (the scene's `CrackSpec` does).
+pub fn on_cracks(p: [f64; 2], cracks: &[impl AsRef<[[f64; 2]]>], spacing: f64) -> bool {
     cracks
         .iter()
-        .any(|c| distance_to_polyline(p, &c.points) < 0.55 * spacing)
+        .any(|c| distance_to_polyline(p, c.as_ref()) < 0.55 * spacing)
 }
 
 #[cfg(test)]

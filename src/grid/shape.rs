@@ -13,7 +13,23 @@
 //! - quadratic B-spline (Steffen et al. 2008), support 3 nodes, C¹;
 //! - cubic B-spline, support 4 nodes, C².
 
-use crate::scene::ShapeFunctionKind;
+use serde::{Deserialize, Serialize};
+
+/// The grid's shape functions (a scene's `grid.shape_function`);
+/// `by_kernel!` turns one into its kernel type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShapeFunctionKind {
+    /// Bilinear hat functions (C⁰, cell-crossing noise).
+    Linear,
+    /// Uniform GIMP with the particle domain fixed at its initial size.
+    Gimp,
+    /// Quadratic B-splines (C¹): the default.
+    #[default]
+    QuadraticBspline,
+    /// Cubic B-splines (C²).
+    CubicBspline,
+}
 
 /// Evaluates `body` with the type `K` bound to the kernel of `kind`: one
 /// dispatch from the scene's shape function to the generic stages.
@@ -24,7 +40,7 @@ macro_rules! by_kernel {
     // each ShapeFunctionKind variant is named as its kernel type
     (@arms $kind:expr, $K:ident, $body:expr, $($kernel:ident),*) => {
         match $kind {
-            $($crate::scene::ShapeFunctionKind::$kernel => {
+            $($crate::grid::shape::ShapeFunctionKind::$kernel => {
                 type $K = $crate::grid::shape::$kernel;
                 $body
             })*

@@ -7,7 +7,43 @@
 //! - Compressible neo-Hookean (plane strain, F_zz = 1):
 //!   σ = μ/J (F Fᵀ − I) + λ ln J / J · I, ψ = μ/2 (tr C − 3) − μ ln J + λ/2 (ln J)².
 
-use crate::scene::{MaterialModel, PlaneKind, ResolvedMaterial};
+use serde::{Deserialize, Serialize};
+
+/// The constitutive model of a material (a scene material's `model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialModel {
+    /// Small-strain isotropic linear elasticity.
+    LinearElastic,
+    /// Compressible neo-Hookean: σ = μ/J (F Fᵀ − I) + λ ln J / J · I.
+    NeoHookean,
+}
+
+/// Plane strain or plane stress (a scene's `analysis.plane`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlaneKind {
+    #[default]
+    PlaneStrain,
+    PlaneStress,
+}
+
+/// A material's model and constants as given and derived, which
+/// [`Elastic::new`] takes (the scene's `ResolvedMaterial` gives them).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ElasticConstants {
+    pub model: MaterialModel,
+    /// Mass density, kg/m³.
+    pub density: f64,
+    /// Young's modulus E, Pa.
+    pub youngs_modulus: f64,
+    pub poissons_ratio: f64,
+    /// Lamé constants, Pa.
+    pub lambda: f64,
+    pub mu: f64,
+    /// Dilatational wave speed of the 2D model at rest, m/s.
+    pub wave_speed: f64,
+}
 
 /// Per-material constants in the form the hot loop wants.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -27,7 +63,7 @@ pub struct Elastic {
 }
 
 impl Elastic {
-    pub fn new(m: &ResolvedMaterial, plane: PlaneKind) -> Elastic {
+    pub fn new(m: &ElasticConstants, plane: PlaneKind) -> Elastic {
         let (lambda, mu, e, nu) = (m.lambda, m.mu, m.youngs_modulus, m.poissons_ratio);
         let (c11, c12) = match plane {
             PlaneKind::PlaneStrain => (lambda + 2.0 * mu, lambda),
@@ -217,16 +253,13 @@ mod tests {
 
     fn steel(model: MaterialModel, plane: PlaneKind) -> Elastic {
         let (e, nu) = (200e9, 0.3);
-        let m = ResolvedMaterial {
-            name: "s".into(),
+        let m = ElasticConstants {
             model,
             density: 7800.0,
             youngs_modulus: e,
             poissons_ratio: nu,
             lambda: e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
             mu: e / (2.0 * (1.0 + nu)),
-            phase_field: None,
-            damage: None,
             wave_speed: 5000.0,
         };
         Elastic::new(&m, plane)

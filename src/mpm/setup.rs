@@ -23,7 +23,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     let mats: Vec<Elastic> = scene
         .materials
         .iter()
-        .map(|m| Elastic::new(m, file.analysis.plane))
+        .map(|m| Elastic::new(&m.elastic_constants(), file.analysis.plane))
         .collect();
     let apic = file.transfer.scheme == TransferKind::Apic;
     let gimp = file.grid.shape_function == ShapeFunctionKind::Gimp;

@@ -9,6 +9,12 @@ use serde::{Deserialize, Deserializer, Serialize};
 use std::collections::BTreeMap;
 use std::fmt;
 
+// Types the base layer defines and the scene file names: the scene builds
+// base types, the base imports nothing from the scene (tests/layers.rs).
+pub use crate::geometry::ShapeSpec;
+pub use crate::grid::shape::ShapeFunctionKind;
+pub use crate::material::{MaterialModel, PlaneKind};
+
 /// The whole scene file.
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -201,20 +207,6 @@ pub struct GridSpec {
     pub boundary: BoundarySpec,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ShapeFunctionKind {
-    /// Bilinear hat functions (C⁰, cell-crossing noise).
-    Linear,
-    /// Uniform GIMP with the particle domain fixed at its initial size.
-    Gimp,
-    /// Quadratic B-splines (C¹): the default.
-    #[default]
-    QuadraticBspline,
-    /// Cubic B-splines (C²).
-    CubicBspline,
-}
-
 /// Boundary conditions on the four sides of the grid.
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -360,14 +352,6 @@ impl TimeFunction {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PlaneKind {
-    #[default]
-    PlaneStrain,
-    PlaneStress,
-}
-
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct AnalysisSpec {
@@ -460,15 +444,6 @@ impl Default for TransferSpec {
 
 fn default_flip_blend() -> f64 {
     0.99
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MaterialModel {
-    /// Small-strain isotropic linear elasticity.
-    LinearElastic,
-    /// Compressible neo-Hookean: σ = μ/J (F Fᵀ − I) + λ ln J / J · I.
-    NeoHookean,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -616,37 +591,6 @@ impl<'de> Deserialize<'de> for MaterialRef {
     }
 }
 
-/// A region of the plane.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-pub enum ShapeSpec {
-    /// Axis-aligned rectangle.
-    Box {
-        min: [f64; 2],
-        max: [f64; 2],
-    },
-    Disk {
-        center: [f64; 2],
-        radius: f64,
-    },
-    Ring {
-        center: [f64; 2],
-        inner_radius: f64,
-        outer_radius: f64,
-    },
-    /// Simple polygon, vertices in order (either orientation).
-    Polygon {
-        vertices: Vec<[f64; 2]>,
-    },
-    /// A straight slot of the given width from `start` to `end` (a notch
-    /// when subtracted from a body).
-    Slot {
-        start: [f64; 2],
-        end: [f64; 2],
-        width: f64,
-    },
-}
-
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BodySpec {
@@ -701,6 +645,13 @@ pub struct CrackSpec {
     /// How a phase-field body's initial history is laid along the crack.
     #[serde(default)]
     pub profile: CrackProfile,
+}
+
+/// A crack's polyline, for [`crate::geometry::on_cracks`].
+impl AsRef<[[f64; 2]]> for CrackSpec {
+    fn as_ref(&self) -> &[[f64; 2]] {
+        &self.points
+    }
 }
 
 /// The initial history of a phase-field crack (Kakouris & Triantafyllou §5.1: "an initial

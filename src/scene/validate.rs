@@ -6,6 +6,7 @@ use super::plan::Plan;
 use super::schema::*;
 use super::{FieldError, SceneError};
 use crate::geometry::{self, Lattice};
+use crate::material::ElasticConstants;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -41,6 +42,22 @@ pub struct ResolvedMaterial {
     /// Dilatational wave speed of the 2D model at rest, m/s:
     /// √((λ+2μ)/ρ) in plane strain, √(E/(ρ(1−ν²))) in plane stress.
     pub wave_speed: f64,
+}
+
+impl ResolvedMaterial {
+    /// Its elastic part, as the material layer takes it
+    /// ([`Elastic::new`](crate::material::Elastic::new)).
+    pub fn elastic_constants(&self) -> ElasticConstants {
+        ElasticConstants {
+            model: self.model,
+            density: self.density,
+            youngs_modulus: self.youngs_modulus,
+            poissons_ratio: self.poissons_ratio,
+            lambda: self.lambda,
+            mu: self.mu,
+            wave_speed: self.wave_speed,
+        }
+    }
 }
 
 /// A damage model with the constants the update uses (Homel & Herbold 2017, section 2.7).
