@@ -1,25 +1,11 @@
 //! The simulation methods, and which one a scene runs: the one place
 //! that names them. Adding a method: its module (implementing
-//! [`Method`]), and one entry in [`METHODS`].
+//! [`Method`] and declaring its [`MethodEntry`]), and one entry in
+//! [`METHODS`].
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
-use crate::run::Method;
+use crate::run::{Method, MethodEntry, Resumed};
 use crate::scene::Scene;
-
-/// A method's run resumed from a checkpoint it wrote.
-pub type Resumed = Result<Box<dyn Method>, CheckpointError>;
-
-/// A simulation method as the registry knows it.
-pub struct MethodEntry {
-    /// Its name, as checkpoints record it ([`Method::name`]).
-    pub name: &'static str,
-    /// Whether a validated scene runs this method.
-    pub runs: fn(&Scene) -> bool,
-    /// Sets up the scene's run.
-    pub build: fn(&Scene) -> Box<dyn Method>,
-    /// The run at a checkpoint this method wrote.
-    pub resume: fn(&Scene, Checkpoint<'_>) -> Resumed,
-}
 
 /// Every method, the first whose `runs` accepts a scene runs it.
 pub const METHODS: &[MethodEntry] = &[crate::mpm::METHOD];

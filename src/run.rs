@@ -12,6 +12,7 @@
 //! ([`SimError`]), the time per stage of its plan ([`StageTimes`]), the
 //! summary.
 
+use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::diagnostics::{Observer, SeriesRow};
 use crate::fracture::model::AsAny;
 use crate::particles::Particles;
@@ -50,6 +51,21 @@ pub trait Method: Send + AsAny {
 
     /// Wall time spent in each stage of the plan so far.
     fn stage_times(&self) -> &StageTimes;
+}
+
+/// A method's run resumed from a checkpoint it wrote.
+pub type Resumed = Result<Box<dyn Method>, CheckpointError>;
+
+/// A simulation method as the registry knows it.
+pub struct MethodEntry {
+    /// Its name, as checkpoints record it ([`Method::name`]).
+    pub name: &'static str,
+    /// Whether a validated scene runs this method.
+    pub runs: fn(&Scene) -> bool,
+    /// Sets up the scene's run.
+    pub build: fn(&Scene) -> Box<dyn Method>,
+    /// The run at a checkpoint this method wrote.
+    pub resume: fn(&Scene, Checkpoint<'_>) -> Resumed,
 }
 
 /// Why a run stopped early.

@@ -1,58 +1,109 @@
-//! Layers that point one way (issue 31): the base layer, the numerics the
-//! step is built from, imports nothing above it. The scene builds base
-//! types (its schema re-exports the shape, shape-function, material-model
-//! and plane enums that live in the base); the base never names the scene,
-//! the engine, the fracture models, studies, jobs or the service.
+//! Layers that point one way (issue 31). From the bottom:
+//!
+//! - the base (particles, grid, kernels, materials, geometry, contact,
+//!   the measures) imports nothing above it: the scene builds base types
+//!   (its schema re-exports the shape, shape-function, material-model and
+//!   plane enums that live in the base);
+//! - the fracture models never reach the engine that runs them, nor the
+//!   methods, the run seam or anything that drives a run;
+//! - what reports on a run (diagnostics, output, the checkpoint file)
+//!   never reaches back into a step: it knows no method;
+//! - the run seam (`run.rs`: the `Method` trait and what methods share)
+//!   knows no method either; `methods.rs` is the one place that names
+//!   them;
+//! - a method (the grid MPM) knows nothing of who drives it;
+//! - the drivers (jobs, the service, studies) build methods through
+//!   `methods.rs`, never the grid MPM itself.
 //!
 //! A source check rather than a compiler one: the modules are one crate,
 //! so only reading their files shows which way an import points.
 
 use std::path::{Path, PathBuf};
 
-/// The base layer: files, or folders taken whole (every `.rs` under them).
-/// `diagnostics/mod.rs` is not in it: its `Observer` hands the engine's
-/// checkpoint (`mpm::Checkpoint`) to an observer (`measure` and `fragments`
-/// use its `Snapshot` types).
-const BASE: &[&str] = &[
-    "src/particles.rs",
-    "src/grid",
-    "src/material",
-    "src/geometry",
-    "src/contact.rs",
-    "src/diagnostics/measure.rs",
-    "src/diagnostics/crack.rs",
-    "src/diagnostics/fragments.rs",
+/// Each layer: its files (or folders, every `.rs` under them), and the
+/// modules it must not import.
+const LAYERS: &[(&str, &[&str], &[&str])] = &[
+    (
+        "base",
+        &[
+            "src/particles.rs",
+            "src/grid",
+            "src/material",
+            "src/geometry",
+            "src/contact.rs",
+            "src/diagnostics/measure.rs",
+            "src/diagnostics/crack.rs",
+            "src/diagnostics/fragments.rs",
+        ],
+        &[
+            "scene",
+            "mpm",
+            "fracture",
+            "run",
+            "methods",
+            "checkpoint",
+            "output",
+            "study",
+            "jobs",
+            "service",
+        ],
+    ),
+    (
+        "fracture models",
+        &["src/fracture"],
+        &[
+            "mpm", "run", "methods", "output", "study", "jobs", "service",
+        ],
+    ),
+    (
+        "reporting",
+        &["src/diagnostics", "src/output", "src/checkpoint.rs"],
+        &["mpm", "methods", "study", "jobs", "service"],
+    ),
+    (
+        "run seam",
+        &["src/run.rs"],
+        &["mpm", "methods", "output", "study", "jobs", "service"],
+    ),
+    (
+        "methods",
+        &["src/mpm"],
+        &["methods", "study", "jobs", "service"],
+    ),
+    (
+        "drivers",
+        &["src/jobs", "src/service", "src/study.rs"],
+        &["mpm"],
+    ),
 ];
 
-/// The modules above the base.
-const ABOVE: &[&str] = &["scene", "mpm", "fracture", "study", "jobs", "service"];
-
 #[test]
-fn base_layer_imports_nothing_above_it() {
+fn layers_import_nothing_above_them() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let mut files = Vec::new();
-    for entry in BASE {
-        let path = root.join(entry);
-        assert!(
-            path.exists(),
-            "{entry} is listed as base but does not exist"
-        );
-        rust_files(&path, &mut files);
-    }
-    assert!(files.len() >= BASE.len(), "{} files", files.len());
-
     let mut found = Vec::new();
-    for file in &files {
-        let text = std::fs::read_to_string(file).unwrap();
-        let name = file.strip_prefix(root).unwrap().display().to_string();
-        for (line, module) in imports_above(&text) {
-            found.push(format!("{name}:{line}: crate::{module}"));
+    for (layer, paths, above) in LAYERS {
+        let mut files = Vec::new();
+        for entry in *paths {
+            let path = root.join(entry);
+            assert!(
+                path.exists(),
+                "{entry} is listed in a layer but does not exist"
+            );
+            rust_files(&path, &mut files);
+        }
+        assert!(files.len() >= paths.len(), "{layer}: {} files", files.len());
+        for file in &files {
+            let text = std::fs::read_to_string(file).unwrap();
+            let name = file.strip_prefix(root).unwrap().display().to_string();
+            for (line, module) in imports_above(&text, above) {
+                found.push(format!("{name}:{line}: crate::{module} ({layer})"));
+            }
         }
     }
     assert!(
         found.is_empty(),
-        "the base layer imports from above it (move the type down into the \
-         base and re-export it from above instead):\n{}",
+        "a layer imports from above it (move the type down and re-export \
+         it from above instead):\n{}",
         found.join("\n")
     );
 }
@@ -80,7 +131,7 @@ fn after_tests() { crate::study::variants(); }
 #[cfg(test)]
 use crate::mpm::Simulation;
 ";
-    let found = imports_above(text);
+    let found = imports_above(text, LAYERS[0].2);
     assert_eq!(
         found,
         [
@@ -108,12 +159,12 @@ fn rust_files(path: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// (1-based line, module) for every path into a module above the base in
+/// (1-based line, module) for every path into a module of `above` in
 /// non-test code: `crate::m` or `$crate::m` anywhere on a line, or `m` in a
 /// one-line `use crate::{…}` group. Comment lines (`//`, `///`, `//!`) are
 /// skipped, and so is the item after `#[cfg(test)]` (up to its closing
 /// brace, or its `;`).
-fn imports_above(text: &str) -> Vec<(usize, &'static str)> {
+fn imports_above(text: &str, above: &[&'static str]) -> Vec<(usize, &'static str)> {
     let mut found = Vec::new();
     // inside a `#[cfg(test)]` item: its brace depth so far, and whether
     // its body has opened
@@ -139,7 +190,7 @@ fn imports_above(text: &str) -> Vec<(usize, &'static str)> {
             }
             continue;
         }
-        for &module in ABOVE {
+        for &module in above {
             if names_module(line, module) {
                 found.push((i + 1, module));
             }

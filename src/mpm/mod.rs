@@ -28,9 +28,8 @@ use crate::grid::{
     Bins, DynSlots, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField,
 };
 use crate::material::Elastic;
-use crate::methods::MethodEntry;
 use crate::particles::Particles;
-use crate::run::{Method, RunSummary, SimError, StageTime, StageTimes};
+use crate::run::{Method, MethodEntry, RunSummary, SimError, StageTime, StageTimes};
 use crate::scene::{Scene, ShapeFunctionKind, Stage};
 use grid_update::Boundary;
 use std::time::Instant;
