@@ -1,7 +1,8 @@
 //! cleave: dynamic fracture with the material point method.
 //!
 //! Start with [`scene::Scene::from_path`] (parse and validate a scene),
-//! then [`mpm::Simulation::new`] and [`mpm::Simulation::run`] with an
+//! then [`methods::build`] (the scene's simulation method, a
+//! [`run::Method`]) and [`run::Method::run`] with an
 //! [`diagnostics::Observer`] such as [`output::OutputWriter`].
 //! `docs/architecture.md` maps the modules, the step and the data flow.
 

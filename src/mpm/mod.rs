@@ -473,7 +473,11 @@ impl Simulation {
             Some(s) => {
                 let mut r = Ok(());
                 s.with_slots(at_slots, &mut |slots| {
-                    r = self.stages::<K, _>(dt, &DynSlots(slots), Some(&multi), slots_n, rest);
+                    let slots = DynSlots {
+                        split: slots,
+                        mask: &multi.mask,
+                    };
+                    r = self.stages::<K, _>(dt, &slots, Some(&multi), slots_n, rest);
                 });
                 r
             }

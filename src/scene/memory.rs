@@ -201,11 +201,11 @@ pub(super) fn estimate(
     if file.grid.shape_function == ShapeFunctionKind::Gimp {
         per_particle += 8;
     }
-    let phase_field = any(&|m| m.phase_field.is_some());
+    let phase_field = any(&|m| m.phase_field().is_some());
     if phase_field {
         per_particle += 16; // phase, history
     }
-    if any(&|m| m.damage.is_some()) {
+    if any(&|m| m.damage().is_some()) {
         per_particle += 16; // damage, strength
     }
     // the bins' order and a copy of the groups; MUSL's second pass keeps
@@ -241,9 +241,9 @@ pub(super) fn estimate(
             let Some(m) = materials.get(body_material[b]) else {
                 continue;
             };
-            if m.phase_field.is_none() {
+            let Some(pf) = m.phase_field() else {
                 continue;
-            }
+            };
             // the nodes the body's particles touch: its bounding box, one
             // node of support beyond it (capped by the grid)
             let bb = crate::geometry::bounds(&body.shape);
@@ -252,10 +252,7 @@ pub(super) fn estimate(
                 w.min(cells[d] as f64 + 1.0)
             };
             let dofs = span(0) * span(1);
-            let fourth = m
-                .phase_field
-                .as_ref()
-                .is_some_and(|pf| !super::phase_field_gamma(pf).is_zero());
+            let fourth = !super::phase_field_gamma(pf).is_zero();
             // a quadratic B-spline couples a node with its 5 x 5
             // neighbours, 7 x 7 with the 4th-order term's second derivatives
             let row = if fourth { 49.0 } else { 25.0 };

@@ -10,12 +10,15 @@ mod plan;
 pub mod schema;
 mod validate;
 
+pub use crate::fracture::damage::section::ResolvedDamage;
+pub use crate::fracture::phase_field::section::phase_field_gamma;
 pub use memory::{human_bytes, MemoryBudget, MemoryEstimate};
 pub use plan::{Plan, Stage};
 pub use schema::*;
+pub(crate) use validate::Checker;
 pub use validate::{
-    phase_field_gamma, ResolvedDamage, ResolvedMaterial, Scene, TimeStepEstimate,
-    DEFAULT_MAX_STEPS, MAX_CONTACT_GROUPS,
+    MaterialFracture, ResolvedMaterial, Scene, TimeStepEstimate, DEFAULT_MAX_STEPS,
+    MAX_CONTACT_GROUPS,
 };
 
 use std::fmt;

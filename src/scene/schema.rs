@@ -14,6 +14,11 @@ use std::fmt;
 pub use crate::geometry::ShapeSpec;
 pub use crate::grid::shape::ShapeFunctionKind;
 pub use crate::material::{MaterialModel, PlaneKind};
+// Each fracture model owns its scene section (its types and their checks
+// live in the model's folder); the scene file names them.
+pub use crate::fracture::damage::section::{DamageModel, DamageSpec, WeibullSpec};
+pub use crate::fracture::dfg::section::DfgSpec;
+pub use crate::fracture::phase_field::section::{PhaseFieldSpec, PlaneStressSplit};
 
 /// The whole scene file.
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -54,53 +59,6 @@ pub struct SceneFile {
     /// ([`crate::fracture::phase_field::dfg_damage`]).
     #[serde(default)]
     pub dfg: Option<DfgSpec>,
-}
-
-/// Options of damage-field-gradient partitioning (Homel & Herbold 2017, section 2).
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct DfgSpec {
-    /// Separability threshold D_min of section 2.3, in (0, 1): the two
-    /// sides of a node separate only where one particle is fully damaged
-    /// and both sides' mean damage exceeds it.
-    #[serde(default = "default_separability")]
-    pub separability: f64,
-    /// Coulomb friction μ between the two sides (crack faces, self-contact).
-    #[serde(default)]
-    pub friction: f64,
-    /// Kernel radius of the damage field (eq. 18) in cell diagonals
-    /// (the paper: 1, one cell diagonal).
-    #[serde(default = "default_radius")]
-    pub radius: f64,
-    /// The neighbour lists are rebuilt when a particle has moved this
-    /// fraction of the kernel radius since the last build (section 2.5).
-    #[serde(default = "default_rebuild_fraction")]
-    pub rebuild_fraction: f64,
-    /// Self-contact (section 2.4): particles whose kernel sum (eq. 19,
-    /// over their own body) is below `surface_threshold` times the
-    /// interior value are surface particles, and max(s_p, D_p) builds the
-    /// field, so one body can slide on itself and on others. The default
-    /// 0.99 flags every particle whose kernel reaches past the surface, a
-    /// layer as thick as the kernel radius (the paper's choice); it must
-    /// be at least two particles thick for the two sides of a contact to
-    /// be separable one node into either body.
-    #[serde(default)]
-    pub self_contact: bool,
-    #[serde(default = "default_surface_threshold")]
-    pub surface_threshold: f64,
-}
-
-fn default_separability() -> f64 {
-    0.25
-}
-fn default_radius() -> f64 {
-    1.0
-}
-fn default_rebuild_fraction() -> f64 {
-    0.1
-}
-fn default_surface_threshold() -> f64 {
-    0.99
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
@@ -463,93 +421,6 @@ pub struct MaterialSpec {
     /// single-field mode or, with `[dfg]`, with field-gradient partitioning.
     #[serde(default)]
     pub damage: Option<DamageSpec>,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum DamageModel {
-    /// Rankine with linear strain softening scaled by the characteristic
-    /// length (eq. 23, Cervera et al.): dissipates G_f per unit crack area.
-    Rankine,
-    /// Time to failure (eq. 24): once the strength is exceeded, damage
-    /// grows at Δt/τ with τ = l_ch / c_f (a crack crosses a particle at c_f).
-    TimeToFailure,
-}
-
-/// Damage parameters (Homel & Herbold 2017, section 2.7).
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct DamageSpec {
-    pub model: DamageModel,
-    /// Tensile strength σ_f (the Weibull median at the reference volume), Pa.
-    pub strength: f64,
-    /// Mode I fracture energy G_f, J/m² (rankine).
-    #[serde(default)]
-    pub fracture_energy: Option<f64>,
-    /// Crack speed c_f, m/s (time_to_failure).
-    #[serde(default)]
-    pub crack_speed: Option<f64>,
-    /// Characteristic length l_ch, m; default the cell diagonal (as in the
-    /// paper).
-    #[serde(default)]
-    pub char_length: Option<f64>,
-    /// Size-dependent random strength (eq. 25).
-    #[serde(default)]
-    pub weibull: Option<WeibullSpec>,
-}
-
-/// Weibull strength: σ_f/σ̄_f = (V̄/V · ln R / ln ½)^(1/m), R uniform in (0, 1).
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct WeibullSpec {
-    /// Weibull modulus m.
-    pub modulus: f64,
-    /// Reference volume V̄ of the median strength, m³.
-    pub ref_volume: f64,
-    /// Seed of the random generator (same seed, same strengths).
-    #[serde(default)]
-    pub seed: u64,
-}
-
-/// Phase-field fracture parameters (Kakouris & Triantafyllou).
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct PhaseFieldSpec {
-    /// Ḡc of the functional, J/m² (N/m). For γ = 0 it is the fracture energy.
-    pub gc: f64,
-    /// Length scale l₀, m.
-    pub l0: f64,
-    /// Residual stiffness k_f of g(c) = (1 − k_f) c² + k_f, in [0, 1).
-    #[serde(default)]
-    pub k_f: f64,
-    /// The anisotropy tensor in Voigt form, [γ1111, γ2222, γ1122, γ1212]
-    /// or with [γ1112, γ2212] appended; absent or all zero: 2nd order.
-    #[serde(default)]
-    pub gamma: Vec<f64>,
-    /// Material angle φ, degrees counter-clockwise from x.
-    #[serde(default)]
-    pub angle: f64,
-    /// How the tensile energy ψ⁺ of Miehe's split sees a plane-stress
-    /// particle (no effect, and rejected, in plane strain).
-    #[serde(default)]
-    pub plane_stress_split: PlaneStressSplit,
-}
-
-/// Miehe's spectral split in plane stress, where Kakouris & Triantafyllou do not say
-/// which strain it decomposes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PlaneStressSplit {
-    /// The 3D strain, with ε_zz = −ν/(1−ν)(εxx + εyy) as a third
-    /// principal strain (Miehe et al. 2010's split of the 3D state): an
-    /// in-plane compression thickens the plate, and μ⟨ε_zz⟩₊² is tensile
-    /// energy that can damage it.
-    #[default]
-    WithZz,
-    /// The in-plane strain alone, with the plane-stress modulus
-    /// λ* = 2λμ/(λ + 2μ) (the 2D split many plane-stress codes use): the
-    /// thickness strain drives no damage.
-    InPlane,
 }
 
 /// A body's material: either the name of an entry of `[materials]` or an

@@ -4,7 +4,7 @@
 use super::memory::{self, MemoryBudget, MemoryEstimate};
 use super::plan::Plan;
 use super::schema::*;
-use super::{FieldError, SceneError};
+use super::{phase_field_gamma, FieldError, ResolvedDamage, SceneError};
 use crate::geometry::{self, Lattice};
 use crate::material::ElasticConstants;
 use serde::Serialize;
@@ -35,16 +35,43 @@ pub struct ResolvedMaterial {
     /// Lamé constants, Pa.
     pub lambda: f64,
     pub mu: f64,
-    /// Phase-field fracture parameters, if the material has them.
-    pub phase_field: Option<PhaseFieldSpec>,
-    /// Damage model with its derived constants, if the material has one.
-    pub damage: Option<ResolvedDamage>,
+    /// The material's fracture model, if it has one: one at most, so
+    /// that "phase field and damage on one material" cannot be held
+    /// (validation refuses a material file with both, naming the field).
+    pub fracture: Option<MaterialFracture>,
     /// Dilatational wave speed of the 2D model at rest, m/s:
     /// √((λ+2μ)/ρ) in plane strain, √(E/(ρ(1−ν²))) in plane stress.
     pub wave_speed: f64,
 }
 
+/// A material's fracture model, from its `phase_field` or `damage`
+/// table.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MaterialFracture {
+    /// Phase-field fracture (Kakouris & Triantafyllou).
+    PhaseField(PhaseFieldSpec),
+    /// A continuum damage model with its derived constants (Homel &
+    /// Herbold 2017, section 2.7).
+    Damage(ResolvedDamage),
+}
+
 impl ResolvedMaterial {
+    /// Its phase-field parameters, if its fracture model is the phase field.
+    pub fn phase_field(&self) -> Option<&PhaseFieldSpec> {
+        match &self.fracture {
+            Some(MaterialFracture::PhaseField(pf)) => Some(pf),
+            _ => None,
+        }
+    }
+
+    /// Its damage model, if its fracture model is damage.
+    pub fn damage(&self) -> Option<&ResolvedDamage> {
+        match &self.fracture {
+            Some(MaterialFracture::Damage(d)) => Some(d),
+            _ => None,
+        }
+    }
+
     /// Its elastic part, as the material layer takes it
     /// ([`Elastic::new`](crate::material::Elastic::new)).
     pub fn elastic_constants(&self) -> ElasticConstants {
@@ -58,22 +85,6 @@ impl ResolvedMaterial {
             wave_speed: self.wave_speed,
         }
     }
-}
-
-/// A damage model with the constants the update uses (Homel & Herbold 2017, section 2.7).
-#[derive(Debug, Clone, PartialEq)]
-pub struct ResolvedDamage {
-    pub model: DamageModel,
-    /// σ̄_f, Pa.
-    pub strength: f64,
-    /// l_ch, m (given, or the cell diagonal).
-    pub char_length: f64,
-    /// Rankine: the scaled softening modulus H_s = H̄ l/(1 − H̄ l) of eq. 23,
-    /// H̄ = σ_f²/(2 E G_f). Zero for time to failure.
-    pub softening: f64,
-    /// Time to failure: τ = l_ch / c_f, s. Zero for Rankine.
-    pub tau: f64,
-    pub weibull: Option<WeibullSpec>,
 }
 
 /// A validated scene, ready to run.
@@ -309,27 +320,16 @@ impl Scene {
         }
         check_contact(&mut c, &file.contact, &groups);
         if let Some(dfg) = &file.dfg {
-            c.in_range("dfg.separability", dfg.separability, 0.0, 1.0);
-            c.in_range("dfg.friction", dfg.friction, 0.0, 1e3);
-            c.in_range("dfg.radius", dfg.radius, 0.5, 4.0);
-            c.in_range("dfg.rebuild_fraction", dfg.rebuild_fraction, 0.0, 1.0);
-            c.in_range("dfg.surface_threshold", dfg.surface_threshold, 0.0, 1.0);
-            if groups.len() > MAX_CONTACT_GROUPS / 2 {
-                c.err(
-                    "dfg",
-                    format!(
-                        "{} contact groups; with DFG partitioning at most {} are supported",
-                        groups.len(),
-                        MAX_CONTACT_GROUPS / 2
-                    ),
-                );
-            }
-            let any_damage = file.bodies.iter().any(|b| {
+            let any_fracture = file.bodies.iter().any(|b| {
                 has_damage(&file, &b.material) || phase_field_of(&file, &b.material).is_some()
             });
-            if !any_damage && !dfg.self_contact {
-                c.err("dfg", "partitioning needs a material with damage or a phase field, or dfg.self_contact = true: nothing would be partitioned");
-            }
+            crate::fracture::dfg::section::check(
+                &mut c,
+                dfg,
+                groups.len(),
+                MAX_CONTACT_GROUPS,
+                any_fracture,
+            );
         }
 
         if !c.errors.is_empty() {
@@ -380,19 +380,6 @@ impl Scene {
     }
 }
 
-/// The anisotropy tensor of a phase-field spec (not yet rotated).
-pub fn phase_field_gamma(pf: &PhaseFieldSpec) -> crate::fracture::phase_field::anisotropy::Gamma {
-    let g = |k: usize| pf.gamma.get(k).copied().unwrap_or(0.0);
-    crate::fracture::phase_field::anisotropy::Gamma {
-        g1111: g(0),
-        g2222: g(1),
-        g1122: g(2),
-        g1212: g(3),
-        g1112: g(4),
-        g2212: g(5),
-    }
-}
-
 /// Particles per direction for a per-cell count (a perfect square).
 pub fn per_dir(ppc: u32) -> usize {
     ((ppc as f64).sqrt().round() as usize).max(1)
@@ -426,19 +413,21 @@ fn list_or_none(names: &[&str]) -> String {
     }
 }
 
+/// Collects the errors of a scene's validation, each naming its field
+/// (the fracture models' section checks write into it too).
 #[derive(Default)]
-struct Checker {
-    errors: Vec<FieldError>,
+pub(crate) struct Checker {
+    pub(crate) errors: Vec<FieldError>,
 }
 
 impl Checker {
-    fn err(&mut self, path: &str, reason: impl Into<String>) {
+    pub(crate) fn err(&mut self, path: &str, reason: impl Into<String>) {
         self.errors.push(FieldError {
             path: path.to_string(),
             reason: reason.into(),
         });
     }
-    fn finite(&mut self, path: &str, v: f64) -> bool {
+    pub(crate) fn finite(&mut self, path: &str, v: f64) -> bool {
         if v.is_finite() {
             true
         } else {
@@ -446,7 +435,7 @@ impl Checker {
             false
         }
     }
-    fn positive(&mut self, path: &str, v: f64) -> bool {
+    pub(crate) fn positive(&mut self, path: &str, v: f64) -> bool {
         if !self.finite(path, v) {
             return false;
         }
@@ -457,7 +446,7 @@ impl Checker {
             false
         }
     }
-    fn in_range(&mut self, path: &str, v: f64, lo: f64, hi: f64) -> bool {
+    pub(crate) fn in_range(&mut self, path: &str, v: f64, lo: f64, hi: f64) -> bool {
         if !self.finite(path, v) {
             return false;
         }
@@ -697,49 +686,18 @@ fn resolve_material(
         );
     }
     if let Some(pf) = &m.phase_field {
-        let q = format!("{path}.phase_field");
-        c.positive(&format!("{q}.gc"), pf.gc);
-        c.positive(&format!("{q}.l0"), pf.l0);
-        if c.finite(&format!("{q}.k_f"), pf.k_f) && !(0.0..1.0).contains(&pf.k_f) {
-            c.err(
-                &format!("{q}.k_f"),
-                format!("must be in [0, 1), got {}", pf.k_f),
-            );
-        }
-        c.finite(&format!("{q}.angle"), pf.angle);
-        if !(pf.gamma.is_empty() || pf.gamma.len() == 4 || pf.gamma.len() == 6) {
-            c.err(
-                &format!("{q}.gamma"),
-                format!(
-                    "give 4 or 6 numbers [g1111, g2222, g1122, g1212, (g1112, g2212)], got {}",
-                    pf.gamma.len()
-                ),
-            );
-        } else if pf
-            .gamma
-            .iter()
-            .enumerate()
-            .all(|(k, g)| c.finite(&format!("{q}.gamma[{k}]"), *g))
-        {
-            let g = phase_field_gamma(pf);
-            if g.min_along() < 0.0 {
-                c.err(&format!("{q}.gamma"), "the crack-profile coefficient a(n) is negative for some direction: the functional is unbounded below");
-            }
-        }
-        if m.model != MaterialModel::LinearElastic {
-            c.err(
-                &format!("{path}.model"),
-                "phase-field fracture is implemented for linear_elastic materials",
-            );
-        }
-        if pf.plane_stress_split != PlaneStressSplit::WithZz && plane != PlaneKind::PlaneStress {
-            c.err(&format!("{q}.plane_stress_split"), "applies to analysis.plane = \"plane_stress\" only (plane strain has no thickness strain)");
-        }
+        crate::fracture::phase_field::section::check(c, path, pf, m.model, plane);
     }
-    let damage = m
-        .damage
-        .as_ref()
-        .and_then(|d| resolve_damage(c, &format!("{path}.damage"), d, m, h));
+    let damage = m.damage.as_ref().and_then(|d| {
+        crate::fracture::damage::section::resolve(
+            c,
+            &format!("{path}.damage"),
+            d,
+            m.model,
+            m.youngs_modulus,
+            h,
+        )
+    });
     if m.damage.is_some() && m.phase_field.is_some() {
         c.err(
             &format!("{path}.damage"),
@@ -777,102 +735,13 @@ fn resolve_material(
         poissons_ratio: nu,
         lambda,
         mu,
-        phase_field: m.phase_field.clone(),
-        damage,
+        fracture: match (&m.phase_field, damage) {
+            (Some(pf), None) => Some(MaterialFracture::PhaseField(pf.clone())),
+            (None, Some(d)) => Some(MaterialFracture::Damage(d)),
+            // both were refused above
+            _ => None,
+        },
         wave_speed,
-    })
-}
-
-/// Checks a damage spec and derives its constants.
-fn resolve_damage(
-    c: &mut Checker,
-    q: &str,
-    d: &DamageSpec,
-    m: &MaterialSpec,
-    h: f64,
-) -> Option<ResolvedDamage> {
-    let before = c.errors.len();
-    c.positive(&format!("{q}.strength"), d.strength);
-    let char_length = match d.char_length {
-        Some(l) => {
-            c.positive(&format!("{q}.char_length"), l);
-            l
-        }
-        None => h * std::f64::consts::SQRT_2,
-    };
-    if m.model != MaterialModel::LinearElastic {
-        c.err(
-            &format!("{q}.model"),
-            "damage models are implemented for linear_elastic materials (the damaged neo-Hookean energy is not)",
-        );
-    }
-    let (mut softening, mut tau) = (0.0, 0.0);
-    match d.model {
-        DamageModel::Rankine => {
-            if d.crack_speed.is_some() {
-                c.err(
-                    &format!("{q}.crack_speed"),
-                    "belongs to model = \"time_to_failure\", not rankine",
-                );
-            }
-            match d.fracture_energy {
-                None => c.err(
-                    &format!("{q}.fracture_energy"),
-                    "the rankine model needs the fracture energy G_f, J/m²",
-                ),
-                Some(gf) => {
-                    if c.positive(&format!("{q}.fracture_energy"), gf)
-                        && d.strength > 0.0
-                        && m.youngs_modulus > 0.0
-                    {
-                        let hb =
-                            d.strength * d.strength / (2.0 * m.youngs_modulus * gf) * char_length;
-                        if hb >= 1.0 {
-                            c.err(
-                                &format!("{q}.char_length"),
-                                format!(
-                                    "σ_f² l_ch / (2 E G_f) = {hb:.3} ≥ 1: the softening branch snaps back; \
-                                     use a smaller char_length or cell size, or a larger fracture_energy"
-                                ),
-                            );
-                        } else {
-                            softening = hb / (1.0 - hb);
-                        }
-                    }
-                }
-            }
-        }
-        DamageModel::TimeToFailure => {
-            if d.fracture_energy.is_some() {
-                c.err(
-                    &format!("{q}.fracture_energy"),
-                    "belongs to model = \"rankine\", not time_to_failure",
-                );
-            }
-            match d.crack_speed {
-                None => c.err(
-                    &format!("{q}.crack_speed"),
-                    "the time_to_failure model needs the crack speed c_f, m/s",
-                ),
-                Some(cf) => {
-                    if c.positive(&format!("{q}.crack_speed"), cf) {
-                        tau = char_length / cf;
-                    }
-                }
-            }
-        }
-    }
-    if let Some(w) = &d.weibull {
-        c.positive(&format!("{q}.weibull.modulus"), w.modulus);
-        c.positive(&format!("{q}.weibull.ref_volume"), w.ref_volume);
-    }
-    (c.errors.len() == before).then(|| ResolvedDamage {
-        model: d.model,
-        strength: d.strength,
-        char_length,
-        softening,
-        tau,
-        weibull: d.weibull.clone(),
     })
 }
 

@@ -27,6 +27,7 @@
 //! constant up to the discretization's own error.
 
 pub mod model;
+pub mod section;
 
 use crate::particles::Particles;
 use crate::scene::{DamageModel, ResolvedDamage};

@@ -70,7 +70,11 @@ impl DamageState {
         if !scene.plan.has(crate::scene::Stage::Damage) {
             return None;
         }
-        let models: Vec<_> = scene.materials.iter().map(|m| m.damage.clone()).collect();
+        let models: Vec<_> = scene
+            .materials
+            .iter()
+            .map(|m| m.damage().cloned())
+            .collect();
         let h = scene.file.grid.cell_size;
         let law = DamageLaw {
             models,
@@ -108,7 +112,7 @@ impl DamageState {
             if scene
                 .materials
                 .get(scene.body_material[b])
-                .is_none_or(|m| m.damage.is_none())
+                .is_none_or(|m| m.damage().is_none())
             {
                 continue;
             }

@@ -58,6 +58,7 @@
 //! sums only at nodes where two groups and damage meet.
 
 pub(crate) mod model;
+pub mod section;
 
 use crate::contact::unit;
 use crate::fracture::damage::FAILED;

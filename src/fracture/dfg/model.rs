@@ -28,7 +28,7 @@ pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>
     let damaged: Vec<bool> = scene
         .materials
         .iter()
-        .map(|m| m.damage.is_some() || m.phase_field.is_some())
+        .map(|m| m.fracture.is_some())
         .collect();
     Some(Box::new(Dfg::new(
         params,

@@ -10,6 +10,7 @@
 pub mod anisotropy;
 pub mod model;
 pub mod multigrid;
+pub mod section;
 pub mod system;
 pub mod trisolve;
 

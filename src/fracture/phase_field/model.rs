@@ -190,7 +190,9 @@ impl PhaseFields {
         let mut bodies = Vec::new();
         for (b, spec) in scene.file.bodies.iter().enumerate() {
             let mat = &scene.materials[scene.body_material[b]];
-            let Some(pf) = &mat.phase_field else { continue };
+            let Some(pf) = mat.phase_field() else {
+                continue;
+            };
             let gamma = phase_field_gamma(pf).rotated(pf.angle.to_radians());
             let params = PhaseFieldParams {
                 gc_bar: pf.gc,
