@@ -115,9 +115,6 @@ fn scene_json(scene: &Scene) -> String {
     serde_json::to_string(&scene.file).unwrap_or_default()
 }
 
-/// The scene's table that a resume may change ([`Checkpoint::check_scene`]).
-const SOLVER_KEY: &str = "phase_field_solver";
-
 impl<'a> Checkpoint<'a> {
     /// A checkpoint of `method` running `scene`, at `step` and `time`,
     /// whose state `state` writes.
@@ -172,18 +169,20 @@ impl<'a> Checkpoint<'a> {
     }
 
     /// Whether `scene` is the one the checkpoint was written for, but for
-    /// its `[phase_field_solver]`, which decides how c is solved for, to
-    /// its tolerance, not what is simulated (a long run can go on with a
-    /// faster method). A difference is named by its field path.
-    pub fn check_scene(&self, scene: &Scene) -> Result<(), CheckpointError> {
+    /// its top-level tables named in `may_change` (settings that decide
+    /// how something is solved for, to a tolerance, not what is
+    /// simulated: a long run can go on with a faster solver). A
+    /// difference is named by its field path.
+    pub fn check_scene(&self, scene: &Scene, may_change: &[&str]) -> Result<(), CheckpointError> {
         let mut now = serde_json::to_value(&scene.file).unwrap_or_default();
         let mut then: serde_json::Value = serde_json::from_str(&self.header.scene)
             .map_err(|e| CheckpointError::Decode(format!("its scene: {e}")))?;
-        let solver =
-            |v: &mut serde_json::Value| v.as_object_mut().and_then(|o| o.remove(SOLVER_KEY));
-        if let (Some(a), Some(b)) = (solver(&mut then), solver(&mut now)) {
-            if a != b {
-                tracing::info!(checkpoint = %a, scene = %b, "resuming with another phase-field solver");
+        for key in may_change {
+            let take = |v: &mut serde_json::Value| v.as_object_mut().and_then(|o| o.remove(*key));
+            if let (Some(a), Some(b)) = (take(&mut then), take(&mut now)) {
+                if a != b {
+                    tracing::info!(table = key, checkpoint = %a, scene = %b, "resuming with another setting");
+                }
             }
         }
         match first_difference("", &then, &now) {

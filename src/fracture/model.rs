@@ -203,6 +203,13 @@ pub trait FractureModel: Send + AsAny {
     /// model of the same scene; an error names what does not fit.
     fn restore(&mut self, state: &[u8], at: RestoreContext<'_>) -> Result<(), String>;
 
+    /// The scene's top-level tables of this model that a resume from a
+    /// checkpoint may change (its solver's settings, say: how something
+    /// is solved for, not what is simulated).
+    fn may_change_on_resume(&self) -> &'static [&'static str] {
+        &[]
+    }
+
     /// The model's split of the velocity fields, if it splits them.
     fn field_split(&mut self) -> Option<&mut dyn FieldSplit> {
         None
@@ -215,7 +222,12 @@ pub trait FractureModel: Send + AsAny {
 /// them. DFG partitioning does this (Homel & Herbold 2017), and explicit
 /// cracks will (a crack's two sides, Nairn's CRAMP). With a split the
 /// plan has contact, and the split's stages run before the scatter,
-/// because they decide the field slots the rest of the step uses.
+/// because they decide the field slots the rest of the step uses. The
+/// slots borrow the model for the rest of the step, so its own
+/// [`FractureModel::run`] stages cannot run in that step: a model with
+/// both (moving crack particles after the gather, say) registers the two
+/// parts as two models, one whose slots read what the other's stages
+/// change (`tests/plan.rs` fails on a plan stage that did not run).
 pub trait FieldSplit {
     /// Coulomb friction between a group's two sides where they touch.
     fn self_friction(&self) -> f64;

@@ -151,7 +151,13 @@ impl Simulation {
     /// `[phase_field_solver]` (then the results agree with the straight
     /// run's to the solvers' tolerance, not bit for bit).
     pub fn resume(scene: &Scene, cp: Checkpoint<'_>) -> Result<Simulation, CheckpointError> {
-        cp.check_scene(scene)?;
+        // the scene's models say which of their tables may change
+        let mut sim = Simulation::new(scene);
+        let may_change: Vec<&str> = sim
+            .model_list()
+            .flat_map(|m| m.may_change_on_resume().iter().copied())
+            .collect();
+        cp.check_scene(scene, &may_change)?;
         if cp.method() != super::METHOD.name {
             return Err(CheckpointError::Inconsistent(format!(
                 "it was written by the {} method, the scene runs {}",
@@ -161,7 +167,6 @@ impl Simulation {
         }
         let s: State<'static> = postcard::from_bytes(cp.state_bytes().unwrap_or_default())
             .map_err(|e| CheckpointError::Decode(e.to_string()))?;
-        let mut sim = Simulation::new(scene);
         let bad = |m: String| CheckpointError::Inconsistent(m);
         if s.parts.len() != sim.parts.len() || s.parts.id != sim.parts.id {
             return Err(bad(format!(

@@ -639,6 +639,13 @@ impl FractureModel for PhaseFields {
         "phase_field"
     }
 
+    /// `[phase_field_solver]`: the method and its tolerances decide how c
+    /// is solved for, to the solver's tolerance (a resumed run then agrees
+    /// with the straight one to that tolerance, not bit for bit).
+    fn may_change_on_resume(&self) -> &'static [&'static str] {
+        &["phase_field_solver"]
+    }
+
     fn stages(&self) -> &'static [Stage] {
         &[
             Stage::PhaseFieldSolve,
