@@ -234,31 +234,6 @@ impl FieldSlots for SingleField {
     }
 }
 
-/// Field slots a model decides ([`crate::fracture::model::FieldSplit`]),
-/// behind a pointer. A node with one field has one slot, the node itself,
-/// whatever the rule: that, the common case, is answered here, and only
-/// the pairs at nodes with several fields pay the indirect call (a call
-/// per pair cost DFG's scatter a third of its time).
-pub struct DynSlots<'a> {
-    pub split: &'a dyn FieldSlots,
-    /// The field masks of the partition ([`MultiField::mask`]).
-    pub mask: &'a [u32],
-}
-
-impl FieldSlots for DynSlots<'_> {
-    #[inline(always)]
-    fn slot(&self, node: usize, particle: usize) -> usize {
-        // at most one bit set (without a popcount: the default x86-64
-        // target has none)
-        let m = self.mask[node];
-        if m & m.wrapping_sub(1) == 0 {
-            node
-        } else {
-            self.split.slot(node, particle)
-        }
-    }
-}
-
 /// One field per contact group present at a node.
 pub struct GroupFields<'a> {
     pub nodes: usize,

@@ -24,9 +24,7 @@ use crate::fracture::model::{
     self as fm, FractureModel, RowContext, ScatterContext, SeriesOut, SlotContext, StepContext,
 };
 use crate::grid::shape::{by_kernel, Kernel};
-use crate::grid::{
-    Bins, DynSlots, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField,
-};
+use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::run::{Method, MethodEntry, RunSummary, SimError, StageTime, StageTimes};
@@ -470,17 +468,14 @@ impl Simulation {
             group: &group,
         };
         let r = match split.as_mut().and_then(|m| m.field_split()) {
-            Some(s) => {
-                let mut r = Ok(());
-                s.with_slots(at_slots, &mut |slots| {
-                    let slots = DynSlots {
-                        split: slots,
-                        mask: &multi.mask,
-                    };
-                    r = self.stages::<K, _>(dt, &slots, Some(&multi), slots_n, rest);
-                });
-                r
-            }
+            Some(s) => s.slots(at_slots).visit(Rest::<K> {
+                sim: self,
+                dt,
+                multi: &multi,
+                slots_n,
+                plan: rest,
+                kernel: std::marker::PhantomData,
+            }),
             None => {
                 let slots = GroupFields {
                     nodes,
@@ -497,7 +492,28 @@ impl Simulation {
         self.group_of = group;
         r
     }
+}
 
+/// The stages from the scatter on, run with a splitting model's slots
+/// ([`fm::SplitSlots::visit`]: compiled for its concrete slot rule).
+struct Rest<'s, K> {
+    sim: &'s mut Simulation,
+    dt: f64,
+    multi: &'s MultiField,
+    slots_n: usize,
+    plan: &'s mut [StageTime],
+    kernel: std::marker::PhantomData<K>,
+}
+
+impl<K: Kernel> fm::SlotsVisitor for Rest<'_, K> {
+    type Output = Result<(), SimError>;
+    fn visit<S: FieldSlots>(self, slots: &S) -> Self::Output {
+        self.sim
+            .stages::<K, S>(self.dt, slots, Some(self.multi), self.slots_n, self.plan)
+    }
+}
+
+impl Simulation {
     /// The stages from the scatter on, with the field slots `slots`
     /// (`slots_n` of them) fixed for the step.
     fn stages<K: Kernel, S: FieldSlots>(

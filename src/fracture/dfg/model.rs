@@ -7,10 +7,10 @@
 use super::{Dfg, DfgFields, DfgParams};
 use crate::fracture::model::{
     decode, encode, FieldSplit, FractureModel, RestoreContext, RowContext, ScatterContext,
-    SeriesOut, SetupContext, SlotContext, StepContext,
+    SeriesOut, SetupContext, SlotContext, SplitSlots, StepContext,
 };
 use crate::grid::shape::by_kernel;
-use crate::grid::{FieldSlots, MultiField};
+use crate::grid::MultiField;
 use crate::scene::Stage;
 
 /// DFG partitioning for a scene with a `[dfg]` table: the kernel radius
@@ -68,8 +68,8 @@ impl FieldSplit for Dfg {
         }
     }
 
-    fn with_slots(&self, at: SlotContext<'_>, run: &mut dyn FnMut(&dyn FieldSlots)) {
-        run(&DfgFields {
+    fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a> {
+        SplitSlots::Dfg(DfgFields {
             x: &self.x_partition,
             cut: &self.cut,
             normal: self.normals(),
