@@ -294,3 +294,51 @@ fn resuming_refuses_another_scene_and_names_the_field() {
         .to_string();
     assert!(e.contains("checkpoint.bin") && e.contains("damaged"), "{e}");
 }
+
+/// A state that writes a few bytes: the checkpoint of a method that is
+/// not the scene's.
+struct OtherState;
+
+impl cleave::checkpoint::SaveState for OtherState {
+    fn write(&self, out: &mut dyn std::io::Write) -> Result<(), String> {
+        out.write_all(&[1, 2, 3]).map_err(|e| e.to_string())
+    }
+}
+
+#[test]
+fn a_checkpoint_resumes_only_with_the_method_that_wrote_it() {
+    let text = scene_text("two_disks.toml", &[("end = 3.0", "end = 0.05")]);
+    let scene = Scene::from_text(&text, None).unwrap();
+    let cp = Checkpoint::new(&scene, "meshfree", 7, 0.01, std::sync::Arc::new(OtherState));
+    let mut bytes = Vec::new();
+    cp.write_to(&mut bytes).unwrap();
+    let back = Checkpoint::read_from(&mut &bytes[..]).unwrap();
+    assert_eq!(
+        (back.method(), back.step(), back.time()),
+        ("meshfree", 7, 0.01)
+    );
+    assert_eq!(back.state_bytes(), Some(&[1u8, 2, 3][..]));
+    let e = cleave::methods::resume(&scene, back)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("meshfree") && e.contains(cleave::mpm::METHOD.name),
+        "{e}"
+    );
+    // through the registry, the grid method resumes its own checkpoint
+    let tmp = tempfile::tempdir().unwrap();
+    let mut obs = Interrupted {
+        writer: OutputWriter::create(tmp.path()).unwrap(),
+        at: 3,
+        lost: 1,
+    };
+    cleave::methods::build(&scene).run(&mut obs).unwrap();
+    let cp = OutputWriter::load_checkpoint(tmp.path()).unwrap();
+    assert_eq!(cp.method(), cleave::mpm::METHOD.name);
+    let resumed = cleave::methods::resume(&scene, cp).unwrap();
+    assert_eq!(
+        (resumed.name(), resumed.steps()),
+        (cleave::mpm::METHOD.name, 3)
+    );
+}
