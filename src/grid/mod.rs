@@ -30,40 +30,39 @@ pub const PAD: usize = 2;
 /// long as TILE ≥ 3.
 pub const TILE: usize = 8;
 
-/// Geometry of the padded node lattice.
+/// Geometry of the padded node lattice, in `D` = 2 or 3 dimensions.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GridGeom {
+pub struct GridGeom<const D: usize = 2> {
     /// Cell size, m.
     pub h: f64,
     pub inv_h: f64,
-    /// Coordinates of node (0, 0) (a ghost node), m.
-    pub origin: [f64; 2],
-    /// Node counts along x and y, including ghosts.
-    pub nodes: [usize; 2],
+    /// Coordinates of node (0, 0(, 0)) (a ghost node), m.
+    pub origin: [f64; D],
+    /// Node counts along each axis, including ghosts.
+    pub nodes: [usize; D],
     /// The user's domain, m (particles must stay inside).
-    pub domain_min: [f64; 2],
-    pub domain_max: [f64; 2],
-    /// Tiles along x and y.
-    pub tiles: [usize; 2],
-    /// Sides (left, right, bottom, top) that are walls (fixed or roller):
-    /// particles are kept on the domain's side of them
-    /// ([`GridGeom::keep_inside`]).
-    pub walls: [bool; 4],
+    pub domain_min: [f64; D],
+    pub domain_max: [f64; D],
+    /// Tiles along each axis.
+    pub tiles: [usize; D],
+    /// Per axis, whether its low and its high side (left/right,
+    /// bottom/top, back/front) are walls (fixed or roller): particles are
+    /// kept on the domain's side of them ([`GridGeom::keep_inside`]).
+    pub walls: [[bool; 2]; D],
 }
 
-impl GridGeom {
-    pub fn new(min: [f64; 2], h: f64, cells: [usize; 2]) -> GridGeom {
-        let nodes = [cells[0] + 1 + 2 * PAD, cells[1] + 1 + 2 * PAD];
-        let origin = [min[0] - PAD as f64 * h, min[1] - PAD as f64 * h];
+impl<const D: usize> GridGeom<D> {
+    pub fn new(min: [f64; D], h: f64, cells: [usize; D]) -> GridGeom<D> {
+        let nodes = cells.map(|c| c + 1 + 2 * PAD);
         GridGeom {
             h,
             inv_h: 1.0 / h,
-            origin,
+            origin: std::array::from_fn(|d| min[d] - PAD as f64 * h),
             nodes,
             domain_min: min,
-            domain_max: [min[0] + cells[0] as f64 * h, min[1] + cells[1] as f64 * h],
-            tiles: [nodes[0].div_ceil(TILE), nodes[1].div_ceil(TILE)],
-            walls: [false; 4],
+            domain_max: std::array::from_fn(|d| min[d] + cells[d] as f64 * h),
+            tiles: nodes.map(|n| n.div_ceil(TILE)),
+            walls: [[false; 2]; D],
         }
     }
 
@@ -75,13 +74,13 @@ impl GridGeom {
     /// through. Free and traction sides are left alone: there leaving the
     /// grid is a job failure.
     #[inline(always)]
-    pub fn keep_inside(&self, x: &mut [f64; 2], v: &mut [f64; 2]) {
-        for a in 0..2 {
-            if self.walls[2 * a] && x[a] < self.domain_min[a] {
+    pub fn keep_inside(&self, x: &mut [f64; D], v: &mut [f64; D]) {
+        for a in 0..D {
+            if self.walls[a][0] && x[a] < self.domain_min[a] {
                 x[a] = self.domain_min[a];
                 v[a] = v[a].max(0.0);
             }
-            if self.walls[2 * a + 1] && x[a] > self.domain_max[a] {
+            if self.walls[a][1] && x[a] > self.domain_max[a] {
                 x[a] = self.domain_max[a];
                 v[a] = v[a].min(0.0);
             }
@@ -89,82 +88,111 @@ impl GridGeom {
     }
 
     pub fn node_count(&self) -> usize {
-        self.nodes[0] * self.nodes[1]
+        self.nodes.iter().product()
+    }
+
+    pub fn tile_count(&self) -> usize {
+        self.tiles.iter().product()
+    }
+
+    /// Node-index strides of the axes: `[1, nx(, nx·ny)]`.
+    #[inline(always)]
+    pub fn strides(&self) -> [usize; D] {
+        let mut s = [1; D];
+        for d in 1..D {
+            s[d] = s[d - 1] * self.nodes[d - 1];
+        }
+        s
     }
 
     /// Position in node units.
     #[inline(always)]
-    pub fn xi(&self, x: [f64; 2]) -> [f64; 2] {
-        [
-            (x[0] - self.origin[0]) * self.inv_h,
-            (x[1] - self.origin[1]) * self.inv_h,
-        ]
+    pub fn xi(&self, x: [f64; D]) -> [f64; D] {
+        std::array::from_fn(|d| (x[d] - self.origin[d]) * self.inv_h)
     }
 
+    /// Index of the node at lattice coordinates `at`:
+    /// `i + nx·(j + ny·k)`.
     #[inline(always)]
-    pub fn node(&self, i: usize, j: usize) -> usize {
-        i + j * self.nodes[0]
+    pub fn node(&self, at: [usize; D]) -> usize {
+        let mut n = at[D - 1];
+        for d in (0..D - 1).rev() {
+            n = n * self.nodes[d] + at[d];
+        }
+        n
     }
 
-    pub fn node_position(&self, n: usize) -> [f64; 2] {
-        let (i, j) = (n % self.nodes[0], n / self.nodes[0]);
-        [
-            self.origin[0] + i as f64 * self.h,
-            self.origin[1] + j as f64 * self.h,
-        ]
+    /// Lattice coordinates of node `n` ([`GridGeom::node`]'s inverse).
+    #[inline(always)]
+    pub fn node_coords(&self, n: usize) -> [usize; D] {
+        let mut rest = n;
+        std::array::from_fn(|d| {
+            let c = rest % self.nodes[d];
+            rest /= self.nodes[d];
+            c
+        })
+    }
+
+    pub fn node_position(&self, n: usize) -> [f64; D] {
+        let at = self.node_coords(n);
+        std::array::from_fn(|d| self.origin[d] + at[d] as f64 * self.h)
     }
 
     /// Tile of a particle at node-unit position `xi` (clamped into the grid).
     #[inline(always)]
-    pub fn tile_of(&self, xi: [f64; 2]) -> u32 {
-        let cx = (xi[0].max(0.0) as usize).min(self.nodes[0] - 1) / TILE;
-        let cy = (xi[1].max(0.0) as usize).min(self.nodes[1] - 1) / TILE;
-        (cx + cy * self.tiles[0]) as u32
+    pub fn tile_of(&self, xi: [f64; D]) -> u32 {
+        let mut t = 0;
+        for d in (0..D).rev() {
+            let c = (xi[d].max(0.0) as usize).min(self.nodes[d] - 1) / TILE;
+            t = t * self.tiles[d] + c;
+        }
+        t as u32
     }
 
-    /// Which of the (TILE + 1)² supports that start in or next to the
+    /// Which of the (TILE + 1)^D supports that start in or next to the
     /// particle's tile ([`GridGeom::tile_of`]) a kernel of `support` nodes
     /// ([`shape::Kernel::N`]) has there: particles with the same support
     /// get the same number. ⌊ξ + shift⌋ names the support, with shift ½
     /// for odd supports (GIMP, quadratic B-spline: it starts at
     /// ⌊ξ + ½⌋ − 1) and 0 for even (linear, cubic: ⌊ξ⌋ − k).
     #[inline(always)]
-    pub fn support_in_tile(&self, xi: [f64; 2], support: usize) -> u32 {
+    pub fn support_in_tile(&self, xi: [f64; D], support: usize) -> u32 {
         let shift = if support % 2 == 1 { 0.5 } else { 0.0 };
         let local = |d: usize| {
             let cell = (xi[d].max(0.0) as usize).min(self.nodes[d] - 1);
             let support = ((xi[d] + shift).max(0.0) as usize).min(self.nodes[d] - 1);
             (support as isize - (cell / TILE * TILE) as isize).clamp(0, TILE as isize) as u32
         };
-        local(0) + (TILE as u32 + 1) * local(1)
+        let mut key = 0;
+        for d in (0..D).rev() {
+            key = key * (TILE as u32 + 1) + local(d);
+        }
+        key
     }
 
-    pub fn inside_domain(&self, x: [f64; 2]) -> bool {
-        x[0] >= self.domain_min[0]
-            && x[0] <= self.domain_max[0]
-            && x[1] >= self.domain_min[1]
-            && x[1] <= self.domain_max[1]
+    pub fn inside_domain(&self, x: [f64; D]) -> bool {
+        (0..D).all(|d| x[d] >= self.domain_min[d] && x[d] <= self.domain_max[d])
     }
 }
 
 /// Nodal quantities per velocity-field slot.
 #[derive(Debug, Clone, Default)]
-pub struct GridFields {
+pub struct GridFields<const D: usize = 2> {
     /// Σ N m_p, kg.
     pub mass: Vec<f64>,
     /// Σ N m_p v_p (APIC: plus the affine term), kg·m/s.
-    pub momentum: Vec<[f64; 2]>,
+    pub momentum: Vec<[f64; D]>,
     /// Internal + external force, N.
-    pub force: Vec<[f64; 2]>,
+    pub force: Vec<[f64; D]>,
     /// Velocity at the start of the step (momentum / mass), m/s.
-    pub vel_old: Vec<[f64; 2]>,
+    pub vel_old: Vec<[f64; D]>,
     /// Velocity at the end of the step (after forces, contact, BCs), m/s.
-    pub vel: Vec<[f64; 2]>,
+    pub vel: Vec<[f64; D]>,
     /// Σ m_p ∇N (contact normals); empty without contact.
-    pub mass_grad: Vec<[f64; 2]>,
+    pub mass_grad: Vec<[f64; D]>,
 }
 
-impl GridFields {
+impl<const D: usize> GridFields<D> {
     /// Prepares the arrays for a scatter into `nodes` node slots plus
     /// `slots − nodes` extra field slots: zeroes the node ranges the last
     /// scatter wrote (`written`; every other node is still zero) and the
@@ -195,12 +223,12 @@ impl GridFields {
             v.resize(slots, zero);
         }
         clear(&mut self.mass, nodes, slots, 0.0, written);
-        clear(&mut self.momentum, nodes, slots, [0.0; 2], written);
-        clear(&mut self.force, nodes, slots, [0.0; 2], written);
-        self.vel_old.resize(slots, [0.0; 2]);
-        self.vel.resize(slots, [0.0; 2]);
+        clear(&mut self.momentum, nodes, slots, [0.0; D], written);
+        clear(&mut self.force, nodes, slots, [0.0; D], written);
+        self.vel_old.resize(slots, [0.0; D]);
+        self.vel.resize(slots, [0.0; D]);
         if with_mass_grad {
-            clear(&mut self.mass_grad, nodes, slots, [0.0; 2], written);
+            clear(&mut self.mass_grad, nodes, slots, [0.0; D], written);
         }
     }
 }
@@ -287,7 +315,7 @@ impl FieldSlots for GroupFields<'_> {
     }
 }
 
-/// Particles binned by tile, and the tiles of each of the four colours.
+/// Particles binned by tile, and the tiles of each of the 2^D colours.
 #[derive(Debug, Clone, Default)]
 pub struct Bins {
     /// Tile of each particle.
@@ -298,12 +326,14 @@ pub struct Bins {
     pub order: Vec<u32>,
     /// `order[start[t]..start[t+1]]` are the particles of tile t.
     pub start: Vec<u32>,
-    /// Non-empty tiles of each colour (tile x parity + 2·(y parity)).
-    pub colours: [Vec<u32>; 4],
+    /// Non-empty tiles of each colour (tile x parity + 2·(y parity)
+    /// + 4·(z parity)): four colours in 2D, eight in 3D.
+    pub colours: Vec<Vec<u32>>,
     /// The active nodes, as ascending runs of node indices along rows: the
     /// nodes of every tile that holds particles or touches one that does
     /// (a particle's support reaches one node below and two above its
-    /// cell, so into the neighbouring tiles).
+    /// cell, so into the neighbouring tiles). Runs go along x, row by row
+    /// (y, then z), in ascending node order.
     pub active: Vec<Range<usize>>,
     /// Scratch of [`Bins::rebuild`]: each particle's sort key, and the
     /// counting sort's cursor per key.
@@ -313,7 +343,7 @@ pub struct Bins {
 
 impl Bins {
     /// The bins of particles at `x` for a kernel of `support` nodes.
-    pub fn new(geom: &GridGeom, x: &[[f64; 2]], support: usize) -> Bins {
+    pub fn new<const D: usize>(geom: &GridGeom<D>, x: &[[f64; D]], support: usize) -> Bins {
         let mut bins = Bins {
             tile_of: x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect(),
             ..Default::default()
@@ -330,27 +360,27 @@ impl Bins {
     /// row of the support, a third of it with 3 × 3 particles per cell.
     /// Particles that change support but not tile keep their place until
     /// the next rebuild: the order is then a little slower, never wrong.
-    pub fn rebuild(&mut self, geom: &GridGeom, x: &[[f64; 2]], support: usize) {
-        const PER_TILE: usize = (TILE + 1) * (TILE + 1);
-        let ntiles = geom.tiles[0] * geom.tiles[1];
+    pub fn rebuild<const D: usize>(&mut self, geom: &GridGeom<D>, x: &[[f64; D]], support: usize) {
+        let per_tile = (TILE + 1).pow(D as u32);
+        let ntiles = geom.tile_count();
         self.key.clear();
         self.key.extend(
             self.tile_of
                 .iter()
                 .zip(x)
-                .map(|(&t, &x)| t * PER_TILE as u32 + geom.support_in_tile(geom.xi(x), support)),
+                .map(|(&t, &x)| t * per_tile as u32 + geom.support_in_tile(geom.xi(x), support)),
         );
         self.cursor.clear();
-        self.cursor.resize(ntiles * PER_TILE + 1, 0);
+        self.cursor.resize(ntiles * per_tile + 1, 0);
         for &k in &self.key {
             self.cursor[k as usize + 1] += 1;
         }
-        for k in 0..ntiles * PER_TILE {
+        for k in 0..ntiles * per_tile {
             self.cursor[k + 1] += self.cursor[k];
         }
         self.start.clear();
         self.start
-            .extend((0..=ntiles).map(|t| self.cursor[t * PER_TILE]));
+            .extend((0..=ntiles).map(|t| self.cursor[t * per_tile]));
         self.order.resize(self.key.len(), 0);
         for (p, &k) in self.key.iter().enumerate() {
             let c = &mut self.cursor[k as usize];
@@ -364,13 +394,13 @@ impl Bins {
     /// within a tile the order depends on where the particles were at the
     /// last rebuild, and it sets the order of the sums into the grid).
     /// Fails if `order` does not list every particle once, tile by tile.
-    pub fn restore(
+    pub fn restore<const D: usize>(
         &mut self,
-        geom: &GridGeom,
-        x: &[[f64; 2]],
+        geom: &GridGeom<D>,
+        x: &[[f64; D]],
         order: Vec<u32>,
     ) -> Result<(), String> {
-        let ntiles = geom.tiles[0] * geom.tiles[1];
+        let ntiles = geom.tile_count();
         self.tile_of = x.iter().map(|&x| geom.tile_of(geom.xi(x))).collect();
         let mut seen = vec![false; x.len()];
         let sorted = order.len() == x.len()
@@ -397,29 +427,54 @@ impl Bins {
     }
 
     /// The colours and the active node runs of the tiles `start` fills.
-    fn tiles_from_start(&mut self, geom: &GridGeom) {
-        let ntiles = geom.tiles[0] * geom.tiles[1];
+    fn tiles_from_start<const D: usize>(&mut self, geom: &GridGeom<D>) {
+        let ntiles = geom.tile_count();
+        self.colours.resize(1 << D, Vec::new());
         for c in &mut self.colours {
             c.clear();
         }
-        let [ntx, nty] = geom.tiles;
+        let tiles = geom.tiles;
+        let mut tile_stride = [1; D];
+        for d in 1..D {
+            tile_stride[d] = tile_stride[d - 1] * tiles[d - 1];
+        }
         let mut live = vec![false; ntiles];
         for t in 0..ntiles {
             if self.start[t + 1] > self.start[t] {
-                let (tx, ty) = (t % ntx, t / ntx);
-                self.colours[(tx % 2) + 2 * (ty % 2)].push(t as u32);
-                for y in ty.saturating_sub(1)..(ty + 2).min(nty) {
-                    for x in tx.saturating_sub(1)..(tx + 2).min(ntx) {
-                        live[x + y * ntx] = true;
+                let tc: [usize; D] = std::array::from_fn(|d| t / tile_stride[d] % tiles[d]);
+                let colour = (0..D).map(|d| (tc[d] % 2) << d).sum::<usize>();
+                self.colours[colour].push(t as u32);
+                // the tile and its neighbours along every axis (3^D tiles)
+                'next: for around in 0..3usize.pow(D as u32) {
+                    let mut n = 0;
+                    let mut rest = around;
+                    for d in 0..D {
+                        let c = (tc[d] + rest % 3).checked_sub(1);
+                        rest /= 3;
+                        match c {
+                            Some(c) if c < tiles[d] => n += c * tile_stride[d],
+                            _ => continue 'next,
+                        }
                     }
+                    live[n] = true;
                 }
             }
         }
-        // Runs of active nodes, row by row, merging neighbouring tiles.
+        // Runs of active nodes along x, row by row, merging neighbouring
+        // tiles.
         self.active.clear();
-        let [nx, ny] = geom.nodes;
-        for j in 0..ny {
-            let row = &live[(j / TILE) * ntx..(j / TILE + 1) * ntx];
+        let nx = geom.nodes[0];
+        let ntx = tiles[0];
+        let rows: usize = geom.nodes[1..].iter().product();
+        for r in 0..rows {
+            // the row's first tile: its (y, z) node coordinates over TILE
+            let mut first_tile = 0;
+            let mut rest = r;
+            for d in 1..D {
+                first_tile += (rest % geom.nodes[d]) / TILE * tile_stride[d];
+                rest /= geom.nodes[d];
+            }
+            let row = &live[first_tile..first_tile + ntx];
             let mut tx = 0;
             while tx < ntx {
                 if !row[tx] {
@@ -431,7 +486,7 @@ impl Bins {
                     tx += 1;
                 }
                 let (a, b) = (first * TILE, (tx * TILE).min(nx));
-                self.active.push(j * nx + a..j * nx + b);
+                self.active.push(r * nx + a..r * nx + b);
             }
         }
     }
@@ -587,5 +642,68 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// In 2D and 3D, for every kernel: the tiles of one colour reach
+    /// disjoint nodes (so the coloured scatter needs no atomics), and every
+    /// node a particle's support reaches lies in an active run.
+    #[test]
+    fn colours_keep_stencils_apart_and_active_runs_cover_them() {
+        fn check<K: Kernel, const D: usize>(cells: [usize; D], count: usize) {
+            let mut seed = 777u64;
+            let mut next = || {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                (seed >> 11) as f64 / (1u64 << 53) as f64
+            };
+            let geom = GridGeom::<D>::new([0.0; D], 1.0, cells);
+            // particles anywhere in the domain, ghost nodes included in reach
+            let x: Vec<[f64; D]> = (0..count)
+                .map(|_| std::array::from_fn(|d| cells[d] as f64 * next()))
+                .collect();
+            let bins = Bins::new(&geom, &x, K::N);
+            assert_eq!(bins.colours.len(), 1 << D);
+            let mut active = vec![false; geom.node_count()];
+            for r in &bins.active {
+                assert!(r.start < r.end && r.end <= geom.node_count());
+                active[r.clone()].iter_mut().for_each(|a| *a = true);
+            }
+            for w in bins.active.windows(2) {
+                assert!(w[0].end <= w[1].start, "runs ascend: {w:?}");
+            }
+            let mut tiles_seen = 0;
+            for colour in &bins.colours {
+                let mut owner = vec![u32::MAX; geom.node_count()];
+                for &t in colour {
+                    tiles_seen += 1;
+                    for &p in bins.particles_of(t) {
+                        Support::<K, D>::new(&geom, x[p as usize], 0.25).for_each(|n| {
+                            assert!(active[n.node], "node {:?} of particle {p} not active", n.at);
+                            let o = &mut owner[n.node];
+                            assert!(
+                                *o == u32::MAX || *o == t,
+                                "tiles {o} and {t} of one colour share node {:?}",
+                                n.at
+                            );
+                            *o = t;
+                        });
+                    }
+                }
+            }
+            let nonempty = (0..geom.tile_count() as u32)
+                .filter(|&t| !bins.particles_of(t).is_empty())
+                .count();
+            assert_eq!(tiles_seen, nonempty);
+        }
+        check::<shape::Linear, 2>([40, 33], 3000);
+        check::<shape::QuadraticBspline, 2>([40, 33], 3000);
+        check::<shape::CubicBspline, 2>([40, 33], 3000);
+        check::<shape::Linear, 3>([27, 19, 22], 6000);
+        check::<shape::Gimp, 3>([27, 19, 22], 6000);
+        check::<shape::QuadraticBspline, 3>([27, 19, 22], 6000);
+        check::<shape::CubicBspline, 3>([27, 19, 22], 6000);
+        // particles in a corner only: the active runs stay near them
+        check::<shape::CubicBspline, 3>([40, 40, 40], 1);
     }
 }

@@ -8,36 +8,34 @@
 //! s.for_each(|n| grid[n.node] += n.w * m);
 //! ```
 //!
-//! The nodes come row by row: `j` (along y) outer, `i` (along x) inner, the
-//! order of the sums into every node and of every per-particle sum over its
-//! nodes. The values are the tensor products of the two 1D evaluations,
-//! always formed in the same order, so any two sites that take them agree
-//! to the bit:
+//! The same code serves 2D and 3D (`Support<K, D>`, `D` = 2 or 3). The
+//! nodes come row by row: the last axis outermost, `i` (along x)
+//! innermost, the order of the sums into every node and of every
+//! per-particle sum over its nodes. The values are the tensor products of
+//! the 1D evaluations, always formed in axis order (x first), so any two
+//! sites that take them agree to the bit. In 2D:
 //!
 //! - `w = wx[i]·wy[j]`;
 //! - `grad = [wx'[i]·wy[j]·(1/h), wx[i]·wy'[j]·(1/h)]` (per metre);
-//! - `hess = [wx''[i]·wy[j]·(1/h²), wx[i]·wy''[j]·(1/h²), wx'[i]·wy'[j]·(1/h²)]`
-//!   (`[N,xx, N,yy, N,xy]` per m², only from [`Support::with_hessian`]).
+//! - `hess = [[wx''[i]·wy[j], wx'[i]·wy'[j]], [·, wx[i]·wy''[j]]]·(1/h²)`
+//!   (per m², only from [`Support::with_hessian`]).
+//!
+//! In 3D each product has the third factor `wz[k]` (or its derivative)
+//! last: `w = wx·wy·wz`, `grad[0] = wx'·wy·wz/h`, `hess[0][2] = wx'·wy·wz'/h²`.
 //!
 //! **Zero cost.** [`Support`] is a few arrays on the stack and
-//! [`Support::for_each`] is an inlined pair of loops of constant trip
+//! [`Support::for_each`] is an inlined nest of `D` loops of constant trip
 //! count [`Kernel::N`] that calls the closure once per node: after
-//! inlining it is the hand-written double loop it replaced. Whatever of a
+//! inlining it is the hand-written double loop it replaced (`D` is a
+//! constant, so the other dimension's branch is compiled away). Whatever of a
 //! [`SupportNode`] a caller does not read (the gradient where only the
 //! weight is used, say) is dead code and compiled away. No allocation, no
 //! dynamic dispatch.
 //!
 //! **Per-particle arrays.** [`SupportNode::a`] is the node's local index
-//! `i + j·N` in `0..Support::<K>::LEN`; [`Support::local_offset`] turns it
+//! `i + N·(j + N·k)` in `0..Support::<K, D>::LEN`; [`Support::local_offset`] turns it
 //! back into the node's offset from [`Support::first_node`] (what a stored
 //! footprint mask needs).
-//!
-//! **3D.** A third axis adds a third 1D evaluation `wz` and an outermost
-//! loop over `k` in `for_each` (`k` outer, then `j`, then `i`); a
-//! `SupportNode` gets `local: [usize; 3]`, `at: [isize; 3]`, a 3-vector
-//! gradient (`wx'·wy·wz/h` and so on, in that factor order) and the six
-//! second derivatives, and `a = i + N·(j + N·k)`. Callers keep their shape:
-//! one closure per node.
 //!
 //! **A support of runtime width** (LME shape functions, whose support is
 //! every node within a cut-off radius that depends on the locality
@@ -59,141 +57,213 @@ use std::marker::PhantomData;
 
 /// One node of a particle's support, as [`Support::for_each`] hands it out.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SupportNode {
-    /// Local index `i + j·N` of the node in the support (for per-particle
-    /// arrays of [`Support::LEN`] entries).
+pub struct SupportNode<const D: usize = 2> {
+    /// Local index `i + N·(j + N·k)` of the node in the support (for
+    /// per-particle arrays of [`Support::LEN`] entries).
     pub a: usize,
-    /// Local position `[i, j]` in the support, each in `0..N`.
-    pub local: [usize; 2],
-    /// Lattice coordinates of the node (`[base_x + i, base_y + j]`).
-    pub at: [isize; 2],
-    /// Node index `at[0] + at[1]·nodes[0]`.
+    /// Local position `[i, j(, k)]` in the support, each in `0..N`.
+    pub local: [usize; D],
+    /// Lattice coordinates of the node (`[base_x + i, base_y + j, …]`).
+    pub at: [isize; D],
+    /// Node index ([`GridGeom::node`] of `at`).
     pub node: usize,
     /// N(x_p).
     pub w: f64,
     /// ∇N(x_p), per metre.
-    pub grad: [f64; 2],
-    /// [N,xx, N,yy, N,xy] at x_p, per m²; zero unless the support was made
-    /// by [`Support::with_hessian`] (and where the kernel is not C¹).
-    pub hess: [f64; 3],
+    pub grad: [f64; D],
+    /// The Hessian ∇∇N(x_p), per m² (symmetric); zero unless the support
+    /// was made by [`Support::with_hessian`] (and where the kernel is not
+    /// C¹).
+    pub hess: [[f64; D]; D],
 }
 
-/// The support of a particle for kernel `K`: its two 1D evaluations and
-/// what turns them into nodes. With `HESS`, the kernel's second derivatives
-/// too ([`Kernel::eval2`]).
+impl SupportNode<2> {
+    /// The 2D Hessian as `[N,xx, N,yy, N,xy]`.
+    #[inline(always)]
+    pub fn hess_voigt(&self) -> [f64; 3] {
+        [self.hess[0][0], self.hess[1][1], self.hess[0][1]]
+    }
+}
+
+/// The support of a particle for kernel `K` in `D` dimensions (2 or 3):
+/// its 1D evaluations along each axis and what turns them into nodes.
+/// With `HESS`, the kernel's second derivatives too ([`Kernel::eval2`]).
 #[derive(Debug, Clone, Copy)]
-pub struct Support<K: Kernel, const HESS: bool = false> {
-    xi: [f64; 2],
-    wx: Weights1,
-    wy: Weights1,
-    d2x: [f64; MAX_SUPPORT],
-    d2y: [f64; MAX_SUPPORT],
+pub struct Support<K: Kernel, const D: usize = 2, const HESS: bool = false> {
+    xi: [f64; D],
+    w: [Weights1; D],
+    d2: [[f64; MAX_SUPPORT]; D],
     inv_h: f64,
-    row: usize,
+    /// Node-index strides of the axes: `[1, nx(, nx·ny)]`.
+    stride: [usize; D],
     kernel: PhantomData<K>,
 }
 
-impl<K: Kernel> Support<K> {
+impl<K: Kernel, const D: usize> Support<K, D> {
     /// Nodes in the support.
-    pub const LEN: usize = K::N * K::N;
+    pub const LEN: usize = K::N.pow(D as u32);
 
     /// The support of a particle at `x` (m) with GIMP half-width `lp`
     /// (cells; other kernels ignore it): weights and gradients.
     #[inline(always)]
-    pub fn new(geom: &GridGeom, x: [f64; 2], lp: f64) -> Self {
+    pub fn new(geom: &GridGeom<D>, x: [f64; D], lp: f64) -> Self {
         Self::eval(geom, x, lp)
     }
 
     /// Offset of the node of local index `a` from [`Support::first_node`]
     /// on a grid of `geom`.
     #[inline(always)]
-    pub fn local_offset(geom: &GridGeom, a: usize) -> usize {
-        a % K::N + (a / K::N) * geom.nodes[0]
+    pub fn local_offset(geom: &GridGeom<D>, a: usize) -> usize {
+        let mut rest = a;
+        let mut offset = 0;
+        let mut stride = 1;
+        for d in 0..D {
+            offset += rest % K::N * stride;
+            rest /= K::N;
+            stride *= geom.nodes[d];
+        }
+        offset
     }
 }
 
-impl<K: Kernel> Support<K, true> {
+impl<K: Kernel, const D: usize> Support<K, D, true> {
     /// As [`Support::new`], with second derivatives.
     #[inline(always)]
-    pub fn with_hessian(geom: &GridGeom, x: [f64; 2], lp: f64) -> Self {
+    pub fn with_hessian(geom: &GridGeom<D>, x: [f64; D], lp: f64) -> Self {
         Self::eval(geom, x, lp)
     }
 }
 
-impl<K: Kernel, const HESS: bool> Support<K, HESS> {
+impl<K: Kernel, const D: usize, const HESS: bool> Support<K, D, HESS> {
     /// The support at `x` (m): [`Support::new`] or
     /// [`Support::with_hessian`] as `HESS` says.
     #[inline(always)]
-    pub fn eval(geom: &GridGeom, x: [f64; 2], lp: f64) -> Self {
+    pub fn eval(geom: &GridGeom<D>, x: [f64; D], lp: f64) -> Self {
         let xi = geom.xi(x);
-        let (wx, d2x, wy, d2y) = if HESS {
-            let (wx, d2x) = K::eval2(xi[0], lp);
-            let (wy, d2y) = K::eval2(xi[1], lp);
-            (wx, d2x, wy, d2y)
-        } else {
-            let zero = [0.0; MAX_SUPPORT];
-            (K::eval(xi[0], lp), zero, K::eval(xi[1], lp), zero)
-        };
+        let mut w = [Weights1::default(); D];
+        let mut d2 = [[0.0; MAX_SUPPORT]; D];
+        for d in 0..D {
+            if HESS {
+                (w[d], d2[d]) = K::eval2(xi[d], lp);
+            } else {
+                w[d] = K::eval(xi[d], lp);
+            }
+        }
         Support {
             xi,
-            wx,
-            wy,
-            d2x,
-            d2y,
+            w,
+            d2,
             inv_h: geom.inv_h,
-            row: geom.nodes[0],
+            stride: geom.strides(),
             kernel: PhantomData,
         }
     }
 
     /// The particle's position in node units ([`GridGeom::xi`]).
     #[inline(always)]
-    pub fn xi(&self) -> [f64; 2] {
+    pub fn xi(&self) -> [f64; D] {
         self.xi
     }
 
-    /// Lattice coordinates of the support's first node (local `[0, 0]`).
+    /// Lattice coordinates of the support's first node (local `[0, 0(, 0)]`).
     #[inline(always)]
-    pub fn base(&self) -> [isize; 2] {
-        [self.wx.base, self.wy.base]
+    pub fn base(&self) -> [isize; D] {
+        std::array::from_fn(|d| self.w[d].base)
     }
 
     /// Index of the support's first node (local index 0).
     #[inline(always)]
     pub fn first_node(&self) -> usize {
-        self.wx.base as usize + self.wy.base as usize * self.row
+        let mut n = 0;
+        for d in 0..D {
+            n += self.w[d].base as usize * self.stride[d];
+        }
+        n
     }
 
-    /// Calls `f` for every node of the support: `j` outer, `i` inner
-    /// (local index `a = i + j·N` ascending), every node even where its
-    /// weight is zero.
+    /// Calls `f` for every node of the support: the last axis outermost
+    /// and x innermost (local index `a = i + N·(j + N·k)` ascending), every
+    /// node even where its weight is zero.
+    ///
+    /// The products are always formed in axis order, x first, as the
+    /// module doc says: in 2D `w = wx·wy`, in 3D `w = wx·wy·wz`, and each
+    /// derivative replaces its axis' factor.
     #[inline(always)]
-    pub fn for_each(&self, mut f: impl FnMut(SupportNode)) {
-        let (wx, wy) = (&self.wx, &self.wy);
+    pub fn for_each(&self, mut f: impl FnMut(SupportNode<D>)) {
+        const { assert!(D == 2 || D == 3, "a support has 2 or 3 axes") };
         let ih = self.inv_h;
         let ih2 = ih * ih;
-        for j in 0..K::N {
-            let y = wy.base + j as isize;
-            let row = y as usize * self.row;
-            for i in 0..K::N {
-                let x = wx.base + i as isize;
-                f(SupportNode {
-                    a: i + j * K::N,
-                    local: [i, j],
-                    at: [x, y],
-                    node: x as usize + row,
-                    w: wx.w[i] * wy.w[j],
-                    grad: [wx.dw[i] * wy.w[j] * ih, wx.w[i] * wy.dw[j] * ih],
-                    hess: if HESS {
-                        [
-                            self.d2x[i] * wy.w[j] * ih2,
-                            wx.w[i] * self.d2y[j] * ih2,
-                            wx.dw[i] * wy.dw[j] * ih2,
-                        ]
-                    } else {
-                        [0.0; 3]
-                    },
-                });
+        let wx = &self.w[0];
+        let wy = &self.w[1];
+        let (d2x, d2y) = (&self.d2[0], &self.d2[1]);
+        if D == 2 {
+            for j in 0..K::N {
+                let y = wy.base + j as isize;
+                let row = y as usize * self.stride[1];
+                for i in 0..K::N {
+                    let x = wx.base + i as isize;
+                    let mut n = SupportNode {
+                        a: i + j * K::N,
+                        local: [0; D],
+                        at: [0; D],
+                        node: x as usize + row,
+                        w: wx.w[i] * wy.w[j],
+                        grad: [0.0; D],
+                        hess: [[0.0; D]; D],
+                    };
+                    (n.local[0], n.local[1]) = (i, j);
+                    (n.at[0], n.at[1]) = (x, y);
+                    n.grad[0] = wx.dw[i] * wy.w[j] * ih;
+                    n.grad[1] = wx.w[i] * wy.dw[j] * ih;
+                    if HESS {
+                        n.hess[0][0] = d2x[i] * wy.w[j] * ih2;
+                        n.hess[1][1] = wx.w[i] * d2y[j] * ih2;
+                        n.hess[0][1] = wx.dw[i] * wy.dw[j] * ih2;
+                        n.hess[1][0] = n.hess[0][1];
+                    }
+                    f(n);
+                }
+            }
+        } else {
+            let wz = &self.w[D - 1];
+            let d2z = &self.d2[D - 1];
+            for k in 0..K::N {
+                let z = wz.base + k as isize;
+                let plane = z as usize * self.stride[D - 1];
+                for j in 0..K::N {
+                    let y = wy.base + j as isize;
+                    let row = plane + y as usize * self.stride[1];
+                    for i in 0..K::N {
+                        let x = wx.base + i as isize;
+                        let mut n = SupportNode {
+                            a: i + K::N * (j + K::N * k),
+                            local: [0; D],
+                            at: [0; D],
+                            node: x as usize + row,
+                            w: wx.w[i] * wy.w[j] * wz.w[k],
+                            grad: [0.0; D],
+                            hess: [[0.0; D]; D],
+                        };
+                        (n.local[0], n.local[1], n.local[D - 1]) = (i, j, k);
+                        (n.at[0], n.at[1], n.at[D - 1]) = (x, y, z);
+                        n.grad[0] = wx.dw[i] * wy.w[j] * wz.w[k] * ih;
+                        n.grad[1] = wx.w[i] * wy.dw[j] * wz.w[k] * ih;
+                        n.grad[D - 1] = wx.w[i] * wy.w[j] * wz.dw[k] * ih;
+                        if HESS {
+                            let h = &mut n.hess;
+                            h[0][0] = d2x[i] * wy.w[j] * wz.w[k] * ih2;
+                            h[1][1] = wx.w[i] * d2y[j] * wz.w[k] * ih2;
+                            h[D - 1][D - 1] = wx.w[i] * wy.w[j] * d2z[k] * ih2;
+                            h[0][1] = wx.dw[i] * wy.dw[j] * wz.w[k] * ih2;
+                            h[0][D - 1] = wx.dw[i] * wy.w[j] * wz.dw[k] * ih2;
+                            h[1][D - 1] = wx.w[i] * wy.dw[j] * wz.dw[k] * ih2;
+                            h[1][0] = h[0][1];
+                            h[D - 1][0] = h[0][D - 1];
+                            h[D - 1][1] = h[1][D - 1];
+                        }
+                        f(n);
+                    }
+                }
             }
         }
     }
@@ -204,51 +274,75 @@ mod tests {
     use super::super::shape::{CubicBspline, Gimp, Linear, QuadraticBspline};
     use super::*;
 
-    /// What the hand-written double loop computed at every site before
-    /// there was a `Support`: (node, w, grad, hess) in its order.
-    fn double_loop<K: Kernel>(
-        geom: &GridGeom,
-        x: [f64; 2],
+    type Hess<const D: usize> = [[f64; D]; D];
+
+    /// What nested loops over the axes compute, written out per dimension
+    /// (for 2D: the hand-written double loop every site had before there
+    /// was a `Support`): (node, w, grad, hess) in their order.
+    fn nested_loops<K: Kernel, const D: usize>(
+        geom: &GridGeom<D>,
+        x: [f64; D],
         lp: f64,
         hess: bool,
-    ) -> Vec<(usize, f64, [f64; 2], [f64; 3])> {
+    ) -> Vec<(usize, f64, [f64; D], Hess<D>)> {
         let xi = geom.xi(x);
         let (ih, ih2) = (geom.inv_h, geom.inv_h * geom.inv_h);
-        let ((wx, d2x), (wy, d2y)) = if hess {
-            (K::eval2(xi[0], lp), K::eval2(xi[1], lp))
-        } else {
-            (
-                (K::eval(xi[0], lp), [0.0; MAX_SUPPORT]),
-                (K::eval(xi[1], lp), [0.0; MAX_SUPPORT]),
-            )
-        };
-        let mut out = Vec::new();
-        for j in 0..K::N {
-            for i in 0..K::N {
-                let node = (wx.base + i as isize) as usize
-                    + (wy.base + j as isize) as usize * geom.nodes[0];
-                let h = if hess {
-                    [
-                        d2x[i] * wy.w[j] * ih2,
-                        wx.w[i] * d2y[j] * ih2,
-                        wx.dw[i] * wy.dw[j] * ih2,
-                    ]
+        let e: Vec<_> = (0..D)
+            .map(|d| {
+                if hess {
+                    K::eval2(xi[d], lp)
                 } else {
-                    [0.0; 3]
-                };
-                out.push((
-                    node,
-                    wx.w[i] * wy.w[j],
-                    [wx.dw[i] * wy.w[j] * ih, wx.w[i] * wy.dw[j] * ih],
-                    h,
-                ));
+                    (K::eval(xi[d], lp), [0.0; MAX_SUPPORT])
+                }
+            })
+            .collect();
+        let mut out = Vec::new();
+        let nz = if D == 3 { K::N } else { 1 };
+        for k in 0..nz {
+            for j in 0..K::N {
+                for i in 0..K::N {
+                    let idx = [i, j, k];
+                    let mut at = [0usize; D];
+                    for d in 0..D {
+                        at[d] = (e[d].0.base + idx[d] as isize) as usize;
+                    }
+                    let node = geom.node(at);
+                    // Π over the axes, x first, with axis `da` (and `db`)
+                    // differentiated `order` times in total
+                    let prod = |da: usize, db: usize, order: usize| {
+                        let mut v = 1.0;
+                        for d in 0..D {
+                            let (w, dw, d2) = (e[d].0.w[idx[d]], e[d].0.dw[idx[d]], e[d].1[idx[d]]);
+                            v *= match (order, d == da, d == db) {
+                                (1, true, _) => dw,
+                                (2, true, true) => d2,
+                                (2, true, false) | (2, false, true) => dw,
+                                _ => w,
+                            };
+                        }
+                        v
+                    };
+                    let w = prod(D, D, 0);
+                    let grad: [f64; D] = std::array::from_fn(|d| prod(d, d, 1) * ih);
+                    let mut h = [[0.0; D]; D];
+                    if hess {
+                        for a in 0..D {
+                            for b in 0..D {
+                                h[a][b] = prod(a.min(b), a.max(b), 2) * ih2;
+                            }
+                        }
+                    }
+                    out.push((node, w, grad, h));
+                }
             }
         }
         out
     }
 
-    fn check<K: Kernel>(lp: f64) {
-        let geom = GridGeom::new([-0.3, 0.2], 0.07, [40, 30]);
+    fn check<K: Kernel, const D: usize>(lp: f64) {
+        let min: [f64; D] = std::array::from_fn(|d| [-0.3, 0.2, 0.05][d]);
+        let cells: [usize; D] = std::array::from_fn(|d| [40, 30, 20][d]);
+        let geom = GridGeom::<D>::new(min, 0.07, cells);
         let mut seed = 99u64;
         let mut next = || {
             seed = seed
@@ -256,55 +350,56 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
-        for _ in 0..500 {
-            let x = [
-                geom.domain_min[0] + next() * (geom.domain_max[0] - geom.domain_min[0]),
-                geom.domain_min[1] + next() * (geom.domain_max[1] - geom.domain_min[1]),
-            ];
-            let plain = Support::<K>::new(&geom, x, lp);
-            let second = Support::<K, true>::with_hessian(&geom, x, lp);
+        for _ in 0..300 {
+            let x: [f64; D] = std::array::from_fn(|d| {
+                geom.domain_min[d] + next() * (geom.domain_max[d] - geom.domain_min[d])
+            });
+            let plain = Support::<K, D>::new(&geom, x, lp);
+            let second = Support::<K, D, true>::with_hessian(&geom, x, lp);
             for (hess, nodes) in [
                 (false, collect(|f| plain.for_each(f))),
                 (true, collect(|f| second.for_each(f))),
             ] {
-                let old = double_loop::<K>(&geom, x, lp, hess);
-                assert_eq!(nodes.len(), Support::<K>::LEN);
+                let old = nested_loops::<K, D>(&geom, x, lp, hess);
+                assert_eq!(nodes.len(), Support::<K, D>::LEN);
                 assert_eq!(nodes.len(), old.len());
-                let (mut w, mut g, mut h) = (0.0, [0.0; 2], [0.0; 3]);
+                let (mut w, mut g, mut h) = (0.0, [0.0; D], [[0.0; D]; D]);
                 for (a, (n, o)) in nodes.iter().zip(&old).enumerate() {
-                    // the old loop's nodes and values, in its order, to the bit
+                    // the loops' nodes and values, in their order, to the bit
                     assert_eq!((n.node, n.w, n.grad, n.hess), *o, "node {a} at {x:?}");
                     assert_eq!(n.a, a);
-                    assert_eq!(n.local, [a % K::N, a / K::N]);
+                    let local: [usize; D] = std::array::from_fn(|d| a / K::N.pow(d as u32) % K::N);
+                    assert_eq!(n.local, local);
                     assert_eq!(
                         n.node,
-                        plain.first_node() + Support::<K>::local_offset(&geom, a)
+                        plain.first_node() + Support::<K, D>::local_offset(&geom, a)
                     );
-                    assert_eq!(
-                        n.at,
-                        [
-                            plain.base()[0] + n.local[0] as isize,
-                            plain.base()[1] + n.local[1] as isize
-                        ]
-                    );
-                    assert_eq!(n.node, geom.node(n.at[0] as usize, n.at[1] as usize));
+                    let at: [isize; D] =
+                        std::array::from_fn(|d| plain.base()[d] + n.local[d] as isize);
+                    assert_eq!(n.at, at);
+                    assert_eq!(n.node, geom.node(n.at.map(|c| c as usize)));
+                    assert_eq!(geom.node_coords(n.node), n.at.map(|c| c as usize));
                     w += n.w;
-                    g = [g[0] + n.grad[0], g[1] + n.grad[1]];
-                    for r in 0..3 {
-                        h[r] += n.hess[r];
+                    for r in 0..D {
+                        g[r] += n.grad[r];
+                        for c in 0..D {
+                            h[r][c] += n.hess[r][c];
+                        }
                     }
                 }
                 // partition of unity; gradients and Hessians sum to zero
                 let gs = geom.inv_h * 1e-12;
                 assert!((w - 1.0).abs() < 1e-12, "Σw = {w} at {x:?}");
-                assert!(g[0].abs() < gs && g[1].abs() < gs, "Σ∇N = {g:?}");
+                assert!(g.iter().all(|v| v.abs() < gs), "Σ∇N = {g:?}");
                 let hs = geom.inv_h * geom.inv_h * 1e-12;
-                assert!(h.iter().all(|v| v.abs() < hs), "Σ∇∇N = {h:?}");
+                assert!(h.iter().flatten().all(|v| v.abs() < hs), "Σ∇∇N = {h:?}");
             }
         }
     }
 
-    fn collect(visit: impl FnOnce(&mut dyn FnMut(SupportNode))) -> Vec<SupportNode> {
+    fn collect<const D: usize>(
+        visit: impl FnOnce(&mut dyn FnMut(SupportNode<D>)),
+    ) -> Vec<SupportNode<D>> {
         let mut out = Vec::new();
         visit(&mut |n| out.push(n));
         out
@@ -312,10 +407,56 @@ mod tests {
 
     #[test]
     fn support_visits_the_double_loops_nodes_with_its_values() {
-        check::<Linear>(0.0);
-        check::<Gimp>(0.25);
-        check::<Gimp>(0.5);
-        check::<QuadraticBspline>(0.0);
-        check::<CubicBspline>(0.0);
+        check::<Linear, 2>(0.0);
+        check::<Gimp, 2>(0.25);
+        check::<Gimp, 2>(0.5);
+        check::<QuadraticBspline, 2>(0.0);
+        check::<CubicBspline, 2>(0.0);
+    }
+
+    /// In 3D: the triple loop's nodes and values (x innermost), the
+    /// partition of unity, gradients and Hessians that sum to zero.
+    #[test]
+    fn support_visits_the_triple_loops_nodes_with_its_values() {
+        check::<Linear, 3>(0.0);
+        check::<Gimp, 3>(0.25);
+        check::<QuadraticBspline, 3>(0.0);
+        check::<CubicBspline, 3>(0.0);
+    }
+
+    /// A linear field is reproduced exactly by every kernel in 3D, and its
+    /// gradient too: Σ N_I x_I = x, Σ ∇N_I ⊗ x_I = I.
+    #[test]
+    fn supports_reproduce_linear_fields_in_3d() {
+        fn linear<K: Kernel>(lp: f64) {
+            let geom = GridGeom::<3>::new([0.1, -0.2, 0.3], 0.05, [12, 10, 8]);
+            for x in [
+                [0.23, 0.04, 0.41],
+                [0.5, 0.2, 0.66],
+                [0.1001, -0.1999, 0.3001],
+            ] {
+                let (mut r, mut g) = ([0.0; 3], [[0.0; 3]; 3]);
+                Support::<K, 3>::new(&geom, x, lp).for_each(|n| {
+                    let xn = geom.node_position(n.node);
+                    for a in 0..3 {
+                        r[a] += n.w * xn[a];
+                        for b in 0..3 {
+                            g[a][b] += n.grad[a] * xn[b];
+                        }
+                    }
+                });
+                for a in 0..3 {
+                    assert!((r[a] - x[a]).abs() < 1e-12, "{r:?} at {x:?}");
+                    for b in 0..3 {
+                        let want = if a == b { 1.0 } else { 0.0 };
+                        assert!((g[a][b] - want).abs() < 1e-10, "{g:?} at {x:?}");
+                    }
+                }
+            }
+        }
+        linear::<Linear>(0.0);
+        linear::<Gimp>(0.25);
+        linear::<QuadraticBspline>(0.0);
+        linear::<CubicBspline>(0.0);
     }
 }

@@ -104,12 +104,13 @@ impl Boundary {
         let side_nodes = |side: usize| -> Vec<u32> {
             let mut v = Vec::new();
             match side {
-                0 => (0..ny).for_each(|j| (0..=PAD).for_each(|i| v.push(geom.node(i, j) as u32))),
-                1 => (0..ny)
-                    .for_each(|j| (nx - 1 - PAD..nx).for_each(|i| v.push(geom.node(i, j) as u32))),
-                2 => (0..=PAD).for_each(|j| (0..nx).for_each(|i| v.push(geom.node(i, j) as u32))),
+                0 => (0..ny).for_each(|j| (0..=PAD).for_each(|i| v.push(geom.node([i, j]) as u32))),
+                1 => (0..ny).for_each(|j| {
+                    (nx - 1 - PAD..nx).for_each(|i| v.push(geom.node([i, j]) as u32))
+                }),
+                2 => (0..=PAD).for_each(|j| (0..nx).for_each(|i| v.push(geom.node([i, j]) as u32))),
                 _ => (ny - 1 - PAD..ny)
-                    .for_each(|j| (0..nx).for_each(|i| v.push(geom.node(i, j) as u32))),
+                    .for_each(|j| (0..nx).for_each(|i| v.push(geom.node([i, j]) as u32))),
             }
             v
         };

@@ -18,8 +18,11 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     let file = &scene.file;
     let mut geom = GridGeom::new(file.grid.min, file.grid.cell_size, scene.cells);
     let b = &file.grid.boundary;
-    geom.walls = [&b.left, &b.right, &b.bottom, &b.top]
-        .map(|s| matches!(s, SideCondition::Fixed | SideCondition::Roller));
+    let wall = |s: &SideCondition| matches!(s, SideCondition::Fixed | SideCondition::Roller);
+    geom.walls = [
+        [wall(&b.left), wall(&b.right)],
+        [wall(&b.bottom), wall(&b.top)],
+    ];
     let mats: Vec<Elastic> = scene
         .materials
         .iter()

@@ -186,12 +186,12 @@ fn support<K: Kernel, const HESS: bool>(geom: &GridGeom, x: [f64; 2]) -> Support
         g: [[0.0; 2]; MAX_SUPPORT * MAX_SUPPORT],
         hess: [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT],
     };
-    Support::<K, HESS>::eval(geom, x, 0.0).for_each(|n| {
+    Support::<K, 2, HESS>::eval(geom, x, 0.0).for_each(|n| {
         s.node[n.a] = n.node;
         s.w[n.a] = n.w;
         s.g[n.a] = n.grad;
         if HESS {
-            s.hess[n.a] = n.hess;
+            s.hess[n.a] = n.hess_voigt();
         }
     });
     s
@@ -523,9 +523,9 @@ impl PhaseFieldSystem {
                     let key = if parts.member(p) {
                         let mut mask = 0u64;
                         let node0 = if fourth {
-                            let s = Support::<K, true>::with_hessian(geom, parts.x[p], 0.0);
+                            let s = Support::<K, 2, true>::with_hessian(geom, parts.x[p], 0.0);
                             s.for_each(|n| {
-                                if n.w > 0.0 || n.hess.iter().any(|&h| h != 0.0) {
+                                if n.w > 0.0 || n.hess_voigt().iter().any(|&h| h != 0.0) {
                                     mask |= 1 << n.a;
                                 }
                             });
@@ -1319,13 +1319,14 @@ pub fn value_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> f64 {
 /// c, ∇c and ∇²c = [c,11, c,22, c,12] at a point from nodal values.
 pub fn field_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> (f64, [f64; 2], [f64; 3]) {
     let (mut v, mut g, mut h) = (0.0, [0.0; 2], [0.0; 3]);
-    Support::<K, true>::with_hessian(geom, x, 0.0).for_each(|n| {
+    Support::<K, 2, true>::with_hessian(geom, x, 0.0).for_each(|n| {
         let ci = c[n.node];
         v += n.w * ci;
         g[0] += n.grad[0] * ci;
         g[1] += n.grad[1] * ci;
+        let nh = n.hess_voigt();
         for r in 0..3 {
-            h[r] += n.hess[r] * ci;
+            h[r] += nh[r] * ci;
         }
     });
     (v, g, h)
