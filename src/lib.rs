@@ -22,6 +22,7 @@ pub mod run;
 pub mod scene;
 pub mod service;
 pub mod study;
+pub mod tensor;
 
 /// The crate version, as reported by the binaries.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,12 +1,22 @@
 //! Struct-of-arrays particle storage: one array per quantity. Arrays that
 //! only some scenes need (small strain, deformation gradient, APIC affine
 //! matrix, GIMP half-width) are empty when no particle needs them.
+//!
+//! `Particles<D, V>` holds particles of `D` = 2 or 3 dimensions; `V` is the
+//! Voigt length of a symmetric tensor (3 in 2D, 6 in 3D; see
+//! [`crate::tensor`]). The defaults are 2D.
 
 /// All particles of a simulation. Index `p` is the same particle in every
 /// array. Particles are stored tile by tile (sorted once when the
 /// simulation is built); `id` keeps the seeding order.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Particles {
+#[serde(bound(
+    serialize = "[f64; D]: serde::Serialize, [f64; V]: serde::Serialize, \
+                 [[f64; D]; D]: serde::Serialize",
+    deserialize = "[f64; D]: serde::Deserialize<'de>, [f64; V]: serde::Deserialize<'de>, \
+                   [[f64; D]; D]: serde::Deserialize<'de>"
+))]
+pub struct Particles<const D: usize = 2, const V: usize = 3> {
     /// Stable id: the seeding order (bodies in scene order).
     pub id: Vec<u32>,
     /// Index of the body in the scene.
@@ -16,26 +26,27 @@ pub struct Particles {
     /// Dense contact-group index (position in `Scene::contact_groups`).
     pub group: Vec<u8>,
     /// Position, m.
-    pub x: Vec<[f64; 2]>,
+    pub x: Vec<[f64; D]>,
     /// Velocity, m/s.
-    pub v: Vec<[f64; 2]>,
+    pub v: Vec<[f64; D]>,
     /// Mass, kg (constant).
     pub mass: Vec<f64>,
-    /// Current volume (area × thickness), m³.
+    /// Current volume (2D: area × thickness), m³.
     pub vol: Vec<f64>,
     /// Initial volume, m³.
     pub vol0: Vec<f64>,
-    /// Cauchy stress (xx, yy, xy), Pa. σ_zz is derived for output.
-    pub stress: Vec<[f64; 3]>,
-    /// Small strain (xx, yy, xy tensor component), for linear elastic
+    /// Cauchy stress in Voigt order, Pa (2D: xx, yy, xy, with σ_zz
+    /// derived for output; 3D: xx, yy, zz, yz, xz, xy).
+    pub stress: Vec<[f64; V]>,
+    /// Small strain (tensor components, Voigt order), for linear elastic
     /// materials; empty if none.
-    pub strain: Vec<[f64; 3]>,
-    /// Deformation gradient (F11, F12, F21, F22), for neo-Hookean
-    /// materials; empty if none.
-    pub def_grad: Vec<[f64; 4]>,
-    /// APIC affine velocity matrix C (C11, C12, C21, C22), 1/s; empty
-    /// unless the transfer is APIC.
-    pub affine: Vec<[f64; 4]>,
+    pub strain: Vec<[f64; V]>,
+    /// Deformation gradient F (row-major: `def_grad[p][a][b]` = F_ab), for
+    /// neo-Hookean materials; empty if none.
+    pub def_grad: Vec<[[f64; D]; D]>,
+    /// APIC affine velocity matrix C (row-major), 1/s; empty unless the
+    /// transfer is APIC.
+    pub affine: Vec<[[f64; D]; D]>,
     /// GIMP particle half-width in cells; empty unless the shape functions
     /// are GIMP.
     pub half_size: Vec<f64>,
@@ -53,7 +64,7 @@ pub struct Particles {
     pub strength: Vec<f64>,
 }
 
-impl Particles {
+impl<const D: usize, const V: usize> Particles<D, V> {
     pub fn len(&self) -> usize {
         self.x.len()
     }

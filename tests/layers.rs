@@ -27,6 +27,7 @@ const LAYERS: &[(&str, &[&str], &[&str])] = &[
         "base",
         &[
             "src/particles.rs",
+            "src/tensor.rs",
             "src/grid",
             "src/material",
             "src/geometry",

@@ -536,8 +536,8 @@ series_rows = 101
             let jmin = block
                 .iter()
                 .map(|&k| {
-                    let f = p.def_grad[k];
-                    f[0] * f[3] - f[1] * f[2]
+                    let [[f11, f12], [f21, f22]] = p.def_grad[k];
+                    f11 * f22 - f12 * f21
                 })
                 .fold(f64::INFINITY, f64::min);
             println!(

@@ -40,7 +40,7 @@ pub fn measure(parts: &Particles, mats: &[Elastic], apic_d: Option<f64>) -> Meas
                 m.angular += mass * (x[0] * v[1] - x[1] * v[0]);
                 if let Some(d) = apic_d {
                     let a = parts.affine[p];
-                    m.angular += mass * d * (a[2] - a[1]);
+                    m.angular += mass * d * (a[1][0] - a[0][1]);
                 }
                 let mat = &mats[parts.material[p] as usize];
                 let psi = match mat.model {
@@ -113,10 +113,10 @@ pub fn snapshot(
             }
             MaterialModel::NeoHookean => {
                 // Green–Lagrange strain E = ½(FᵀF − I)
-                let f = parts.def_grad[p];
-                let c11 = f[0] * f[0] + f[2] * f[2];
-                let c22 = f[1] * f[1] + f[3] * f[3];
-                let c12 = f[0] * f[1] + f[2] * f[3];
+                let [[f11, f12], [f21, f22]] = parts.def_grad[p];
+                let c11 = f11 * f11 + f21 * f21;
+                let c22 = f12 * f12 + f22 * f22;
+                let c12 = f11 * f12 + f21 * f22;
                 ([0.5 * (c11 - 1.0), 0.5 * (c22 - 1.0), 0.5 * c12], 0.0)
             }
         };

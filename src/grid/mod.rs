@@ -498,7 +498,11 @@ impl Bins {
 
 /// The support of particle `p` (GIMP uses the particle's half-width).
 #[inline(always)]
-pub fn particle_support<K: Kernel>(geom: &GridGeom, parts: &Particles, p: usize) -> Support<K> {
+pub fn particle_support<K: Kernel, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
+    p: usize,
+) -> Support<K, D> {
     let lp = parts.half_size.get(p).copied().unwrap_or(0.0);
     Support::new(geom, parts.x[p], lp)
 }
@@ -509,17 +513,17 @@ pub fn particle_support<K: Kernel>(geom: &GridGeom, parts: &Particles, p: usize)
 /// same colour (see [`crate::grid::TILE`]), so `scatter` may add into the
 /// nodes of the particle's support through a [`SyncPtr`], and the order of
 /// the additions at every node is the same for any number of threads.
-pub fn scatter_coloured<K: Kernel>(
-    geom: &GridGeom,
-    parts: &Particles,
+pub fn scatter_coloured<K: Kernel, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
     bins: &Bins,
-    scatter: impl Fn(usize, &Support<K>) + Sync,
+    scatter: impl Fn(usize, &Support<K, D>) + Sync,
 ) {
     for colour in &bins.colours {
         colour.par_iter().for_each(|&tile| {
             for &p in bins.particles_of(tile) {
                 let p = p as usize;
-                scatter(p, &particle_support::<K>(geom, parts, p));
+                scatter(p, &particle_support::<K, D, V>(geom, parts, p));
             }
         });
     }

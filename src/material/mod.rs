@@ -4,6 +4,8 @@
 //!   (σ_zz = λ(ε_xx + ε_yy)) and plane stress (σ_zz = 0), updated
 //!   incrementally: ε ← ε + Δt·sym(L), which leaves rigid rotations free of
 //!   strain (the update-stress-last scheme of Sulsky et al. 1994).
+//! - The same two in 3D (`hooke_3d`, `neo_hookean_3d`), stresses and
+//!   strains in Voigt order (xx, yy, zz, yz, xz, xy).
 //! - Compressible neo-Hookean (plane strain, F_zz = 1):
 //!   σ = μ/J (F Fᵀ − I) + λ ln J / J · I, ψ = μ/2 (tr C − 3) − μ ln J + λ/2 (ln J)².
 
@@ -93,14 +95,16 @@ impl Elastic {
         ]
     }
 
-    /// Neo-Hookean Cauchy stress (xx, yy, xy) and J for F = (F11, F12, F21, F22).
+    /// Neo-Hookean Cauchy stress (xx, yy, xy) and J for the 2D F (plane
+    /// strain, F_zz = 1).
     #[inline(always)]
-    pub fn neo_hookean(&self, f: [f64; 4]) -> ([f64; 3], f64) {
-        let j = f[0] * f[3] - f[1] * f[2];
+    pub fn neo_hookean(&self, f: [[f64; 2]; 2]) -> ([f64; 3], f64) {
+        let [[f11, f12], [f21, f22]] = f;
+        let j = f11 * f22 - f12 * f21;
         let b = [
-            f[0] * f[0] + f[1] * f[1],
-            f[2] * f[2] + f[3] * f[3],
-            f[0] * f[2] + f[1] * f[3],
+            f11 * f11 + f12 * f12,
+            f21 * f21 + f22 * f22,
+            f11 * f21 + f12 * f22,
         ];
         let lnj = j.ln();
         let a = self.mu / j;
@@ -113,7 +117,7 @@ impl Elastic {
         &self,
         stress: [f64; 3],
         strain: Option<[f64; 3]>,
-        def_grad: Option<[f64; 4]>,
+        def_grad: Option<[[f64; 2]; 2]>,
     ) -> f64 {
         match (self.model, self.plane) {
             (_, PlaneKind::PlaneStress) => 0.0,
@@ -122,8 +126,8 @@ impl Elastic {
                 self.lambda * (e[0] + e[1])
             }
             (MaterialModel::NeoHookean, PlaneKind::PlaneStrain) => {
-                let f = def_grad.unwrap_or([1.0, 0.0, 0.0, 1.0]);
-                let j = f[0] * f[3] - f[1] * f[2];
+                let [[f11, f12], [f21, f22]] = def_grad.unwrap_or([[1.0, 0.0], [0.0, 1.0]]);
+                let j = f11 * f22 - f12 * f21;
                 let _ = stress;
                 self.lambda * j.ln() / j
             }
@@ -147,12 +151,69 @@ impl Elastic {
         0.5 * (stress[0] * e[0] + stress[1] * e[1] + 2.0 * stress[2] * e[2])
     }
 
-    /// Neo-Hookean strain energy density for F (plane strain).
-    pub fn energy_neo_hookean(&self, f: [f64; 4]) -> f64 {
-        let j = f[0] * f[3] - f[1] * f[2];
-        let trc = f[0] * f[0] + f[1] * f[1] + f[2] * f[2] + f[3] * f[3] + 1.0;
+    /// Neo-Hookean strain energy density for the 2D F (plane strain).
+    pub fn energy_neo_hookean(&self, f: [[f64; 2]; 2]) -> f64 {
+        let [[f11, f12], [f21, f22]] = f;
+        let j = f11 * f22 - f12 * f21;
+        let trc = f11 * f11 + f12 * f12 + f21 * f21 + f22 * f22 + 1.0;
         let lnj = j.ln();
         0.5 * self.mu * (trc - 3.0) - self.mu * lnj + 0.5 * self.lambda * lnj * lnj
+    }
+
+    /// Hooke's law in 3D for the small strain in Voigt order (xx, yy, zz,
+    /// yz, xz, xy; tensor components): σ = λ tr ε I + 2μ ε.
+    #[inline(always)]
+    pub fn hooke_3d(&self, e: [f64; 6]) -> [f64; 6] {
+        let le = self.lambda * (e[0] + e[1] + e[2]);
+        let m2 = 2.0 * self.mu;
+        [
+            le + m2 * e[0],
+            le + m2 * e[1],
+            le + m2 * e[2],
+            m2 * e[3],
+            m2 * e[4],
+            m2 * e[5],
+        ]
+    }
+
+    /// Neo-Hookean Cauchy stress (Voigt order) and J for a 3D F:
+    /// σ = μ/J (F Fᵀ − I) + λ ln J / J · I.
+    #[inline(always)]
+    pub fn neo_hookean_3d(&self, f: [[f64; 3]; 3]) -> ([f64; 6], f64) {
+        let j = det3(f);
+        let b = |r: usize, c: usize| f[r][0] * f[c][0] + f[r][1] * f[c][1] + f[r][2] * f[c][2];
+        let lnj = j.ln();
+        let a = self.mu / j;
+        let p = self.lambda * lnj / j;
+        (
+            [
+                a * (b(0, 0) - 1.0) + p,
+                a * (b(1, 1) - 1.0) + p,
+                a * (b(2, 2) - 1.0) + p,
+                a * b(1, 2),
+                a * b(0, 2),
+                a * b(0, 1),
+            ],
+            j,
+        )
+    }
+
+    /// Neo-Hookean strain energy density for a 3D F.
+    pub fn energy_neo_hookean_3d(&self, f: [[f64; 3]; 3]) -> f64 {
+        let j = det3(f);
+        let trc: f64 = f.iter().flatten().map(|v| v * v).sum();
+        let lnj = j.ln();
+        0.5 * self.mu * (trc - 3.0) - self.mu * lnj + 0.5 * self.lambda * lnj * lnj
+    }
+
+    /// Strain energy density ½ σ:ε of a 3D linear elastic particle
+    /// (Voigt order, tensor shear strains).
+    #[inline]
+    pub fn energy_linear_3d(stress: [f64; 6], e: [f64; 6]) -> f64 {
+        0.5 * (stress[0] * e[0]
+            + stress[1] * e[1]
+            + stress[2] * e[2]
+            + 2.0 * (stress[3] * e[3] + stress[4] * e[4] + stress[5] * e[5]))
     }
 
     /// Dilatational wave speed at volume ratio J (neo-Hookean stiffens in
@@ -167,6 +228,14 @@ impl Elastic {
             }
         }
     }
+}
+
+/// det F of a 3 × 3 matrix.
+#[inline(always)]
+pub fn det3(f: [[f64; 3]; 3]) -> f64 {
+    f[0][0] * (f[1][1] * f[2][2] - f[1][2] * f[2][1])
+        - f[0][1] * (f[1][0] * f[2][2] - f[1][2] * f[2][0])
+        + f[0][2] * (f[1][0] * f[2][1] - f[1][1] * f[2][0])
 }
 
 /// Miehe's spectral split of the small-strain energy (Miehe et al. 2010,
@@ -317,7 +386,7 @@ mod tests {
         let lin = steel(MaterialModel::LinearElastic, PlaneKind::PlaneStrain);
         let neo = steel(MaterialModel::NeoHookean, PlaneKind::PlaneStrain);
         let e = 1e-6;
-        let (s, _) = neo.neo_hookean([1.0 + e, 0.5 * e, 0.5 * e, 1.0 - 0.5 * e]);
+        let (s, _) = neo.neo_hookean([[1.0 + e, 0.5 * e], [0.5 * e, 1.0 - 0.5 * e]]);
         let h = lin.hooke([e, -0.5 * e, 0.5 * e]);
         for k in 0..3 {
             assert!(
@@ -328,6 +397,66 @@ mod tests {
             );
         }
         // energy density of the unstrained state is zero
-        assert_eq!(neo.energy_neo_hookean([1.0, 0.0, 0.0, 1.0]), 0.0);
+        assert_eq!(neo.energy_neo_hookean([[1.0, 0.0], [0.0, 1.0]]), 0.0);
+    }
+
+    /// In 3D: neo-Hookean at small strain is Hooke's law, a plane-strain F
+    /// (F_zz = 1) gives the 2D stresses, and energies agree.
+    #[test]
+    fn three_d_laws_agree_with_hooke_and_with_plane_strain() {
+        let lin = steel(MaterialModel::LinearElastic, PlaneKind::PlaneStrain);
+        let neo = steel(MaterialModel::NeoHookean, PlaneKind::PlaneStrain);
+        let e = 1e-6;
+        // F = I + ε with a symmetric small ε (Voigt xx, yy, zz, yz, xz, xy)
+        let eps = [e, -0.3 * e, 0.2 * e, 0.4 * e, -0.1 * e, 0.25 * e];
+        let f = [
+            [1.0 + eps[0], eps[5], eps[4]],
+            [eps[5], 1.0 + eps[1], eps[3]],
+            [eps[4], eps[3], 1.0 + eps[2]],
+        ];
+        let (s, j) = neo.neo_hookean_3d(f);
+        let h = lin.hooke_3d(eps);
+        for k in 0..6 {
+            assert!(
+                (s[k] - h[k]).abs() < 1e-4 * 200e9 * e,
+                "{k}: {} vs {}",
+                s[k],
+                h[k]
+            );
+        }
+        assert!(
+            (j - det3(f)).abs() < 1e-15 && (j - 1.0 - (eps[0] + eps[1] + eps[2])).abs() < 1e-11
+        );
+        let psi = Elastic::energy_linear_3d(h, eps);
+        assert!(
+            (neo.energy_neo_hookean_3d(f) - psi).abs() < 1e-3 * psi,
+            "energies"
+        );
+        // plane strain: the 3D law on (F, F_zz = 1) is the 2D law
+        let f2 = [[1.01, 0.02], [-0.015, 0.98]];
+        let (s2, j2) = neo.neo_hookean(f2);
+        let (s3, j3) =
+            neo.neo_hookean_3d([[1.01, 0.02, 0.0], [-0.015, 0.98, 0.0], [0.0, 0.0, 1.0]]);
+        assert!((j2 - j3).abs() < 1e-15);
+        for (a, b) in [(s2[0], s3[0]), (s2[1], s3[1]), (s2[2], s3[5])] {
+            assert!((a - b).abs() < 1e-6 * a.abs().max(1.0), "{a} vs {b}");
+        }
+        assert_eq!((s3[3], s3[4]), (0.0, 0.0));
+        assert!(
+            (neo.energy_neo_hookean(f2)
+                - neo.energy_neo_hookean_3d([
+                    [1.01, 0.02, 0.0],
+                    [-0.015, 0.98, 0.0],
+                    [0.0, 0.0, 1.0]
+                ]))
+            .abs()
+                < 1e-3
+        );
+        let e2 = [1e-4, -2e-4, 5e-5];
+        let (h2, h3) = (
+            lin.hooke(e2),
+            lin.hooke_3d([e2[0], e2[1], 0.0, 0.0, 0.0, e2[2]]),
+        );
+        assert_eq!([h2[0], h2[1], h2[2]], [h3[0], h3[1], h3[5]]);
     }
 }

@@ -282,4 +282,20 @@ mod tests {
         }
         assert!(crate::checkpoint::MAGIC.starts_with(b"CLEAVECKPT"));
     }
+
+    /// F and the APIC matrix became `[[f64; 2]; 2]` (they were `[f64; 4]`,
+    /// the same numbers row-major) when the particles became generic over
+    /// the dimension. postcard writes an array's elements without a
+    /// length, so the bytes are the same and CLEAVECKPT4 files still load:
+    /// the layout file changed, the format did not.
+    #[test]
+    fn nested_matrices_keep_the_flat_arrays_bytes() {
+        let flat = [1.5f64, -2.0, 0.25, 3.0];
+        let nested = [[1.5f64, -2.0], [0.25, 3.0]];
+        let a = postcard::to_allocvec(&vec![flat; 3]).expect("flat");
+        let b = postcard::to_allocvec(&vec![nested; 3]).expect("nested");
+        assert_eq!(a, b);
+        let back: Vec<[[f64; 2]; 2]> = postcard::from_bytes(&a).expect("read");
+        assert_eq!(back, vec![nested; 3]);
+    }
 }

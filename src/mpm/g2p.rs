@@ -21,31 +21,32 @@ use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, Support, SyncPtr};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::MaterialModel;
+use crate::tensor::{check_voigt, resize, resize_mat, voigt};
 use rayon::prelude::*;
 
 const CHUNK: usize = 2048;
 
 /// What went wrong with a particle.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum BadKind {
+pub enum BadKind<const D: usize = 2> {
     NonFinite(&'static str),
-    LeftGrid([f64; 2]),
+    LeftGrid([f64; D]),
     VolumeVanished(f64),
 }
 
 /// Reductions of one G2P pass.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct G2pStats {
+pub struct G2pStats<const D: usize = 2> {
     /// max over particles of (wave speed + |v|), m/s: the CFL signal speed.
     pub max_signal: f64,
     /// The lowest-index particle that failed a guard.
-    pub bad: Option<(usize, BadKind)>,
+    pub bad: Option<(usize, BadKind<D>)>,
     /// Some particle changed tile (the bins must be rebuilt).
     pub moved_tile: bool,
 }
 
-impl G2pStats {
-    fn merge(mut self, o: G2pStats) -> G2pStats {
+impl<const D: usize> G2pStats<D> {
+    fn merge(mut self, o: G2pStats<D>) -> G2pStats<D> {
         self.max_signal = self.max_signal.max(o.max_signal);
         self.bad = match (self.bad, o.bad) {
             (Some(a), Some(b)) => Some(if a.0 <= b.0 { a } else { b }),
@@ -64,43 +65,77 @@ pub struct Transfer {
 }
 
 /// The constitutive update of particle `p` with velocity gradient `l`
-/// (xx, xy, yx, yy): strain or deformation gradient, volume, stress.
-/// Returns the stress and J = V/V₀.
+/// (`l[a][b]` = ∂v_a/∂x_b): strain or deformation gradient, volume,
+/// stress. Returns the stress and J = V/V₀.
+///
+/// Linear elastic: ε ← ε + Δt sym(L), V ← V (1 + Δt tr L); neo-Hookean:
+/// F ← (I + Δt L) F, V = J V₀. The stress is the 2D (plane) or the 3D law
+/// of [`Elastic`] as `D` says.
 ///
 /// # Safety
 /// Particle `p` is accessed by this task only.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn constitutive(
+unsafe fn constitutive<const D: usize, const V: usize>(
     mat: &Elastic,
-    l: [f64; 4],
+    l: [[f64; D]; D],
     dt: f64,
     p: usize,
-    strain: SyncPtr<'_, [f64; 3]>,
-    def_grad: SyncPtr<'_, [f64; 4]>,
+    strain: SyncPtr<'_, [f64; V]>,
+    def_grad: SyncPtr<'_, [[f64; D]; D]>,
     vol: SyncPtr<'_, f64>,
     vol0: &[f64],
-) -> ([f64; 3], f64) {
+) -> ([f64; V], f64) {
     match mat.model {
         MaterialModel::LinearElastic => {
             let e = unsafe { strain.at(p) };
-            e[0] += dt * l[0];
-            e[1] += dt * l[3];
-            e[2] += 0.5 * dt * (l[1] + l[2]);
+            for a in 0..D {
+                e[a] += dt * l[a][a];
+            }
+            for a in 0..D {
+                for b in a + 1..D {
+                    e[voigt::<D>(a, b)] += 0.5 * dt * (l[a][b] + l[b][a]);
+                }
+            }
+            let mut tr = l[0][0];
+            for (a, row) in l.iter().enumerate().skip(1) {
+                tr += row[a];
+            }
             let vv = unsafe { vol.at(p) };
-            *vv *= 1.0 + dt * (l[0] + l[3]);
-            (mat.hooke(*e), *vv / vol0[p])
+            *vv *= 1.0 + dt * tr;
+            let s = if D == 2 {
+                resize(mat.hooke(resize(*e)))
+            } else {
+                resize(mat.hooke_3d(resize(*e)))
+            };
+            (s, *vv / vol0[p])
         }
         MaterialModel::NeoHookean => {
             let f = unsafe { def_grad.at(p) };
-            let a = [1.0 + dt * l[0], dt * l[1], dt * l[2], 1.0 + dt * l[3]];
-            *f = [
-                a[0] * f[0] + a[1] * f[2],
-                a[0] * f[1] + a[1] * f[3],
-                a[2] * f[0] + a[3] * f[2],
-                a[2] * f[1] + a[3] * f[3],
-            ];
-            let (s, jr) = mat.neo_hookean(*f);
+            // A = I + Δt L; F ← A F, each entry summed over k in order
+            let mut a = l;
+            for (r, row) in a.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v = if r == c { 1.0 + dt * *v } else { dt * *v };
+                }
+            }
+            let old = *f;
+            for r in 0..D {
+                for c in 0..D {
+                    let mut t = a[r][0] * old[0][c];
+                    for k in 1..D {
+                        t += a[r][k] * old[k][c];
+                    }
+                    f[r][c] = t;
+                }
+            }
+            let (s, jr) = if D == 2 {
+                let (s, j) = mat.neo_hookean(resize_mat(*f));
+                (resize(s), j)
+            } else {
+                let (s, j) = mat.neo_hookean_3d(resize_mat(*f));
+                (resize(s), j)
+            };
             unsafe { *vol.at(p) = vol0[p] * jr };
             (s, jr)
         }
@@ -109,18 +144,18 @@ unsafe fn constitutive(
 
 /// The guards every particle passes after its update.
 #[inline(always)]
-fn guard(
-    geom: &GridGeom,
-    x: [f64; 2],
-    v: [f64; 2],
-    sig: [f64; 3],
+fn guard<const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    x: [f64; D],
+    v: [f64; D],
+    sig: [f64; V],
     j_ratio: f64,
-) -> Option<BadKind> {
-    if !(x[0].is_finite() && x[1].is_finite()) {
+) -> Option<BadKind<D>> {
+    if !x.iter().all(|c| c.is_finite()) {
         Some(BadKind::NonFinite("position"))
-    } else if !(v[0].is_finite() && v[1].is_finite()) {
+    } else if !v.iter().all(|c| c.is_finite()) {
         Some(BadKind::NonFinite("velocity"))
-    } else if !(sig[0].is_finite() && sig[1].is_finite() && sig[2].is_finite()) {
+    } else if !sig.iter().all(|c| c.is_finite()) {
         Some(BadKind::NonFinite("stress"))
     } else if j_ratio <= 1e-6 || !j_ratio.is_finite() {
         Some(BadKind::VolumeVanished(j_ratio))
@@ -133,49 +168,63 @@ fn guard(
 
 /// Gathers grid velocities to particles and updates every particle.
 #[allow(clippy::too_many_arguments)]
-pub fn g2p<K: Kernel, S: FieldSlots, const APIC: bool>(
-    geom: &GridGeom,
-    parts: &mut Particles,
+pub fn g2p<K: Kernel, S: FieldSlots, const APIC: bool, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &mut Particles<D, V>,
     bins: &mut Bins,
     slots: &S,
-    grid: &GridFields,
+    grid: &GridFields<D>,
     mats: &[Elastic],
     transfer: Transfer,
     dt: f64,
-) -> G2pStats {
-    gather::<K, S, APIC, false>(geom, parts, bins, &mut [], slots, grid, mats, transfer, dt)
+) -> G2pStats<D> {
+    gather::<K, S, APIC, false, D, V>(geom, parts, bins, &mut [], slots, grid, mats, transfer, dt)
 }
 
 /// MUSL, first pass: new particle velocities (and APIC affine matrices) and
 /// the positions they move to, written to `x_next`; stresses and positions
 /// are left for [`musl_stress`].
 #[allow(clippy::too_many_arguments)]
-pub fn musl_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
-    geom: &GridGeom,
-    parts: &mut Particles,
+pub fn musl_velocities<
+    K: Kernel,
+    S: FieldSlots,
+    const APIC: bool,
+    const D: usize,
+    const V: usize,
+>(
+    geom: &GridGeom<D>,
+    parts: &mut Particles<D, V>,
     bins: &mut Bins,
-    x_next: &mut [[f64; 2]],
+    x_next: &mut [[f64; D]],
     slots: &S,
-    grid: &GridFields,
+    grid: &GridFields<D>,
     mats: &[Elastic],
     transfer: Transfer,
     dt: f64,
 ) {
-    gather::<K, S, APIC, true>(geom, parts, bins, x_next, slots, grid, mats, transfer, dt);
+    gather::<K, S, APIC, true, D, V>(geom, parts, bins, x_next, slots, grid, mats, transfer, dt);
 }
 
 #[allow(clippy::too_many_arguments)]
-fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>(
-    geom: &GridGeom,
-    parts: &mut Particles,
+fn gather<
+    K: Kernel,
+    S: FieldSlots,
+    const APIC: bool,
+    const VELOCITY_ONLY: bool,
+    const D: usize,
+    const V: usize,
+>(
+    geom: &GridGeom<D>,
+    parts: &mut Particles<D, V>,
     bins: &mut Bins,
-    x_next: &mut [[f64; 2]],
+    x_next: &mut [[f64; D]],
     slots: &S,
-    grid: &GridFields,
+    grid: &GridFields<D>,
     mats: &[Elastic],
     transfer: Transfer,
     dt: f64,
-) -> G2pStats {
+) -> G2pStats<D> {
+    check_voigt::<D, V>();
     let x_next = SyncPtr::new(x_next);
     let n = parts.len();
     let gimp = !parts.half_size.is_empty();
@@ -199,34 +248,36 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
                 // SAFETY: particle p belongs to this chunk only.
                 let (xp, vp) = unsafe { (x.at(p), v.at(p)) };
                 let lp = if gimp { half_size[p] } else { 0.0 };
-                let sup = Support::<K>::new(geom, *xp, lp);
+                let sup = Support::<K, D>::new(geom, *xp, lp);
                 let xi = sup.xi();
-                let mut vpic = [0.0; 2];
-                let mut dflip = [0.0; 2];
-                let mut l = [0.0; 4]; // ∂v_a/∂x_b: (xx, xy, yx, yy)
-                let mut b = [0.0; 4];
+                let mut vpic = [0.0; D];
+                let mut dflip = [0.0; D];
+                let mut l = [[0.0; D]; D]; // ∂v_a/∂x_b
+                let mut b = [[0.0; D]; D];
                 sup.for_each(|n| {
                     let s = slots.slot(n.node, p);
-                    let (w, [gx, gy]) = (n.w, n.grad);
+                    let (w, g) = (n.w, n.grad);
                     let vi = vel[s];
-                    vpic[0] += w * vi[0];
-                    vpic[1] += w * vi[1];
+                    for a in 0..D {
+                        vpic[a] += w * vi[a];
+                    }
                     if !APIC {
                         let vo = vel_old[s];
-                        dflip[0] += w * (vi[0] - vo[0]);
-                        dflip[1] += w * (vi[1] - vo[1]);
+                        for a in 0..D {
+                            dflip[a] += w * (vi[a] - vo[a]);
+                        }
                     } else if dinv.is_some() {
-                        let dx = n.at[0] as f64 - xi[0];
-                        let dy = n.at[1] as f64 - xi[1];
-                        b[0] += w * vi[0] * dx;
-                        b[1] += w * vi[0] * dy;
-                        b[2] += w * vi[1] * dx;
-                        b[3] += w * vi[1] * dy;
+                        for a in 0..D {
+                            for c in 0..D {
+                                b[a][c] += w * vi[a] * (n.at[c] as f64 - xi[c]);
+                            }
+                        }
                     }
-                    l[0] += vi[0] * gx;
-                    l[1] += vi[0] * gy;
-                    l[2] += vi[1] * gx;
-                    l[3] += vi[1] * gy;
+                    for a in 0..D {
+                        for c in 0..D {
+                            l[a][c] += vi[a] * g[c];
+                        }
+                    }
                 });
                 // velocity and position
                 let vnew = if APIC {
@@ -234,23 +285,15 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
                     let a = unsafe { affine.at(p) };
                     *a = match dinv {
                         // B is in cell units of distance: C = B h D⁻¹.
-                        Some(d) => [
-                            b[0] * geom.h * d,
-                            b[1] * geom.h * d,
-                            b[2] * geom.h * d,
-                            b[3] * geom.h * d,
-                        ],
+                        Some(d) => b.map(|row| row.map(|v| v * geom.h * d)),
                         None => l,
                     };
                     vpic
                 } else {
-                    [
-                        alpha * (vp[0] + dflip[0]) + (1.0 - alpha) * vpic[0],
-                        alpha * (vp[1] + dflip[1]) + (1.0 - alpha) * vpic[1],
-                    ]
+                    std::array::from_fn(|a| alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a])
                 };
                 *vp = vnew;
-                let mut moved = [xp[0] + dt * vpic[0], xp[1] + dt * vpic[1]];
+                let mut moved: [f64; D] = std::array::from_fn(|a| xp[a] + dt * vpic[a]);
                 geom.keep_inside(&mut moved, vp);
                 if VELOCITY_ONLY {
                     // SAFETY: as above.
@@ -276,16 +319,17 @@ fn gather<K: Kernel, S: FieldSlots, const APIC: bool, const VELOCITY_ONLY: bool>
 /// at the step's start positions, the constitutive update, then the move to
 /// `x_next` and the guards.
 #[allow(clippy::too_many_arguments)]
-pub fn musl_stress<K: Kernel, S: FieldSlots>(
-    geom: &GridGeom,
-    parts: &mut Particles,
+pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &mut Particles<D, V>,
     bins: &mut Bins,
-    x_next: &[[f64; 2]],
+    x_next: &[[f64; D]],
     slots: &S,
-    grid: &GridFields,
+    grid: &GridFields<D>,
     mats: &[Elastic],
     dt: f64,
-) -> G2pStats {
+) -> G2pStats<D> {
+    check_voigt::<D, V>();
     let n = parts.len();
     let gimp = !parts.half_size.is_empty();
     let vel = &grid.vel;
@@ -304,14 +348,14 @@ pub fn musl_stress<K: Kernel, S: FieldSlots>(
                 // SAFETY: particle p belongs to this chunk only.
                 let xp = unsafe { x.at(p) };
                 let lp = if gimp { half_size[p] } else { 0.0 };
-                let mut l = [0.0; 4];
-                Support::<K>::new(geom, *xp, lp).for_each(|n| {
+                let mut l = [[0.0; D]; D];
+                Support::<K, D>::new(geom, *xp, lp).for_each(|n| {
                     let vi = vel[slots.slot(n.node, p)];
-                    let [gx, gy] = n.grad;
-                    l[0] += vi[0] * gx;
-                    l[1] += vi[0] * gy;
-                    l[2] += vi[1] * gx;
-                    l[3] += vi[1] * gy;
+                    for a in 0..D {
+                        for c in 0..D {
+                            l[a][c] += vi[a] * n.grad[c];
+                        }
+                    }
                 });
                 let mat = &mats[material[p] as usize];
                 // SAFETY: as above.
@@ -333,16 +377,16 @@ pub fn musl_stress<K: Kernel, S: FieldSlots>(
 /// Particle `p` is accessed by this task only.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn finish(
-    geom: &GridGeom,
+unsafe fn finish<const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
     p: usize,
-    x: [f64; 2],
-    v: [f64; 2],
-    sig: [f64; 3],
+    x: [f64; D],
+    v: [f64; D],
+    sig: [f64; V],
     j_ratio: f64,
     mat: &Elastic,
     tile_of: SyncPtr<'_, u32>,
-    st: &mut G2pStats,
+    st: &mut G2pStats<D>,
 ) {
     if let Some(k) = guard(geom, x, v, sig, j_ratio) {
         if st.bad.is_none() {
@@ -350,7 +394,11 @@ unsafe fn finish(
         }
         return;
     }
-    let speed = (v[0] * v[0] + v[1] * v[1]).sqrt();
+    let mut v2 = v[0] * v[0];
+    for c in &v[1..] {
+        v2 += c * c;
+    }
+    let speed = v2.sqrt();
     st.max_signal = st.max_signal.max(mat.wave_speed_at(j_ratio) + speed);
     let t = geom.tile_of(geom.xi(x));
     let to = unsafe { tile_of.at(p) };

@@ -19,15 +19,15 @@ const CHUNK: usize = 4096;
 /// force work over the step, Σ m_i g·(v_i + v_i')/2 Δt, and the first slot
 /// with negative mass, if any (both independent of the thread count: the
 /// runs are summed in order).
-pub fn update(
-    grid: &mut GridFields,
+pub fn update<const D: usize>(
+    grid: &mut GridFields<D>,
     active: &[Range<usize>],
     extra: usize,
     dt: f64,
-    g: [f64; 2],
+    g: [f64; D],
     m_min: f64,
 ) -> (f64, Option<(usize, f64)>) {
-    let body_force = g != [0.0, 0.0];
+    let body_force = g != [0.0; D];
     let slots = grid.mass.len();
     let extra_runs: Vec<Range<usize>> = (extra..slots)
         .step_by(CHUNK)
@@ -46,20 +46,22 @@ pub fn update(
                 let m = mass[s];
                 let (vo, vn) = if m > m_min {
                     let inv = 1.0 / m;
-                    let vo = [mom[s][0] * inv, mom[s][1] * inv];
-                    let vn = [
-                        vo[0] + dt * (force[s][0] * inv + g[0]),
-                        vo[1] + dt * (force[s][1] * inv + g[1]),
-                    ];
+                    let vo: [f64; D] = std::array::from_fn(|a| mom[s][a] * inv);
+                    let vn: [f64; D] =
+                        std::array::from_fn(|a| vo[a] + dt * (force[s][a] * inv + g[a]));
                     if body_force {
-                        work += 0.5 * m * dt * (g[0] * (vo[0] + vn[0]) + g[1] * (vo[1] + vn[1]));
+                        let mut gv = g[0] * (vo[0] + vn[0]);
+                        for a in 1..D {
+                            gv += g[a] * (vo[a] + vn[a]);
+                        }
+                        work += 0.5 * m * dt * gv;
                     }
                     (vo, vn)
                 } else {
                     if m < 0.0 && negative.is_none() {
                         negative = Some((s, m));
                     }
-                    ([0.0; 2], [0.0; 2])
+                    ([0.0; D], [0.0; D])
                 };
                 // SAFETY: the runs are disjoint.
                 unsafe {

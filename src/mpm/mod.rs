@@ -15,6 +15,8 @@ mod g2p;
 mod grid_update;
 mod p2g;
 mod setup;
+#[cfg(test)]
+mod tests3d;
 
 pub use g2p::BadKind;
 
@@ -453,8 +455,12 @@ impl Simulation {
                 }
                 (_, Some(_)) => true,
                 (Stage::FieldPartition, None) => {
-                    slots_n =
-                        p2g::partition_fields::<K>(&self.geom, &self.parts, &self.bins, &mut multi);
+                    slots_n = p2g::partition_fields::<K, 2, 3>(
+                        &self.geom,
+                        &self.parts,
+                        &self.bins,
+                        &mut multi,
+                    );
                     true
                 }
                 _ => false,
@@ -570,7 +576,7 @@ impl Simulation {
                     }
                     Stage::G2p => {
                         let stats = if self.apic {
-                            g2p::g2p::<K, S, true>(
+                            g2p::g2p::<K, S, true, 2, 3>(
                                 &self.geom,
                                 &mut self.parts,
                                 &mut self.bins,
@@ -581,7 +587,7 @@ impl Simulation {
                                 dt,
                             )
                         } else {
-                            g2p::g2p::<K, S, false>(
+                            g2p::g2p::<K, S, false, 2, 3>(
                                 &self.geom,
                                 &mut self.parts,
                                 &mut self.bins,
@@ -607,7 +613,7 @@ impl Simulation {
                         true
                     }
                     Stage::G2pStress => {
-                        let stats = g2p::musl_stress::<K, S>(
+                        let stats = g2p::musl_stress::<K, S, 2, 3>(
                             &self.geom,
                             &mut self.parts,
                             &mut self.bins,
@@ -683,10 +689,10 @@ impl Simulation {
         self.written.clone_from(&self.bins.active);
         let (geom, parts, bins, grid) = (&self.geom, &self.parts, &self.bins, &mut self.grid);
         match (self.apic, contact) {
-            (false, false) => p2g::p2g::<K, S, false, false>(geom, parts, bins, slots, grid),
-            (true, false) => p2g::p2g::<K, S, true, false>(geom, parts, bins, slots, grid),
-            (false, true) => p2g::p2g::<K, S, false, true>(geom, parts, bins, slots, grid),
-            (true, true) => p2g::p2g::<K, S, true, true>(geom, parts, bins, slots, grid),
+            (false, false) => p2g::p2g::<K, S, false, false, 2, 3>(geom, parts, bins, slots, grid),
+            (true, false) => p2g::p2g::<K, S, true, false, 2, 3>(geom, parts, bins, slots, grid),
+            (false, true) => p2g::p2g::<K, S, false, true, 2, 3>(geom, parts, bins, slots, grid),
+            (true, true) => p2g::p2g::<K, S, true, true, 2, 3>(geom, parts, bins, slots, grid),
         }
     }
 
@@ -779,11 +785,11 @@ impl Simulation {
             &mut self.x_next,
         );
         if self.apic {
-            g2p::musl_velocities::<K, S, true>(
+            g2p::musl_velocities::<K, S, true, 2, 3>(
                 args.0, args.1, args.2, args.3, slots, &self.grid, &self.mats, transfer, dt,
             );
         } else {
-            g2p::musl_velocities::<K, S, false>(
+            g2p::musl_velocities::<K, S, false, 2, 3>(
                 args.0, args.1, args.2, args.3, slots, &self.grid, &self.mats, transfer, dt,
             );
         }
@@ -793,7 +799,7 @@ impl Simulation {
     fn remap<K: Kernel, S: FieldSlots>(&mut self, slots: &S) {
         let (geom, parts, bins, grid) = (&self.geom, &self.parts, &self.bins, &mut self.grid);
         if self.apic {
-            p2g::remap_velocities::<K, S, true>(
+            p2g::remap_velocities::<K, S, true, 2, 3>(
                 geom,
                 parts,
                 bins,
@@ -803,7 +809,7 @@ impl Simulation {
                 self.m_min,
             );
         } else {
-            p2g::remap_velocities::<K, S, false>(
+            p2g::remap_velocities::<K, S, false, 2, 3>(
                 geom,
                 parts,
                 bins,

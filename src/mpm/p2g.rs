@@ -17,55 +17,80 @@
 use crate::grid::shape::Kernel;
 use crate::grid::{scatter_coloured, Bins, FieldSlots, GridFields, GridGeom, SyncPtr};
 use crate::particles::Particles;
+use crate::tensor::{check_voigt, sym_times};
 use rayon::prelude::*;
 
+/// p_i's share from one particle: N m (v + C (x_i − x_p)), the affine
+/// term (APIC) summed over the axes in order.
+#[inline(always)]
+fn momentum<const D: usize, const APIC: bool>(
+    wm: f64,
+    v: [f64; D],
+    c: &[[f64; D]; D],
+    d: [f64; D],
+) -> [f64; D] {
+    std::array::from_fn(|a| {
+        if APIC {
+            let mut s = v[a];
+            for b in 0..D {
+                s += c[a][b] * d[b];
+            }
+            wm * s
+        } else {
+            wm * v[a]
+        }
+    })
+}
+
 /// Scatters all particles to the grid. `grid` must have been reset.
-pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
-    geom: &GridGeom,
-    parts: &Particles,
+pub fn p2g<
+    K: Kernel,
+    S: FieldSlots,
+    const APIC: bool,
+    const MGRAD: bool,
+    const D: usize,
+    const V: usize,
+>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
     bins: &Bins,
     slots: &S,
-    grid: &mut GridFields,
+    grid: &mut GridFields<D>,
 ) {
+    check_voigt::<D, V>();
     let mass = SyncPtr::new(&mut grid.mass);
     let mom = SyncPtr::new(&mut grid.momentum);
     let force = SyncPtr::new(&mut grid.force);
     let mgrad = SyncPtr::new(&mut grid.mass_grad);
-    scatter_coloured::<K>(geom, parts, bins, |p, sup| {
+    scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
         let m = parts.mass[p];
         let v = parts.v[p];
         let vol = parts.vol[p];
         let s = parts.stress[p];
-        let c = if APIC { parts.affine[p] } else { [0.0; 4] };
+        let c = if APIC { parts.affine[p] } else { [[0.0; D]; D] };
         let h = geom.h;
         let xi = sup.xi();
         sup.for_each(|n| {
-            let (w, [gx, gy]) = (n.w, n.grad);
+            let (w, g) = (n.w, n.grad);
             let slot = slots.slot(n.node, p);
             let wm = w * m;
-            let (mx, my) = if APIC {
-                let dx = (n.at[0] as f64 - xi[0]) * h;
-                let dy = (n.at[1] as f64 - xi[1]) * h;
-                (
-                    wm * (v[0] + c[0] * dx + c[1] * dy),
-                    wm * (v[1] + c[2] * dx + c[3] * dy),
-                )
-            } else {
-                (wm * v[0], wm * v[1])
-            };
+            let d: [f64; D] = std::array::from_fn(|a| (n.at[a] as f64 - xi[a]) * h);
+            let q = momentum::<D, APIC>(wm, v, &c, d);
+            let sg = sym_times::<D, V>(&s, g);
             // SAFETY: coloured scatter (see `scatter_coloured`).
             unsafe {
                 *mass.at(slot) += wm;
-                let q = mom.at(slot);
-                q[0] += mx;
-                q[1] += my;
+                let qs = mom.at(slot);
                 let f = force.at(slot);
-                f[0] -= vol * (s[0] * gx + s[2] * gy);
-                f[1] -= vol * (s[2] * gx + s[1] * gy);
+                for a in 0..D {
+                    qs[a] += q[a];
+                    f[a] -= vol * sg[a];
+                }
                 if MGRAD {
                     let mg = mgrad.at(slot);
-                    mg[0] += m * gx;
-                    mg[1] += m * gy;
+                    for a in 0..D {
+                        mg[a] += m * g[a];
+                    }
                 }
             }
         });
@@ -75,9 +100,9 @@ pub fn p2g<K: Kernel, S: FieldSlots, const APIC: bool, const MGRAD: bool>(
 /// Marks, for every node, which contact groups have particles whose support
 /// covers it (the field partition of a contact scene), then lays out the
 /// extra slots. Coloured like [`p2g`]; a bitwise OR is order-independent.
-pub fn partition_fields<K: Kernel>(
-    geom: &GridGeom,
-    parts: &Particles,
+pub fn partition_fields<K: Kernel, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
     bins: &Bins,
     multi: &mut crate::grid::MultiField,
 ) -> usize {
@@ -85,7 +110,7 @@ pub fn partition_fields<K: Kernel>(
     multi.mask.clear();
     multi.mask.resize(nodes, 0);
     let mask = SyncPtr::new(&mut multi.mask);
-    scatter_coloured::<K>(geom, parts, bins, |p, sup| {
+    scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
         let bit = 1u32 << parts.group[p];
         // Every node of the support, even at zero weight: P2G writes the
         // gradient there, so the slot must exist.
@@ -100,42 +125,51 @@ pub fn partition_fields<K: Kernel>(
 /// MUSL remap: the updated particle momenta back to the grid (same
 /// positions and weights as the step's P2G), then the nodal velocities.
 /// Coloured like [`p2g`].
-pub fn remap_velocities<K: Kernel, S: FieldSlots, const APIC: bool>(
-    geom: &GridGeom,
-    parts: &Particles,
+#[allow(clippy::too_many_arguments)]
+pub fn remap_velocities<
+    K: Kernel,
+    S: FieldSlots,
+    const APIC: bool,
+    const D: usize,
+    const V: usize,
+>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
     bins: &Bins,
     slots: &S,
-    grid: &mut GridFields,
+    grid: &mut GridFields<D>,
     active: &[std::ops::Range<usize>],
     m_min: f64,
 ) {
     // Only the active nodes and the extra slots can hold momentum.
     let nodes = geom.node_count();
     for r in active {
-        grid.momentum[r.clone()].fill([0.0; 2]);
+        grid.momentum[r.clone()].fill([0.0; D]);
     }
-    grid.momentum[nodes..].fill([0.0; 2]);
+    grid.momentum[nodes..].fill([0.0; D]);
     let mom = SyncPtr::new(&mut grid.momentum);
-    scatter_coloured::<K>(geom, parts, bins, |p, sup| {
+    scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
         let (m, v) = (parts.mass[p], parts.v[p]);
-        let c = if APIC { parts.affine[p] } else { [0.0; 4] };
+        let c = if APIC { parts.affine[p] } else { [[0.0; D]; D] };
         let xi = sup.xi();
         sup.for_each(|n| {
-            let dy = (n.at[1] as f64 - xi[1]) * geom.h;
             let wm = n.w * m;
-            let dx = (n.at[0] as f64 - xi[0]) * geom.h;
+            let d: [f64; D] = std::array::from_fn(|a| (n.at[a] as f64 - xi[a]) * geom.h);
+            // the remap always carries the affine term (zero without APIC)
+            let q = momentum::<D, true>(wm, v, &c, d);
             // SAFETY: coloured scatter (see `scatter_coloured`).
-            let q = unsafe { mom.at(slots.slot(n.node, p)) };
-            q[0] += wm * (v[0] + c[0] * dx + c[1] * dy);
-            q[1] += wm * (v[1] + c[2] * dx + c[3] * dy);
+            let qs = unsafe { mom.at(slots.slot(n.node, p)) };
+            for a in 0..D {
+                qs[a] += q[a];
+            }
         });
     });
     let (mass, mom) = (&grid.mass, &grid.momentum);
     grid.vel.par_iter_mut().enumerate().for_each(|(s, v)| {
         *v = if mass[s] > m_min {
-            [mom[s][0] / mass[s], mom[s][1] / mass[s]]
+            std::array::from_fn(|a| mom[s][a] / mass[s])
         } else {
-            [0.0; 2]
+            [0.0; D]
         };
     });
 }

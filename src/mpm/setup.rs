@@ -80,11 +80,11 @@ pub(super) fn build(scene: &Scene) -> Simulation {
                 parts.strain.push([0.0; 3]);
             }
             if any_neo {
-                parts.def_grad.push([1.0, 0.0, 0.0, 1.0]);
+                parts.def_grad.push([[1.0, 0.0], [0.0, 1.0]]);
             }
             if apic {
                 // the affine field of a linear velocity is its gradient
-                parts.affine.push([g[0][0], g[0][1], g[1][0], g[1][1]]);
+                parts.affine.push([[g[0][0], g[0][1]], [g[1][0], g[1][1]]]);
             }
             if gimp {
                 parts.half_size.push(0.5 / lat.per_dir as f64);
@@ -312,7 +312,7 @@ impl Tractions {
                 let f = [tr[0] * area, tr[1] * area];
                 let v = parts.v[p];
                 work += (f[0] * v[0] + f[1] * v[1]) * dt;
-                particle_support::<K>(geom, parts, p).for_each(|n| {
+                particle_support::<K, 2, 3>(geom, parts, p).for_each(|n| {
                     let s = slots.slot(n.node, p);
                     grid.force[s][0] += n.w * f[0];
                     grid.force[s][1] += n.w * f[1];

@@ -155,7 +155,7 @@ fn scatter_hot<K: Kernel>(
                     if !take(p) {
                         continue;
                     }
-                    particle_support::<K>(geom, parts, p)
+                    particle_support::<K, 2, 3>(geom, parts, p)
                         .for_each(|n| f(p, n.node, n.w * parts.mass[p]));
                 }
             });
@@ -671,12 +671,13 @@ impl Dfg {
         if !self.normal0.is_empty() && !parts.def_grad.is_empty() {
             // n ∝ F⁻ᵀ N = cof(F) N / det F
             self.normal.clear();
-            self.normal.extend(
-                self.normal0
-                    .iter()
-                    .zip(&parts.def_grad)
-                    .map(|(n, f)| [f[3] * n[0] - f[2] * n[1], -f[1] * n[0] + f[0] * n[1]]),
-            );
+            self.normal
+                .extend(self.normal0.iter().zip(&parts.def_grad).map(|(n, f)| {
+                    [
+                        f[1][1] * n[0] - f[1][0] * n[1],
+                        -f[0][1] * n[0] + f[0][0] * n[1],
+                    ]
+                }));
         }
         // Without self-contact the paper's Algorithm 1 stands as it is: the
         // balance is for surfaces that touch (see the module docs).
@@ -851,7 +852,7 @@ impl Dfg {
         let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
         let (cut, normal) = (&self.cut, Self::normals_of(&self.normal, &self.normal0));
         let paper = normal.is_empty();
-        scatter_coloured::<K>(geom, parts, bins, |p, sup| {
+        scatter_coloured::<K, 2, 3>(geom, parts, bins, |p, sup| {
             let (gp, xp) = (grad[p], parts.x[p]);
             let op = normal.get(p).copied().unwrap_or([0.0; 2]);
             let base = 2 * parts.group[p] as u32;
