@@ -1,7 +1,9 @@
 //! 3D scenes (issue 32, the scene side): a scene whose `grid.max` has
 //! three components describes a 3D problem; it validates with errors that
-//! name their field, and seeds its bodies. 2D scenes serialise as before.
+//! name their field, seeds its bodies, and is refused by every method
+//! (no 3D run yet) naming `grid.min`. 2D scenes serialise as before.
 
+use cleave::jobs::{JobConfig, JobError, JobManager};
 use cleave::scene::{Format, Scene, SceneError};
 
 /// A small valid 3D scene: a 0.4 × 0.3 × 0.2 m block, its faces on the
@@ -404,4 +406,37 @@ fn bad_3d_shapes_name_their_field() {
         "bodies[0].shape",
         "extends outside the grid along z",
     );
+}
+
+/// No method runs a 3D scene yet: building one is refused naming
+/// `grid.min`, and so is a server's submit.
+#[test]
+fn a_3d_scene_is_refused_by_the_methods_and_the_job_queue() {
+    let scene = Scene::from_text(BLOCK, Some(Format::Toml)).unwrap();
+    let e = match cleave::methods::build(&scene) {
+        Ok(_) => panic!("a 3D scene was built"),
+        Err(e) => e,
+    };
+    assert_eq!(e.errors[0].path, "grid.min");
+    assert!(e.errors[0].reason.contains("cannot be run yet"), "{e}");
+    let flat = Scene::from_text(FLAT, Some(Format::Toml)).unwrap();
+    assert!(cleave::methods::build(&flat).is_ok());
+
+    let dir = tempfile::tempdir().unwrap();
+    let jobs = JobManager::start(JobConfig {
+        data_dir: dir.path().to_path_buf(),
+        max_concurrent: 1,
+        threads_per_job: 1,
+        max_particles: 1_000_000,
+        max_memory: None,
+        max_queued: 4,
+        checkpoint_every: None,
+    })
+    .unwrap();
+    match jobs.submit(BLOCK, Some(Format::Toml), "block") {
+        Err(JobError::Invalid(e)) => {
+            assert_eq!(e.errors[0].path, "grid.min", "{e}");
+        }
+        other => panic!("expected a refusal naming grid.min, got {other:?}"),
+    }
 }
