@@ -333,7 +333,10 @@ fn a_checkpoint_resumes_only_with_the_method_that_wrote_it() {
         at: 3,
         lost: 1,
     };
-    cleave::methods::build(&scene).run(&mut obs).unwrap();
+    cleave::methods::build(&scene)
+        .unwrap()
+        .run(&mut obs)
+        .unwrap();
     let cp = OutputWriter::load_checkpoint(tmp.path()).unwrap();
     assert_eq!(cp.method(), cleave::mpm::METHOD.name);
     let resumed = cleave::methods::resume(&scene, cp).unwrap();

@@ -218,6 +218,10 @@ fn one_case(text: &str) -> Outcome {
     if scene.total_particles() > RUN_PARTICLES {
         return Outcome::Valid;
     }
+    // a valid scene no method runs (a 3D one): refused as `run` refuses it
+    if let Err(e) = cleave::methods::runnable(&scene) {
+        return Outcome::Refused(e.errors.iter().map(|f| f.to_string()).collect());
+    }
     let mut sim = Simulation::new(&scene);
     match sim.run(&mut Short) {
         Ok(_) => Outcome::Ran,

@@ -701,6 +701,16 @@ fn report_invalid(path: &Path, e: &SceneError, json: bool) -> ExitCode {
     ExitCode::from(EXIT_INVALID)
 }
 
+/// `200 x 100` (2D) or `40 x 20 x 10` (3D).
+fn cells_text(scene: &Scene) -> String {
+    scene
+        .cell_counts()
+        .iter()
+        .map(usize::to_string)
+        .collect::<Vec<_>>()
+        .join(" x ")
+}
+
 fn validate(path: &Path, json: bool) -> ExitCode {
     match Scene::from_path(path) {
         Ok(scene) => {
@@ -711,7 +721,7 @@ fn validate(path: &Path, json: bool) -> ExitCode {
                         "status": "valid",
                         "scene": path,
                         "particles": scene.total_particles(),
-                        "cells": scene.cells,
+                        "cells": scene.cell_counts(),
                         "stages": scene.plan.names(),
                         "memory": scene.memory,
                         "memory_bytes": scene.memory.total(),
@@ -720,11 +730,15 @@ fn validate(path: &Path, json: bool) -> ExitCode {
                 );
             } else {
                 println!(
-                    "{}: valid; {} particles, {} x {} cells; plan: {}",
+                    "{}: valid; {} particles, {} cells{}; plan: {}",
                     path.display(),
                     scene.total_particles(),
-                    scene.cells[0],
-                    scene.cells[1],
+                    cells_text(&scene),
+                    if scene.dimension() == 3 {
+                        " (3D: validated and seeded; it cannot be run yet)"
+                    } else {
+                        ""
+                    },
                     scene.plan
                 );
                 println!("  memory: {}", scene.memory);
@@ -792,7 +806,10 @@ impl Observer for RunObserver {
 }
 
 fn run(path: &Path, out: &Path, json: bool, quiet: bool, ck: Checkpointing) -> ExitCode {
-    let scene = match Scene::from_path(path) {
+    // a valid scene no method runs yet (3D) is refused as the invalid
+    // ones are, before anything is written to `out`
+    let scene = match Scene::from_path(path).and_then(|s| cleave::methods::runnable(&s).map(|()| s))
+    {
         Ok(s) => s,
         Err(e) => return report_invalid(path, &e, json),
     };
@@ -826,11 +843,10 @@ fn run_valid(
         .map_err(anyhow::Error::msg)?;
     if !json {
         eprintln!(
-            "{}: {} particles, {} x {} cells; plan: {}",
+            "{}: {} particles, {} cells; plan: {}",
             path.display(),
             scene.total_particles(),
-            scene.cells[0],
-            scene.cells[1],
+            cells_text(scene),
             scene.plan
         );
     }
@@ -861,7 +877,7 @@ fn run_valid(
     } else {
         let writer = OutputWriter::create(out)
             .with_context(|| format!("cannot write results to {}", out.display()))?;
-        (writer, cleave::methods::build(scene))
+        (writer, cleave::methods::build(scene)?)
     };
     let bar = (!quiet && !json).then(|| {
         let bar = ProgressBar::new(1000);

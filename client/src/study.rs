@@ -174,7 +174,17 @@ pub fn prepare(opts: Options, local: bool) -> Result<Prepared, ExitCode> {
         .map_err(|e| report_invalid(&opts.scene, &e, opts.json))?;
     // the metric's column must exist (the first variant's columns; a
     // setting such as dfg=off can still drop it for others: their rows say so)
-    let mut first = local.then(|| cleave::methods::build(&variants[0].scene));
+    // every variant must run here: refused before anything is written
+    if local {
+        for v in &variants {
+            cleave::methods::runnable(&v.scene)
+                .map_err(|e| report_invalid(&opts.scene, &e, opts.json))?;
+        }
+    }
+    let mut first = local
+        .then(|| cleave::methods::build(&variants[0].scene))
+        .transpose()
+        .map_err(|e| report_invalid(&opts.scene, &e, opts.json))?;
     let columns = first.as_mut().map_or_else(
         || vec![metric.column().to_string()],
         |sim| sim.series_columns(),
@@ -313,12 +323,15 @@ pub fn run_local(p: &mut Prepared) -> Vec<Outcome> {
                 v.scene.total_particles()
             ),
         }
-        let mut sim = resumed
-            .or_else(|| first.take())
-            .unwrap_or_else(|| cleave::methods::build(&v.scene));
+        let sim = match resumed.or_else(|| first.take()) {
+            Some(sim) => Ok(sim),
+            None => cleave::methods::build(&v.scene),
+        };
         first = None;
         obs.started = std::time::Instant::now();
-        let result = sim.run(&mut obs);
+        let result = sim
+            .map_err(|e| e.to_string())
+            .and_then(|mut sim| sim.run(&mut obs).map_err(|e| e.to_string()));
         let wall = obs.wall_before + obs.started.elapsed().as_secs_f64();
         let (failure, steps) = match result {
             Ok(s) => (None, s.steps),

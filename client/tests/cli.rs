@@ -154,6 +154,73 @@ fn bad_input_exits_2_and_names_the_field() {
     assert_eq!(v["errors"][0]["path"], "grid.cell_size");
 }
 
+/// A 3D scene validates (exit 0, its particles and its three cell counts
+/// printed) but is not run: `run` refuses it as it refuses an invalid
+/// scene (exit 2), naming `grid.min`, and writes nothing; so does a study.
+#[test]
+fn a_3d_scene_validates_but_does_not_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write(
+        dir.path(),
+        "block.toml",
+        br#"
+[grid]
+cell_size = 0.1
+max = [1.0, 1.0, 1.0]
+
+[time]
+end = 0.01
+
+[[bodies]]
+shape = { type = "sphere", center = [0.5, 0.5, 0.5], radius = 0.3 }
+material = { model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }
+"#,
+    );
+    let out = cleave().arg("validate").arg(&scene).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    assert!(text.contains("10 x 10 x 10 cells"), "{text}");
+    assert!(text.contains("cannot be run yet"), "{text}");
+    let out = cleave()
+        .args(["validate", "--json"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["cells"], serde_json::json!([10, 10, 10]));
+    // the sphere's volume over the spacing cubed (8 per cell: 0.05 m)
+    let n = v["particles"].as_u64().unwrap() as f64;
+    let expected = 4.0 / 3.0 * std::f64::consts::PI * 0.3f64.powi(3) / 0.05f64.powi(3);
+    assert!((n - expected).abs() < 0.03 * expected, "{n} vs {expected}");
+
+    let results = dir.path().join("out");
+    let out = cleave()
+        .arg("run")
+        .arg(&scene)
+        .arg("--out")
+        .arg(&results)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("grid.min: the grid is 3D")
+            && stderr(&out).contains("cannot be run yet"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!results.exists());
+    let out = cleave()
+        .arg("study")
+        .arg(&scene)
+        .args(["--vary", "bodies[0].particles_per_cell=1,8"])
+        .args(["--metric", "final:momentum_x", "--out"])
+        .arg(dir.path().join("study"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("grid.min"), "{}", stderr(&out));
+}
+
 #[test]
 fn run_writes_results_and_reports_json() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,26 +1,36 @@
-//! Shapes of bodies and the seeding of particles in them.
+//! Shapes of bodies and the seeding of particles in them, in 2D and 3D.
 //!
-//! Entry point: [`seed`], which places `n × n` particles on a regular
+//! Entry points: [`seed`], which places `n × n` particles on a regular
 //! sub-grid of every background cell whose sub-cell centre lies inside the
-//! body's shape and outside its holes.
+//! body's shape and outside its holes, and [`seed_3d`], which places
+//! `n × n × n` the same way in a 3D grid's cells.
+
+mod shapes3;
+mod vector;
+
+pub use shapes3::{bounds_3d, contains_3d, seed_3d, seed_cost_3d, volume};
+pub use vector::{Matrix, Point2, Vector};
 
 use serde::{Deserialize, Serialize};
 
-/// A region of the plane: a body's `shape` and its `holes` in a scene.
+/// A region of the plane or of space: a body's `shape` and its `holes` in
+/// a scene. `disk`, `ring`, `polygon` and `slot` are 2D shapes; `sphere`,
+/// `cylinder` and `prism` are 3D; a `box` is either, by the length of its
+/// points ([`ShapeSpec::dimension`]).
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ShapeSpec {
-    /// Axis-aligned rectangle.
+    /// Axis-aligned rectangle (2D) or box (3D).
     Box {
-        min: [f64; 2],
-        max: [f64; 2],
+        min: Vector,
+        max: Vector,
     },
     Disk {
-        center: [f64; 2],
+        center: Vector,
         radius: f64,
     },
     Ring {
-        center: [f64; 2],
+        center: Vector,
         inner_radius: f64,
         outer_radius: f64,
     },
@@ -31,26 +41,83 @@ pub enum ShapeSpec {
     /// A straight slot of the given width from `start` to `end` (a notch
     /// when subtracted from a body).
     Slot {
-        start: [f64; 2],
-        end: [f64; 2],
+        start: Vector,
+        end: Vector,
         width: f64,
+    },
+    /// A ball (3D).
+    Sphere {
+        center: Vector,
+        radius: f64,
+    },
+    /// A circular cylinder with flat ends from `start` to `end`, along any
+    /// direction (3D).
+    Cylinder {
+        start: Vector,
+        end: Vector,
+        radius: f64,
+    },
+    /// A simple polygon of the xy-plane extruded along z from `z_min` to
+    /// `z_max` (3D).
+    Prism {
+        vertices: Vec<[f64; 2]>,
+        z_min: f64,
+        z_max: f64,
     },
 }
 
-/// Axis-aligned bounding box.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Aabb {
-    pub min: [f64; 2],
-    pub max: [f64; 2],
+impl ShapeSpec {
+    /// The dimension the shape belongs to: 2 for the plane shapes, 3 for
+    /// the solid ones, and for a box the length of its `min` (validation
+    /// checks that `max` has as many).
+    pub fn dimension(&self) -> usize {
+        match self {
+            ShapeSpec::Box { min, .. } => min.len(),
+            ShapeSpec::Disk { .. }
+            | ShapeSpec::Ring { .. }
+            | ShapeSpec::Polygon { .. }
+            | ShapeSpec::Slot { .. } => 2,
+            ShapeSpec::Sphere { .. } | ShapeSpec::Cylinder { .. } | ShapeSpec::Prism { .. } => 3,
+        }
+    }
+
+    /// The name the scene writes as its `type`.
+    pub fn type_name(&self) -> &'static str {
+        match self {
+            ShapeSpec::Box { .. } => "box",
+            ShapeSpec::Disk { .. } => "disk",
+            ShapeSpec::Ring { .. } => "ring",
+            ShapeSpec::Polygon { .. } => "polygon",
+            ShapeSpec::Slot { .. } => "slot",
+            ShapeSpec::Sphere { .. } => "sphere",
+            ShapeSpec::Cylinder { .. } => "cylinder",
+            ShapeSpec::Prism { .. } => "prism",
+        }
+    }
 }
 
-/// Bounding box of a shape.
+/// Axis-aligned bounding box (2D by default; [`bounds_3d`] gives 3D ones).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb<const D: usize = 2> {
+    pub min: [f64; D],
+    pub max: [f64; D],
+}
+
+/// Bounding box of a 2D shape (a 3D shape's is its footprint in the
+/// xy-plane; validation keeps 3D shapes out of 2D scenes).
 pub fn bounds(shape: &ShapeSpec) -> Aabb {
     match shape {
         ShapeSpec::Box { min, max } => Aabb {
-            min: *min,
-            max: *max,
+            min: min.xy(),
+            max: max.xy(),
         },
+        ShapeSpec::Sphere { .. } | ShapeSpec::Cylinder { .. } | ShapeSpec::Prism { .. } => {
+            let b = bounds_3d(shape);
+            Aabb {
+                min: [b.min[0], b.min[1]],
+                max: [b.max[0], b.max[1]],
+            }
+        }
         ShapeSpec::Disk { center, radius } => Aabb {
             min: [center[0] - radius, center[1] - radius],
             max: [center[0] + radius, center[1] + radius],
@@ -86,26 +153,28 @@ pub fn bounds(shape: &ShapeSpec) -> Aabb {
     }
 }
 
-/// Whether point `p` lies inside `shape` (boundaries count as inside for
-/// boxes; seeding points are sub-cell centres and never lie on a box edge
-/// that is aligned with the grid).
+/// Whether point `p` lies inside the 2D `shape` (boundaries count as
+/// inside for boxes; seeding points are sub-cell centres and never lie on
+/// a box edge that is aligned with the grid). No point of the plane lies
+/// in a 3D shape ([`contains_3d`] tests those).
 pub fn contains(shape: &ShapeSpec, p: [f64; 2]) -> bool {
     match shape {
+        ShapeSpec::Sphere { .. } | ShapeSpec::Cylinder { .. } | ShapeSpec::Prism { .. } => false,
         ShapeSpec::Box { min, max } => {
             p[0] >= min[0] && p[0] <= max[0] && p[1] >= min[1] && p[1] <= max[1]
         }
-        ShapeSpec::Disk { center, radius } => dist2(p, *center) <= radius * radius,
+        ShapeSpec::Disk { center, radius } => dist2(p, center.xy()) <= radius * radius,
         ShapeSpec::Ring {
             center,
             inner_radius,
             outer_radius,
         } => {
-            let d2 = dist2(p, *center);
+            let d2 = dist2(p, center.xy());
             d2 <= outer_radius * outer_radius && d2 >= inner_radius * inner_radius
         }
         ShapeSpec::Polygon { vertices } => point_in_polygon(vertices, p),
         ShapeSpec::Slot { start, end, width } => {
-            let (a, b) = (*start, *end);
+            let (a, b) = (start.xy(), end.xy());
             let ab = [b[0] - a[0], b[1] - a[1]];
             let len2 = ab[0] * ab[0] + ab[1] * ab[1];
             let ap = [p[0] - a[0], p[1] - a[1]];
@@ -130,7 +199,7 @@ fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
 }
 
 /// Even–odd rule.
-fn point_in_polygon(v: &[[f64; 2]], p: [f64; 2]) -> bool {
+pub(crate) fn point_in_polygon(v: &[[f64; 2]], p: [f64; 2]) -> bool {
     let mut inside = false;
     let n = v.len();
     let mut j = n.wrapping_sub(1);
@@ -159,16 +228,17 @@ pub fn polygon_area2(v: &[[f64; 2]]) -> f64 {
 }
 
 /// Regular seeding lattice: the background cells (origin, cell size `h`) and
-/// `n` particles per cell per direction.
+/// `n` particles per cell per direction (2D by default; a `Lattice<3>`
+/// seeds a 3D grid's cells, [`seed_3d`]).
 #[derive(Debug, Clone, Copy)]
-pub struct Lattice {
-    pub origin: [f64; 2],
+pub struct Lattice<const D: usize = 2> {
+    pub origin: [f64; D],
     pub h: f64,
-    pub cells: [usize; 2],
+    pub cells: [usize; D],
     pub per_dir: usize,
 }
 
-impl Lattice {
+impl<const D: usize> Lattice<D> {
     /// The distance between neighbouring particles, `h / per_dir`.
     pub fn spacing(&self) -> f64 {
         self.h / self.per_dir.max(1) as f64
@@ -177,7 +247,7 @@ impl Lattice {
 
 /// The lattice cells `[lo, hi)` along axis `d` that overlap the box `b`
 /// (clipped to the lattice).
-fn cell_range(b: &Aabb, lat: &Lattice, d: usize) -> (usize, usize) {
+fn cell_range<const D: usize>(b: &Aabb<D>, lat: &Lattice<D>, d: usize) -> (usize, usize) {
     let lo = ((b.min[d] - lat.origin[d]) / lat.h).floor().max(0.0) as usize;
     let hi = (((b.max[d] - lat.origin[d]) / lat.h).ceil().max(0.0) as usize).min(lat.cells[d]);
     (lo, hi)
@@ -226,16 +296,24 @@ pub fn seed_cost(shape: &ShapeSpec, holes: &[ShapeSpec], lat: &Lattice) -> f64 {
     let (y0, y1) = cell_range(&b, lat, 1);
     let rows = (y1.saturating_sub(y0)) as f64 * n;
     let points = rows * (x1.saturating_sub(x0)) as f64 * n;
-    let edges = |s: &ShapeSpec| match s {
-        ShapeSpec::Polygon { vertices } => vertices.len() as f64,
-        _ => 0.0,
-    };
-    let per_row = edges(shape) + holes.iter().map(edges).sum::<f64>();
+    let per_row = polygon_edges(shape) + holes.iter().map(polygon_edges).sum::<f64>();
     rows * per_row + points * (1 + holes.len()) as f64
 }
 
-/// The area of a shape, m² per unit thickness (a polygon's by the
-/// shoelace formula, which a self-intersecting outline miscounts).
+/// The edges a lattice row's [`RowTest`] passes over: a polygon's or a
+/// prism's.
+fn polygon_edges(s: &ShapeSpec) -> f64 {
+    match s {
+        ShapeSpec::Polygon { vertices } | ShapeSpec::Prism { vertices, .. } => {
+            vertices.len() as f64
+        }
+        _ => 0.0,
+    }
+}
+
+/// The area of a 2D shape, m² per unit thickness (a polygon's by the
+/// shoelace formula, which a self-intersecting outline miscounts); 0 for
+/// a 3D one ([`volume`] is its measure).
 pub fn area(shape: &ShapeSpec) -> f64 {
     use std::f64::consts::PI;
     match shape {
@@ -247,7 +325,9 @@ pub fn area(shape: &ShapeSpec) -> f64 {
             ..
         } => PI * (outer_radius * outer_radius - inner_radius * inner_radius),
         ShapeSpec::Polygon { vertices } => 0.5 * polygon_area2(vertices).abs(),
-        ShapeSpec::Slot { start, end, width } => dist2(*start, *end).sqrt() * width,
+        ShapeSpec::Slot { start, end, width } => dist2(start.xy(), end.xy()).sqrt() * width,
+        // 3D shapes have no area; validation keeps them out of 2D scenes
+        ShapeSpec::Sphere { .. } | ShapeSpec::Cylinder { .. } | ShapeSpec::Prism { .. } => 0.0,
     }
 }
 
@@ -270,7 +350,9 @@ impl<'a> RowTest<'a> {
     }
 
     fn set_row(&mut self, y: f64) {
-        let ShapeSpec::Polygon { vertices: v } = self.shape else {
+        let (ShapeSpec::Polygon { vertices: v } | ShapeSpec::Prism { vertices: v, .. }) =
+            self.shape
+        else {
             return;
         };
         self.crossings.clear();
@@ -301,13 +383,25 @@ impl<'a> RowTest<'a> {
             shape => contains(shape, p),
         }
     }
+
+    /// [`contains_3d`] with a prism's crossings of the present row
+    /// (`set_row(p[1])`): its outline in xy, then its extent in z.
+    fn contains_3d(&self, p: [f64; 3]) -> bool {
+        match self.shape {
+            ShapeSpec::Prism { z_min, z_max, .. } => {
+                let right = self.crossings.len() - self.crossings.partition_point(|&x| x <= p[0]);
+                right % 2 == 1 && p[2] >= *z_min && p[2] <= *z_max
+            }
+            shape => contains_3d(shape, p),
+        }
+    }
 }
 
 /// Distance from `p` to the polyline through `pts`, m.
-pub fn distance_to_polyline(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
+pub fn distance_to_polyline<P: Point2>(p: [f64; 2], pts: &[P]) -> f64 {
     pts.windows(2)
         .map(|w| {
-            let (a, b) = (w[0], w[1]);
+            let (a, b) = (w[0].xy(), w[1].xy());
             let ab = [b[0] - a[0], b[1] - a[1]];
             let len2 = ab[0] * ab[0] + ab[1] * ab[1];
             let t = if len2 > 0.0 {
@@ -324,7 +418,7 @@ pub fn distance_to_polyline(p: [f64; 2], pts: &[[f64; 2]]) -> f64 {
 /// the initial cracks: within 0.55 spacings of its polyline (one particle
 /// row for a crack along a row, two for a crack between rows). A crack is
 /// anything that gives its polyline's points (the scene's `CrackSpec` does).
-pub fn on_cracks(p: [f64; 2], cracks: &[impl AsRef<[[f64; 2]]>], spacing: f64) -> bool {
+pub fn on_cracks<P: Point2>(p: [f64; 2], cracks: &[impl AsRef<[P]>], spacing: f64) -> bool {
     cracks
         .iter()
         .any(|c| distance_to_polyline(p, c.as_ref()) < 0.55 * spacing)
@@ -337,7 +431,7 @@ mod tests {
     #[test]
     fn disk_seeding_area_converges() {
         let shape = ShapeSpec::Disk {
-            center: [0.5, 0.5],
+            center: [0.5, 0.5].into(),
             radius: 0.3,
         };
         let lat = Lattice {
@@ -359,12 +453,12 @@ mod tests {
     #[test]
     fn holes_and_slots_remove_particles() {
         let shape = ShapeSpec::Box {
-            min: [0.0, 0.0],
-            max: [1.0, 1.0],
+            min: [0.0, 0.0].into(),
+            max: [1.0, 1.0].into(),
         };
         let slot = ShapeSpec::Slot {
-            start: [0.0, 0.5],
-            end: [0.5, 0.5],
+            start: [0.0, 0.5].into(),
+            end: [0.5, 0.5].into(),
             width: 0.1,
         };
         let lat = Lattice {
@@ -434,13 +528,13 @@ mod tests {
     #[test]
     fn areas_and_costs_come_from_the_shape_alone() {
         let disk = ShapeSpec::Disk {
-            center: [0.5, 0.5],
+            center: [0.5, 0.5].into(),
             radius: 0.25,
         };
         assert!((area(&disk) - std::f64::consts::PI / 16.0).abs() < 1e-15);
         let slot = ShapeSpec::Slot {
-            start: [0.0, 0.0],
-            end: [3.0, 4.0],
+            start: [0.0, 0.0].into(),
+            end: [3.0, 4.0].into(),
             width: 0.5,
         };
         assert_eq!(area(&slot), 2.5);

@@ -290,6 +290,9 @@ impl JobManager {
     /// first, so that a request whose client has gone by then queues
     /// nothing).
     pub fn enqueue(&self, scene: &Scene, text: &str, label: &str) -> Result<JobRecord, JobError> {
+        // a valid scene no method runs (a 3D one) is refused here, not
+        // failed by its runner
+        crate::methods::runnable(scene)?;
         let particles = scene.total_particles() as u64;
         if particles > self.inner.config.max_particles {
             return Err(JobError::Exhausted(format!(
@@ -592,7 +595,7 @@ fn run_job(
             let mut sim = match cp {
                 Some(cp) => crate::methods::resume(&scene, cp)
                     .map_err(|e| format!("cannot resume from its checkpoint: {e}"))?,
-                None => crate::methods::build(&scene),
+                None => crate::methods::build(&scene).map_err(|e| e.to_string())?,
             };
             sim.run(&mut observer).map_err(|e| e.to_string())
         }))

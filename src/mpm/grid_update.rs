@@ -126,7 +126,9 @@ impl Boundary {
                 SideCondition::Free | SideCondition::Traction { .. } => continue,
                 SideCondition::Fixed => Constraint::Fixed,
                 SideCondition::Roller => Constraint::Roller(normal_axis),
-                SideCondition::Velocity { x, y } => Constraint::Velocity([x.clone(), y.clone()]),
+                SideCondition::Velocity { x, y, .. } => {
+                    Constraint::Velocity([x.clone(), y.clone()])
+                }
             };
             sides.push((c, side_nodes(k)));
         }

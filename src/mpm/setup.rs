@@ -16,7 +16,7 @@ use crate::scene::{
 
 pub(super) fn build(scene: &Scene) -> Simulation {
     let file = &scene.file;
-    let mut geom = GridGeom::new(file.grid.min, file.grid.cell_size, scene.cells);
+    let mut geom = GridGeom::new(file.grid.min.xy(), file.grid.cell_size, scene.cells);
     let b = &file.grid.boundary;
     let wall = |s: &SideCondition| matches!(s, SideCondition::Fixed | SideCondition::Roller);
     geom.walls = [
@@ -52,7 +52,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         let first = parts.x.len();
         geometry::seed(&body.shape, &body.holes, &lat, |p| parts.x.push(p));
         let count = parts.x.len() - first;
-        let origin = body.velocity_origin.unwrap_or_else(|| {
+        let origin = body.velocity_origin.map(|o| o.xy()).unwrap_or_else(|| {
             let (mut sx, mut sy) = (0.0, 0.0);
             for p in &parts.x[first..] {
                 sx += p[0];
@@ -60,7 +60,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             }
             [sx / count.max(1) as f64, sy / count.max(1) as f64]
         });
-        let g = body.velocity_gradient;
+        let g = body.velocity_gradient.xy();
         for k in 0..count {
             let x = parts.x[first + k];
             let d = [x[0] - origin[0], x[1] - origin[1]];
@@ -166,7 +166,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             TransferKind::Pic => 0.0,
             _ => file.transfer.flip_blend,
         },
-        body_force: file.body_force,
+        body_force: file.body_force.xy(),
         m_min: file.guards.min_node_mass_fraction * min_mass,
         time: 0.0,
         step: 0,

@@ -170,9 +170,16 @@ fn kib_field(text: &str, name: &str) -> Option<u64> {
 }
 
 /// The estimate for a validated scene's parts (see the module docs).
+///
+/// A 3D scene's is the same count with 3D sizes: vectors of 3
+/// components, symmetric tensors of 6 and full ones of 9, nodes over
+/// three axes, a phase-field row of 5³ (7³) neighbours, and its factor's
+/// fill by the nested-dissection bound for 3D grids, nnz(L) ≈ c·n^{4/3}
+/// (George 1973), c taken from the 2D fit at 65 536 unknowns: a guide
+/// until a 3D run measures it.
 pub(super) fn estimate(
     file: &SceneFile,
-    cells: [usize; 2],
+    cells: [usize; 3],
     particle_counts: &[usize],
     materials: &[ResolvedMaterial],
     body_material: &[usize],
@@ -187,16 +194,19 @@ pub(super) fn estimate(
     };
     let any = |f: &dyn Fn(&ResolvedMaterial) -> bool| mats().into_iter().any(f);
     use super::schema::MaterialModel::{LinearElastic, NeoHookean};
+    let three = file.dimension() == 3;
+    // bytes of a vector, a symmetric tensor (Voigt) and a full tensor
+    let (vector, sym, full): (u64, u64, u64) = if three { (24, 48, 72) } else { (16, 24, 32) };
     // id, body, material, group, x, v, mass, vol, vol0, stress
-    let mut per_particle: u64 = 4 + 2 + 2 + 1 + 16 + 16 + 8 + 8 + 8 + 24;
+    let mut per_particle: u64 = 4 + 2 + 2 + 1 + vector + vector + 8 + 8 + 8 + sym;
     if any(&|m| m.model == LinearElastic) {
-        per_particle += 24; // strain
+        per_particle += sym; // strain
     }
     if any(&|m| m.model == NeoHookean) {
-        per_particle += 32; // deformation gradient
+        per_particle += full; // deformation gradient
     }
     if file.transfer.scheme == TransferKind::Apic {
-        per_particle += 32; // affine velocity field
+        per_particle += full; // affine velocity field
     }
     if file.grid.shape_function == ShapeFunctionKind::Gimp {
         per_particle += 8;
@@ -210,18 +220,23 @@ pub(super) fn estimate(
     }
     // the bins' order and a copy of the groups; MUSL's second pass keeps
     // the new positions
-    let mut overhead: u64 = 4 + 1 + 16;
+    let mut overhead: u64 = 4 + 1 + vector;
     if file.transfer.stress_update == StressUpdate::Musl {
-        overhead += 16;
+        overhead += vector;
     }
     // a snapshot copies positions, velocities, stress, strain, mass,
     // volume and the ids into its own arrays while it is written
-    let snapshot: u64 = if file.output.snapshots > 0 { 120 } else { 0 };
+    let snapshot: u64 = match (file.output.snapshots > 0, three) {
+        (false, _) => 0,
+        (true, false) => 120,
+        (true, true) => 2 * 24 + 2 * 72 + 8 + 8 + 4,
+    };
     let particles = n.saturating_mul(per_particle + overhead + snapshot);
 
-    let nodes = (cells[0] as u64 + 1) * (cells[1] as u64 + 1);
+    let axes = if three { 3 } else { 2 };
+    let nodes: u64 = cells[..axes].iter().map(|&c| c as u64 + 1).product();
     // mass, momentum, force, old and new velocity, mass gradient
-    let per_slot: u64 = 8 + 16 + 16 + 16 + 16 + 16;
+    let per_slot: u64 = 8 + 5 * vector;
     let fields = if file.dfg.is_some() {
         2 * contact_groups as u64
     } else {
@@ -246,23 +261,38 @@ pub(super) fn estimate(
             };
             // the nodes the body's particles touch: its bounding box, one
             // node of support beyond it (capped by the grid)
-            let bb = crate::geometry::bounds(&body.shape);
+            let bb = crate::geometry::bounds_3d(&body.shape);
             let span = |d: usize| {
                 let w = ((bb.max[d] - bb.min[d]) / h).ceil().max(0.0) + 3.0;
                 w.min(cells[d] as f64 + 1.0)
             };
-            let dofs = span(0) * span(1);
+            let dofs = if three {
+                span(0) * span(1) * span(2)
+            } else {
+                span(0) * span(1)
+            };
             let fourth = !super::phase_field_gamma(pf).is_zero();
             // a quadratic B-spline couples a node with its 5 x 5
             // neighbours, 7 x 7 with the 4th-order term's second derivatives
-            let row = if fourth { 49.0 } else { 25.0 };
+            // (5³ and 7³ in 3D)
+            let row: f64 = match (fourth, three) {
+                (false, false) => 25.0,
+                (true, false) => 49.0,
+                (false, true) => 125.0,
+                (true, true) => 343.0,
+            };
             // row indices (usize), values (f64), assembly keys (u64); the
             // vectors of PCG and the right-hand side per dof
             system += (dofs * row * (8.0 + 8.0 + 8.0) + dofs * 12.0 * 8.0) as u64;
             // nnz(L) ≈ 10.5 n log₂ n (quadratic); the 4th-order stencil
             // fills about twice as much
             let fill = if fourth { 21.0 } else { 10.5 };
-            let l = fill * dofs * dofs.max(2.0).log2();
+            let l = if three {
+                // c·n^{4/3}, c matching 10.5 n log₂ n at n = 65 536
+                fill * 16.0 / 65_536f64.cbrt() * dofs.powf(4.0 / 3.0)
+            } else {
+                fill * dofs * dofs.max(2.0).log2()
+            };
             // its values: always factorized in f64 (an f32 factorization
             // meets subnormal numbers, slow on x86), and PCG keeps an f32
             // copy beside them as its preconditioner; the supernodal
@@ -285,10 +315,16 @@ pub(super) fn estimate(
             let ppc = file
                 .bodies
                 .iter()
-                .map(|b| b.particles_per_cell as f64)
+                .map(|b| b.ppc(file.dimension()) as f64)
                 .fold(1.0, f64::max);
             let r = spec.radius * std::f64::consts::SQRT_2;
-            let neighbours = (std::f64::consts::PI * r * r * ppc).ceil() as u64;
+            let neighbours = if three {
+                // within the sphere of radius r·√3/√2 · h
+                let r = spec.radius * 3f64.sqrt();
+                (4.0 / 3.0 * std::f64::consts::PI * r * r * r * ppc).ceil() as u64
+            } else {
+                (std::f64::consts::PI * r * r * ppc).ceil() as u64
+            };
             n.saturating_mul(state + 4 * neighbours)
         }
         None => 0,

@@ -11,7 +11,7 @@ use std::fmt;
 
 // Types the base layer defines and the scene file names: the scene builds
 // base types, the base imports nothing from the scene (tests/layers.rs).
-pub use crate::geometry::ShapeSpec;
+pub use crate::geometry::{Matrix, ShapeSpec, Vector};
 pub use crate::grid::shape::ShapeFunctionKind;
 pub use crate::material::{MaterialModel, PlaneKind};
 // Each fracture model owns its scene section (its types and their checks
@@ -39,9 +39,11 @@ pub struct SceneFile {
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSpec>,
     pub bodies: Vec<BodySpec>,
-    /// Body force per unit mass (gravity), m/s².
-    #[serde(default)]
-    pub body_force: [f64; 2],
+    /// Body force per unit mass (gravity), m/s²: 2 or 3 components as the
+    /// grid has; left out, zero (validation writes the zero of the grid's
+    /// dimension, so that a validated scene serialises as it always has).
+    #[serde(default, skip_serializing_if = "Vector::is_unset")]
+    pub body_force: Vector,
     #[serde(default)]
     pub contact: ContactSpec,
     #[serde(default)]
@@ -148,24 +150,27 @@ pub struct Meta {
     pub description: String,
 }
 
-/// The uniform background grid.
+/// The uniform background grid. Its `max` decides the scene's dimension:
+/// 2 components make a 2D scene, 3 a 3D one ([`SceneFile::dimension`]).
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct GridSpec {
-    /// Edge length of a square cell, m.
+    /// Edge length of a square (cubic) cell, m.
     pub cell_size: f64,
-    /// Lower-left corner of the grid, m.
-    #[serde(default)]
-    pub min: [f64; 2],
-    /// Upper-right corner of the grid, m (rounded up to whole cells).
-    pub max: [f64; 2],
+    /// Lower-left (-back) corner of the grid, m; left out, the origin.
+    #[serde(default, skip_serializing_if = "Vector::is_unset")]
+    pub min: Vector,
+    /// Upper-right (-front) corner of the grid, m (rounded up to whole
+    /// cells).
+    pub max: Vector,
     #[serde(default)]
     pub shape_function: ShapeFunctionKind,
     #[serde(default)]
     pub boundary: BoundarySpec,
 }
 
-/// Boundary conditions on the four sides of the grid.
+/// Boundary conditions on the sides of the grid: `left`/`right` (x),
+/// `bottom`/`top` (y), and in 3D `back`/`front` (z).
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundarySpec {
@@ -177,6 +182,27 @@ pub struct BoundarySpec {
     pub bottom: SideCondition,
     #[serde(default, deserialize_with = "side_condition")]
     pub top: SideCondition,
+    /// The z = min side, 3D only (left out: free). Optional, not
+    /// defaulted, so that a 2D scene that writes it is refused and a 2D
+    /// scene serialises as before.
+    #[serde(
+        default,
+        deserialize_with = "some_side_condition",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub back: Option<SideCondition>,
+    /// The z = max side, 3D only (left out: free).
+    #[serde(
+        default,
+        deserialize_with = "some_side_condition",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub front: Option<SideCondition>,
+}
+
+/// [`side_condition`] for a side that may be left out.
+fn some_side_condition<'de, D: Deserializer<'de>>(d: D) -> Result<Option<SideCondition>, D::Error> {
+    side_condition(d).map(Some)
 }
 
 /// The condition on one side of the grid. Written either as a bare string
@@ -193,16 +219,19 @@ pub enum SideCondition {
     #[serde(alias = "symmetry")]
     Roller,
     /// Prescribed velocity components (m/s) as functions of time; a missing
-    /// component is left free.
+    /// component is left free. `z` is for 3D scenes only.
     Velocity {
         #[serde(default)]
         x: Option<TimeFunction>,
         #[serde(default)]
         y: Option<TimeFunction>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        z: Option<TimeFunction>,
     },
     /// A traction (Pa) on the outermost particles that face this side, as
     /// functions of time. Positive `normal` pulls outward; `shear` acts
-    /// along +x on the bottom and top sides, along +y on the left and right.
+    /// along +x on the bottom and top sides, along +y on the left and right
+    /// (and along +x on the back and front).
     Traction {
         #[serde(default)]
         normal: Option<TimeFunction>,
@@ -310,15 +339,21 @@ impl TimeFunction {
     }
 }
 
+/// The 2D idealisation: plane strain or plane stress, and the
+/// out-of-plane thickness. Both keys are 2D-only: a 3D scene is fully 3D,
+/// and one that writes either is refused naming it. So the spec keeps
+/// which keys the scene wrote ([`AnalysisSpec::written`]); left out, they
+/// are not serialised, but a validated 2D scene writes both (the defaults
+/// filled in), as it always has.
 #[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
+#[serde(from = "AnalysisKeys", into = "AnalysisKeys")]
 pub struct AnalysisSpec {
-    #[serde(default)]
     pub plane: PlaneKind,
     /// Out-of-plane thickness, m. Plane strain defaults to 1 m (energies per
     /// metre of thickness).
-    #[serde(default = "one")]
     pub thickness: f64,
+    /// Whether `plane` and `thickness` were written (or filled in).
+    written: [bool; 2],
 }
 
 impl Default for AnalysisSpec {
@@ -326,12 +361,55 @@ impl Default for AnalysisSpec {
         AnalysisSpec {
             plane: PlaneKind::PlaneStrain,
             thickness: 1.0,
+            written: [false; 2],
         }
     }
 }
 
-fn one() -> f64 {
-    1.0
+impl AnalysisSpec {
+    /// Which of `plane` and `thickness` the scene sets: written, or
+    /// changed from their defaults since.
+    pub fn written(&self) -> [bool; 2] {
+        [
+            self.written[0] || self.plane != PlaneKind::PlaneStrain,
+            self.written[1] || self.thickness != 1.0,
+        ]
+    }
+
+    /// Marks both as written (a validated 2D scene's defaults).
+    pub(crate) fn write_defaults(&mut self) {
+        self.written = [true; 2];
+    }
+}
+
+/// `[analysis]` as the file has it.
+#[derive(Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct AnalysisKeys {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    plane: Option<PlaneKind>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    thickness: Option<f64>,
+}
+
+impl From<AnalysisKeys> for AnalysisSpec {
+    fn from(k: AnalysisKeys) -> AnalysisSpec {
+        AnalysisSpec {
+            plane: k.plane.unwrap_or(PlaneKind::PlaneStrain),
+            thickness: k.thickness.unwrap_or(1.0),
+            written: [k.plane.is_some(), k.thickness.is_some()],
+        }
+    }
+}
+
+impl From<AnalysisSpec> for AnalysisKeys {
+    fn from(a: AnalysisSpec) -> AnalysisKeys {
+        let [plane, thickness] = a.written();
+        AnalysisKeys {
+            plane: plane.then_some(a.plane),
+            thickness: thickness.then_some(a.thickness),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -433,6 +511,12 @@ pub enum MaterialRef {
 }
 
 impl SceneFile {
+    /// The scene's dimension: the number of components of `grid.max`, 2 or
+    /// 3 (validation checks every other vector against it).
+    pub fn dimension(&self) -> usize {
+        self.grid.max.len()
+    }
+
     /// The material spec a body refers to (`None` for an unknown name).
     pub fn material_of<'a>(&'a self, m: &'a MaterialRef) -> Option<&'a MaterialSpec> {
         match m {
@@ -472,21 +556,24 @@ pub struct BodySpec {
     #[serde(default)]
     pub holes: Vec<ShapeSpec>,
     pub material: MaterialRef,
-    /// Particles per cell: a perfect square (1, 4, 9, 16, ...), placed on a
-    /// regular sub-grid of each cell.
-    #[serde(default = "default_ppc")]
-    pub particles_per_cell: u32,
-    /// Initial velocity at `velocity_origin`, m/s.
+    /// Particles per cell: a perfect square in 2D (1, 4, 9, 16, ...), a
+    /// perfect cube in 3D (1, 8, 27, 64), placed on a regular sub-grid of
+    /// each cell. Left out: 4 in 2D, 8 in 3D (2 per direction), which
+    /// validation writes in ([`BodySpec::ppc`] reads it).
     #[serde(default)]
-    pub velocity: [f64; 2],
+    pub particles_per_cell: Option<u32>,
+    /// Initial velocity at `velocity_origin`, m/s.
+    #[serde(default, skip_serializing_if = "Vector::is_unset")]
+    pub velocity: Vector,
     /// Initial velocity gradient ∂v/∂x (row i = ∂v_i/∂x_j), 1/s: the initial
     /// velocity is v + G (x − velocity_origin). A spin ω is [[0, −ω], [ω, 0]].
-    #[serde(default)]
-    pub velocity_gradient: [[f64; 2]; 2],
+    /// 2×2 in 2D, 3×3 in 3D.
+    #[serde(default, skip_serializing_if = "Matrix::is_unset")]
+    pub velocity_gradient: Matrix,
     /// The point about which `velocity_gradient` acts (default: the centroid
     /// of the body's particles).
     #[serde(default)]
-    pub velocity_origin: Option<[f64; 2]>,
+    pub velocity_origin: Option<Vector>,
     /// Bodies in different contact groups get separate velocity fields and
     /// interact by frictional contact; bodies in one group share a field.
     #[serde(default)]
@@ -505,22 +592,32 @@ pub struct BodySpec {
     /// Default: the first point of the first initial crack; without either,
     /// the body's tip is not tracked.
     #[serde(default)]
-    pub crack_origin: Option<[f64; 2]>,
+    pub crack_origin: Option<Vector>,
 }
 
-/// An initial crack as a polyline of at least two points, m.
+impl BodySpec {
+    /// Its particles per cell, the default of a scene of `dim` dimensions
+    /// if left out (4 in 2D, 8 in 3D: 2 per direction).
+    pub fn ppc(&self, dim: usize) -> u32 {
+        self.particles_per_cell
+            .unwrap_or(if dim == 3 { 8 } else { 4 })
+    }
+}
+
+/// An initial crack as a polyline of at least two points, m (2 or 3
+/// components each, as the grid has).
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CrackSpec {
-    pub points: Vec<[f64; 2]>,
+    pub points: Vec<Vector>,
     /// How a phase-field body's initial history is laid along the crack.
     #[serde(default)]
     pub profile: CrackProfile,
 }
 
 /// A crack's polyline, for [`crate::geometry::on_cracks`].
-impl AsRef<[[f64; 2]]> for CrackSpec {
-    fn as_ref(&self) -> &[[f64; 2]] {
+impl AsRef<[Vector]> for CrackSpec {
+    fn as_ref(&self) -> &[Vector] {
         &self.points
     }
 }
@@ -541,10 +638,6 @@ pub enum CrackProfile {
     /// linearly to zero at its edges. Needs particle spacing ≤ l₀/2, so that
     /// a row of particles lies within l₀/4 of the line.
     Borden,
-}
-
-fn default_ppc() -> u32 {
-    4
 }
 
 #[derive(Debug, Clone, Default, Deserialize, Serialize)]

@@ -98,6 +98,8 @@ pub struct Scene {
     pub body_material: Vec<usize>,
     /// Cells along x and y (the grid's `max` is rounded up to whole cells).
     pub cells: [usize; 2],
+    /// Cells along z in a 3D scene; None in 2D.
+    pub cells_z: Option<usize>,
     /// Particles seeded in each body.
     pub particle_counts: Vec<usize>,
     /// Distinct contact groups, ascending; a body's field index is the
@@ -134,18 +136,40 @@ impl Scene {
         self.particle_counts.iter().sum()
     }
 
-    /// The seeding lattice of body `b`.
+    /// The scene's dimension, 2 or 3 ([`SceneFile::dimension`]).
+    pub fn dimension(&self) -> usize {
+        self.file.dimension()
+    }
+
+    /// The cells along each axis: x and y, and z in 3D.
+    pub fn cell_counts(&self) -> Vec<usize> {
+        let mut cells = self.cells.to_vec();
+        cells.extend(self.cells_z);
+        cells
+    }
+
+    /// The seeding lattice of body `b` in a 2D scene.
     pub fn lattice(&self, b: usize) -> Lattice {
-        lattice_of(
-            &self.file.grid,
-            self.cells,
-            self.file.bodies[b].particles_per_cell,
-        )
+        lattice_of(&self.file.grid, self.cells, self.ppc(b))
+    }
+
+    /// The seeding lattice of body `b` in a 3D scene.
+    pub fn lattice_3d(&self, b: usize) -> Lattice<3> {
+        lattice_3d_of(&self.file.grid, self.cells_3d(), self.ppc(b))
     }
 
     /// The distance between neighbouring particles of body `b` as seeded.
     pub fn particle_spacing(&self, b: usize) -> f64 {
-        self.lattice(b).spacing()
+        self.file.grid.cell_size / per_dir(self.ppc(b), self.dimension()) as f64
+    }
+
+    /// The particles per cell of body `b` (validation writes the default in).
+    fn ppc(&self, b: usize) -> u32 {
+        self.file.bodies[b].ppc(self.dimension())
+    }
+
+    fn cells_3d(&self) -> [usize; 3] {
+        [self.cells[0], self.cells[1], self.cells_z.unwrap_or(0)]
     }
 
     /// Validates a parsed scene; reports every problem found. Its memory
@@ -163,15 +187,34 @@ impl Scene {
     /// body's particles are estimated from its area before any is seeded,
     /// and the seeding's work from its bounding box, its holes and its
     /// polygons' edges ([`geometry::seed_cost`]).
-    pub fn validate_within(file: SceneFile, budget: &MemoryBudget) -> Result<Scene, SceneError> {
+    pub fn validate_within(
+        mut file: SceneFile,
+        budget: &MemoryBudget,
+    ) -> Result<Scene, SceneError> {
         let mut c = Checker::default();
-        let cells = check_grid(&mut c, &file.grid);
-        c.positive("analysis.thickness", file.analysis.thickness);
+        let dim = file.dimension();
+        write_defaults(&mut file, dim);
+        let cells3 = check_grid(&mut c, &file.grid, dim);
+        let cells = [cells3[0], cells3[1]];
+        let cells_z = (dim == 3).then_some(cells3[2]);
+        if dim == 3 {
+            let [plane, thickness] = file.analysis.written();
+            for (key, written) in [("plane", plane), ("thickness", thickness)] {
+                if written {
+                    c.err(
+                        &format!("analysis.{key}"),
+                        "is a 2D setting (plane strain or plane stress, and the out-of-plane \
+                         thickness), but the grid is 3D (grid.max has 3 components) and a 3D \
+                         scene is fully three-dimensional: remove it",
+                    );
+                }
+            }
+        } else {
+            c.positive("analysis.thickness", file.analysis.thickness);
+        }
         check_time(&mut c, &file.time);
         c.in_range("transfer.flip_blend", file.transfer.flip_blend, 0.0, 1.0);
-        for (d, v) in file.body_force.iter().enumerate() {
-            c.finite(&format!("body_force[{d}]"), *v);
-        }
+        c.vector("body_force", file.body_force, dim);
         check_output_and_guards(&mut c, &file);
 
         // Materials: named ones first, then inline ones per body.
@@ -235,20 +278,30 @@ impl Scene {
             if let Some(m) = mat.and_then(|k| materials.get(k)) {
                 // a particle's mass must survive in f64: a zero or subnormal
                 // one divides nodal momenta by zero
-                let s = lattice_of(&file.grid, cells, body.particles_per_cell).spacing();
-                let t = file.analysis.thickness;
-                let mass = m.density * s * s * t;
-                if t.is_finite() && t > 0.0 && s > 0.0 && !mass.is_normal() {
-                    c.err(
-                        &format!("{path}.material"),
-                        format!("a particle's mass, density {:e} kg/m³ × spacing² {:e} m² × thickness {t:e} m, is {mass:e} kg: beyond f64's range", m.density, s * s),
-                    );
+                let s = file.grid.cell_size / per_dir(body.ppc(dim), dim) as f64;
+                if dim == 3 {
+                    let mass = m.density * s * s * s;
+                    if s > 0.0 && !mass.is_normal() {
+                        c.err(
+                            &format!("{path}.material"),
+                            format!("a particle's mass, density {:e} kg/m³ × spacing³ {:e} m³, is {mass:e} kg: beyond f64's range", m.density, s * s * s),
+                        );
+                    }
+                } else {
+                    let t = file.analysis.thickness;
+                    let mass = m.density * s * s * t;
+                    if t.is_finite() && t > 0.0 && s > 0.0 && !mass.is_normal() {
+                        c.err(
+                            &format!("{path}.material"),
+                            format!("a particle's mass, density {:e} kg/m³ × spacing² {:e} m² × thickness {t:e} m, is {mass:e} kg: beyond f64's range", m.density, s * s),
+                        );
+                    }
                 }
             }
             if mat.is_some() {
                 let pf = phase_field_of(&file, &body.material);
                 if let Some(pf) = pf {
-                    let spacing = lattice_of(&file.grid, cells, body.particles_per_cell).spacing();
+                    let spacing = file.grid.cell_size / per_dir(body.ppc(dim), dim) as f64;
                     for (k, crack) in body.cracks.iter().enumerate() {
                         // a row of particles then lies within l0/4 of the line,
                         // with at least half the band's peak history
@@ -285,7 +338,7 @@ impl Scene {
                 }
             }
             if let Some(o) = body.crack_origin {
-                c.point(&format!("{path}.crack_origin"), o);
+                c.vector(&format!("{path}.crack_origin"), o, dim);
             }
             for (k, crack) in body.cracks.iter().enumerate() {
                 if crack.profile == CrackProfile::Borden && has_damage(&file, &body.material) {
@@ -301,14 +354,14 @@ impl Scene {
                     );
                 }
                 for (q, pt) in crack.points.iter().enumerate() {
-                    c.point(&format!("{path}.cracks[{k}].points[{q}]"), *pt);
+                    c.vector(&format!("{path}.cracks[{k}].points[{q}]"), *pt, dim);
                 }
             }
             body_material.push(mat.unwrap_or(usize::MAX));
             groups.insert(body.contact_group);
-            seedable.push(check_body(&mut c, &path, body, &file.grid, cells));
+            seedable.push(check_body(&mut c, &path, body, &file.grid, dim, cells3));
         }
-        let particle_counts = count_particles(&mut c, &file, cells, &seedable);
+        let particle_counts = count_particles(&mut c, &file, cells3, &seedable);
         if groups.len() > MAX_CONTACT_GROUPS {
             c.err(
                 "bodies",
@@ -339,7 +392,7 @@ impl Scene {
         let contact_groups: Vec<u32> = groups.into_iter().collect();
         let memory = memory::estimate(
             &file,
-            cells,
+            cells3,
             &particle_counts,
             &materials,
             &body_material,
@@ -366,6 +419,7 @@ impl Scene {
             materials,
             body_material,
             cells,
+            cells_z,
             particle_counts,
             contact_groups,
             plan,
@@ -380,18 +434,53 @@ impl Scene {
     }
 }
 
-/// Particles per direction for a per-cell count (a perfect square).
-pub fn per_dir(ppc: u32) -> usize {
-    ((ppc as f64).sqrt().round() as usize).max(1)
+/// Particles per direction for a per-cell count (a perfect square in 2D,
+/// a perfect cube in 3D).
+fn per_dir(ppc: u32, dim: usize) -> usize {
+    let n = if dim == 3 {
+        (ppc as f64).cbrt()
+    } else {
+        (ppc as f64).sqrt()
+    };
+    (n.round() as usize).max(1)
 }
 
-/// The seeding lattice of a body with `ppc` particles per cell on the grid.
+/// The seeding lattice of a body with `ppc` particles per cell on a 2D grid.
 fn lattice_of(grid: &GridSpec, cells: [usize; 2], ppc: u32) -> Lattice {
     Lattice {
-        origin: grid.min,
+        origin: grid.min.xy(),
         h: grid.cell_size,
         cells,
-        per_dir: per_dir(ppc),
+        per_dir: per_dir(ppc, 2),
+    }
+}
+
+/// The seeding lattice of a body with `ppc` particles per cell on a 3D grid.
+fn lattice_3d_of(grid: &GridSpec, cells: [usize; 3], ppc: u32) -> Lattice<3> {
+    Lattice {
+        origin: grid.min.xyz(),
+        h: grid.cell_size,
+        cells,
+        per_dir: per_dir(ppc, 3),
+    }
+}
+
+/// Writes the defaults that depend on the scene's dimension into a
+/// parsed scene: the vectors left out become zeros of `dim` components,
+/// a body's `particles_per_cell` its dimension's default, and a 2D
+/// scene's `[analysis]` keys their defaults. A validated scene then
+/// serialises every key it always has (a checkpoint compares the scene
+/// it was written with key by key), and a 3D one none of the 2D keys.
+fn write_defaults(file: &mut SceneFile, dim: usize) {
+    file.grid.min = file.grid.min.or_zero(dim);
+    file.body_force = file.body_force.or_zero(dim);
+    if dim == 2 {
+        file.analysis.write_defaults();
+    }
+    for body in &mut file.bodies {
+        body.velocity = body.velocity.or_zero(dim);
+        body.velocity_gradient = body.velocity_gradient.or_zero(dim);
+        body.particles_per_cell = Some(body.ppc(dim));
     }
 }
 
@@ -462,6 +551,42 @@ impl Checker {
         let b = self.finite(&format!("{path}[1]"), p[1]);
         a && b
     }
+    /// A scene vector: `dim` components (the grid's dimension), each finite.
+    fn vector(&mut self, path: &str, v: Vector, dim: usize) -> bool {
+        if v.len() != dim {
+            self.err(
+                path,
+                format!(
+                    "has {} components, but the grid is {dim}D (grid.max has {dim})",
+                    v.len()
+                ),
+            );
+            return false;
+        }
+        let mut ok = true;
+        for (d, x) in v.components().iter().enumerate() {
+            ok &= self.finite(&format!("{path}[{d}]"), *x);
+        }
+        ok
+    }
+    /// A scene matrix: `dim` rows of `dim` finite components.
+    fn matrix(&mut self, path: &str, m: &Matrix, dim: usize) -> bool {
+        if m.rows().len() != dim {
+            self.err(
+                path,
+                format!(
+                    "has {} rows, but the grid is {dim}D (grid.max has {dim}): write {dim} rows of {dim}",
+                    m.rows().len()
+                ),
+            );
+            return false;
+        }
+        let mut ok = true;
+        for (r, row) in m.rows().iter().enumerate() {
+            ok &= self.vector(&format!("{path}[{r}]"), *row, dim);
+        }
+        ok
+    }
     fn time_function(&mut self, path: &str, f: &TimeFunction) {
         match f {
             TimeFunction::Constant(v) => {
@@ -492,16 +617,17 @@ impl Checker {
     }
 }
 
-fn check_grid(c: &mut Checker, g: &GridSpec) -> [usize; 2] {
-    let mut cells = [0usize; 2];
+/// The grid's cells along x, y and (in 3D) z; zeros when it is refused.
+fn check_grid(c: &mut Checker, g: &GridSpec, dim: usize) -> [usize; 3] {
+    let mut cells = [0usize; 3];
     let h_ok = c.positive("grid.cell_size", g.cell_size);
-    let min_ok = c.point("grid.min", g.min);
-    let max_ok = c.point("grid.max", g.max);
+    let min_ok = c.vector("grid.min", g.min, dim);
+    let max_ok = c.vector("grid.max", g.max, dim);
     if !(h_ok && min_ok && max_ok) {
         return cells;
     }
-    let axis = ["x", "y"];
-    for d in 0..2 {
+    let axis = ["x", "y", "z"];
+    for d in 0..dim {
         let len = g.max[d] - g.min[d];
         if len < g.cell_size {
             c.err(
@@ -511,7 +637,7 @@ fn check_grid(c: &mut Checker, g: &GridSpec) -> [usize; 2] {
                     axis[d], g.min[d], g.max[d], g.cell_size
                 ),
             );
-            return [0, 0];
+            return [0; 3];
         }
         let n = (len / g.cell_size - 1e-9).ceil();
         if n > 1e8 {
@@ -519,32 +645,50 @@ fn check_grid(c: &mut Checker, g: &GridSpec) -> [usize; 2] {
                 "grid.cell_size",
                 format!("{n} cells along {} is too many", axis[d]),
             );
-            return [0, 0];
+            return [0; 3];
         }
         cells[d] = n as usize;
     }
-    if (cells[0] + 1) * (cells[1] + 1) > MAX_NODES {
+    // in f64: 3 axes of up to 1e8 cells overflow usize
+    let nodes: f64 = cells[..dim].iter().map(|&n| n as f64 + 1.0).product();
+    if nodes > MAX_NODES as f64 {
+        let list: Vec<String> = cells[..dim].iter().map(usize::to_string).collect();
         c.err(
             "grid.cell_size",
             format!(
-                "{} × {} cells is more than the {MAX_NODES}-node limit",
-                cells[0], cells[1]
+                "{} cells is more than the {MAX_NODES}-node limit",
+                list.join(" × ")
             ),
         );
-        return [0, 0];
+        return [0; 3];
     }
-    let sides = [
-        ("left", &g.boundary.left),
-        ("right", &g.boundary.right),
-        ("bottom", &g.boundary.bottom),
-        ("top", &g.boundary.top),
+    let mut sides = vec![
+        ("left", Some(&g.boundary.left)),
+        ("right", Some(&g.boundary.right)),
+        ("bottom", Some(&g.boundary.bottom)),
+        ("top", Some(&g.boundary.top)),
     ];
+    for (name, side) in [("back", &g.boundary.back), ("front", &g.boundary.front)] {
+        if dim == 2 && side.is_some() {
+            c.err(
+                &format!("grid.boundary.{name}"),
+                "is a side normal to z, but the grid is 2D (grid.max has 2 components): \
+                 only left, right, bottom and top exist",
+            );
+        }
+        sides.push((name, side.as_ref()));
+    }
     for (name, side) in sides {
         let path = format!("grid.boundary.{name}");
         match side {
-            SideCondition::Velocity { x, y } => {
-                if x.is_none() && y.is_none() {
-                    c.err(&path, "a velocity condition needs `x` and/or `y`");
+            Some(SideCondition::Velocity { x, y, z }) => {
+                if x.is_none() && y.is_none() && z.is_none() {
+                    let which = if dim == 3 {
+                        "`x`, `y` and/or `z`"
+                    } else {
+                        "`x` and/or `y`"
+                    };
+                    c.err(&path, format!("a velocity condition needs {which}"));
                 }
                 if let Some(f) = x {
                     c.time_function(&format!("{path}.x"), f);
@@ -552,8 +696,18 @@ fn check_grid(c: &mut Checker, g: &GridSpec) -> [usize; 2] {
                 if let Some(f) = y {
                     c.time_function(&format!("{path}.y"), f);
                 }
+                if let Some(f) = z {
+                    if dim == 2 {
+                        c.err(
+                            &format!("{path}.z"),
+                            "a z velocity needs a 3D grid (grid.max has 2 components)",
+                        );
+                    } else {
+                        c.time_function(&format!("{path}.z"), f);
+                    }
+                }
             }
-            SideCondition::Traction { normal, shear } => {
+            Some(SideCondition::Traction { normal, shear }) => {
                 if normal.is_none() && shear.is_none() {
                     c.err(&path, "a traction condition needs `normal` and/or `shear`");
                 }
@@ -745,22 +899,38 @@ fn resolve_material(
     })
 }
 
-fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec) -> bool {
+fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec, dim: usize) -> bool {
     let before = c.errors.len();
+    if !matches!(s, ShapeSpec::Box { .. }) && s.dimension() != dim {
+        let (kind, instead) = if dim == 3 {
+            ("2D", "sphere, cylinder, prism or box")
+        } else {
+            ("3D", "disk, ring, polygon, slot or box")
+        };
+        c.err(
+            &format!("{path}.type"),
+            format!(
+                "{} is a {kind} shape, but the grid is {dim}D (grid.max has {dim} components): use {instead}",
+                s.type_name()
+            ),
+        );
+        return false;
+    }
     match s {
         ShapeSpec::Box { min, max } => {
-            if c.point(&format!("{path}.min"), *min)
-                && c.point(&format!("{path}.max"), *max)
-                && (max[0] <= min[0] || max[1] <= min[1])
+            if c.vector(&format!("{path}.min"), *min, dim)
+                && c.vector(&format!("{path}.max"), *max, dim)
+                && (0..dim).any(|d| max[d] <= min[d])
             {
+                let axes = if dim == 3 { "x, y and z" } else { "x and y" };
                 c.err(
                     path,
-                    format!("max must exceed min in x and y, got min {min:?} max {max:?}"),
+                    format!("max must exceed min in {axes}, got min {min:?} max {max:?}"),
                 );
             }
         }
         ShapeSpec::Disk { center, radius } => {
-            c.point(&format!("{path}.center"), *center);
+            c.vector(&format!("{path}.center"), *center, 2);
             c.positive(&format!("{path}.radius"), *radius);
         }
         ShapeSpec::Ring {
@@ -768,7 +938,7 @@ fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec) -> bool {
             inner_radius,
             outer_radius,
         } => {
-            c.point(&format!("{path}.center"), *center);
+            c.vector(&format!("{path}.center"), *center, 2);
             let a = c.finite(&format!("{path}.inner_radius"), *inner_radius);
             let b = c.positive(&format!("{path}.outer_radius"), *outer_radius);
             if a && *inner_radius < 0.0 {
@@ -784,35 +954,65 @@ fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec) -> bool {
                 );
             }
         }
-        ShapeSpec::Polygon { vertices } => {
-            if vertices.len() < 3 {
-                c.err(
-                    &format!("{path}.vertices"),
-                    format!(
-                        "a polygon needs at least 3 vertices, got {}",
-                        vertices.len()
-                    ),
-                );
-            } else {
-                let ok = vertices
-                    .iter()
-                    .enumerate()
-                    .all(|(k, v)| c.point(&format!("{path}.vertices[{k}]"), *v));
-                if ok && geometry::polygon_area2(vertices).abs() <= 0.0 {
-                    c.err(&format!("{path}.vertices"), "the polygon has zero area");
-                }
-            }
-        }
+        ShapeSpec::Polygon { vertices } => check_polygon(c, path, vertices),
         ShapeSpec::Slot { start, end, width } => {
-            let a = c.point(&format!("{path}.start"), *start);
-            let b = c.point(&format!("{path}.end"), *end);
+            let a = c.vector(&format!("{path}.start"), *start, 2);
+            let b = c.vector(&format!("{path}.end"), *end, 2);
             c.positive(&format!("{path}.width"), *width);
             if a && b && start == end {
                 c.err(&format!("{path}.end"), "must differ from start");
             }
         }
+        ShapeSpec::Sphere { center, radius } => {
+            c.vector(&format!("{path}.center"), *center, 3);
+            c.positive(&format!("{path}.radius"), *radius);
+        }
+        ShapeSpec::Cylinder { start, end, radius } => {
+            let a = c.vector(&format!("{path}.start"), *start, 3);
+            let b = c.vector(&format!("{path}.end"), *end, 3);
+            c.positive(&format!("{path}.radius"), *radius);
+            if a && b && start == end {
+                c.err(&format!("{path}.end"), "must differ from start");
+            }
+        }
+        ShapeSpec::Prism {
+            vertices,
+            z_min,
+            z_max,
+        } => {
+            check_polygon(c, path, vertices);
+            let a = c.finite(&format!("{path}.z_min"), *z_min);
+            if c.finite(&format!("{path}.z_max"), *z_max) && a && z_max <= z_min {
+                c.err(
+                    &format!("{path}.z_max"),
+                    format!("must exceed z_min {z_min}, got {z_max}"),
+                );
+            }
+        }
     }
     c.errors.len() == before
+}
+
+/// A polygon's (or a prism's outline's) vertices: at least 3, finite, and
+/// enclosing some area.
+fn check_polygon(c: &mut Checker, path: &str, vertices: &[[f64; 2]]) {
+    if vertices.len() < 3 {
+        c.err(
+            &format!("{path}.vertices"),
+            format!(
+                "a polygon needs at least 3 vertices, got {}",
+                vertices.len()
+            ),
+        );
+    } else {
+        let ok = vertices
+            .iter()
+            .enumerate()
+            .all(|(k, v)| c.point(&format!("{path}.vertices[{k}]"), *v));
+        if ok && geometry::polygon_area2(vertices).abs() <= 0.0 {
+            c.err(&format!("{path}.vertices"), "the polygon has zero area");
+        }
+    }
 }
 
 /// Checks a body's fields and that it lies in the grid; whether it can be
@@ -822,41 +1022,58 @@ fn check_body(
     path: &str,
     body: &BodySpec,
     grid: &GridSpec,
-    cells: [usize; 2],
+    dim: usize,
+    cells: [usize; 3],
 ) -> bool {
     let before = c.errors.len();
-    let shape_ok = check_shape(c, &format!("{path}.shape"), &body.shape);
+    let shape_ok = check_shape(c, &format!("{path}.shape"), &body.shape, dim);
     let holes_ok = body
         .holes
         .iter()
         .enumerate()
-        .all(|(k, h)| check_shape(c, &format!("{path}.holes[{k}]"), h));
-    let ppc = body.particles_per_cell;
-    let n = per_dir(ppc);
-    if ppc == 0 || n * n != ppc as usize || n > 8 {
+        .all(|(k, h)| check_shape(c, &format!("{path}.holes[{k}]"), h, dim));
+    let ppc = body.ppc(dim);
+    let n = per_dir(ppc, dim);
+    if dim == 3 {
+        if ppc == 0 || n * n * n != ppc as usize || n > 4 {
+            c.err(
+                &format!("{path}.particles_per_cell"),
+                format!(
+                    "must be a perfect cube from 1 to 64 (1, 8, 27, 64) in a 3D scene, got {ppc}"
+                ),
+            );
+        }
+    } else if ppc == 0 || n * n != ppc as usize || n > 8 {
         c.err(
             &format!("{path}.particles_per_cell"),
             format!("must be a perfect square from 1 to 64 (1, 4, 9, 16, ...), got {ppc}"),
         );
     }
-    c.point(&format!("{path}.velocity"), body.velocity);
-    for (r, row) in body.velocity_gradient.iter().enumerate() {
-        c.point(&format!("{path}.velocity_gradient[{r}]"), *row);
-    }
+    c.vector(&format!("{path}.velocity"), body.velocity, dim);
+    c.matrix(
+        &format!("{path}.velocity_gradient"),
+        &body.velocity_gradient,
+        dim,
+    );
     if let Some(o) = body.velocity_origin {
-        c.point(&format!("{path}.velocity_origin"), o);
+        c.vector(&format!("{path}.velocity_origin"), o, dim);
     }
     if !(shape_ok && holes_ok) || cells[0] == 0 {
         return false;
     }
-    let b = geometry::bounds(&body.shape);
-    let gmax = [
-        grid.min[0] + cells[0] as f64 * grid.cell_size,
-        grid.min[1] + cells[1] as f64 * grid.cell_size,
-    ];
+    let b = if dim == 3 {
+        geometry::bounds_3d(&body.shape)
+    } else {
+        let b = geometry::bounds(&body.shape);
+        geometry::Aabb {
+            min: [b.min[0], b.min[1], 0.0],
+            max: [b.max[0], b.max[1], 0.0],
+        }
+    };
+    let gmax: [f64; 3] = std::array::from_fn(|d| grid.min[d] + cells[d] as f64 * grid.cell_size);
     let tol = 1e-9 * grid.cell_size;
-    let axis = ["x", "y"];
-    for d in 0..2 {
+    let axis = ["x", "y", "z"];
+    for d in 0..dim {
         if b.min[d] < grid.min[d] - tol || b.max[d] > gmax[d] + tol {
             c.err(
                 &format!("{path}.shape"),
@@ -878,25 +1095,42 @@ fn check_body(
 fn count_particles(
     c: &mut Checker,
     file: &SceneFile,
-    cells: [usize; 2],
+    cells: [usize; 3],
     seedable: &[bool],
 ) -> Vec<usize> {
     let mut counts = vec![0; file.bodies.len()];
+    let dim = file.dimension();
     let bodies = || file.bodies.iter().enumerate().filter(|(i, _)| seedable[*i]);
-    let lattice = |b: &BodySpec| lattice_of(&file.grid, cells, b.particles_per_cell);
+    let lattice = |b: &BodySpec| lattice_of(&file.grid, [cells[0], cells[1]], b.ppc(dim));
+    let lattice_3d = |b: &BodySpec| lattice_3d_of(&file.grid, cells, b.ppc(dim));
     let mut estimate = 0.0;
     let mut cost = 0.0;
     let mut largest = (0.0, 0usize);
     for (i, body) in bodies() {
-        let s = lattice(body).spacing();
-        let holes: f64 = body.holes.iter().map(geometry::area).sum();
-        let n = ((geometry::area(&body.shape) - holes) / (s * s)).max(0.0);
+        // in 3D a shape's volume over the spacing cubed, in 2D its area
+        // over the spacing squared
+        let (n, seeding) = if dim == 3 {
+            let s = lattice_3d(body).spacing();
+            let holes: f64 = body.holes.iter().map(geometry::volume).sum();
+            let n = ((geometry::volume(&body.shape) - holes) / (s * s * s)).max(0.0);
+            (
+                n,
+                geometry::seed_cost_3d(&body.shape, &body.holes, &lattice_3d(body)),
+            )
+        } else {
+            let s = lattice(body).spacing();
+            let holes: f64 = body.holes.iter().map(geometry::area).sum();
+            let n = ((geometry::area(&body.shape) - holes) / (s * s)).max(0.0);
+            (
+                n,
+                geometry::seed_cost(&body.shape, &body.holes, &lattice(body)),
+            )
+        };
         estimate += n;
         // the run's setup measures every particle's distance to every
         // segment of the body's initial cracks
         let crack_points: usize = body.cracks.iter().map(|k| k.points.len()).sum();
-        let w =
-            geometry::seed_cost(&body.shape, &body.holes, &lattice(body)) + n * crack_points as f64;
+        let w = seeding + n * crack_points as f64;
         cost += w;
         if w > largest.0 {
             largest = (w, i);
@@ -908,8 +1142,10 @@ fn count_particles(
         c.err(
             "bodies",
             format!(
-                "about {estimate:.3e} particles in all (the bodies' areas over the particle spacing squared); \
-                 at most {MAX_PARTICLES} are supported: use a coarser grid.cell_size or fewer particles_per_cell"
+                "about {estimate:.3e} particles in all (the bodies' {} over the particle spacing {}); \
+                 at most {MAX_PARTICLES} are supported: use a coarser grid.cell_size or fewer particles_per_cell",
+                if dim == 3 { "volumes" } else { "areas" },
+                if dim == 3 { "cubed" } else { "squared" },
             ),
         );
         return counts;
@@ -929,13 +1165,18 @@ fn count_particles(
     }
     for (i, body) in bodies() {
         let mut n = 0usize;
-        geometry::seed(&body.shape, &body.holes, &lattice(body), |_| n += 1);
+        if dim == 3 {
+            geometry::seed_3d(&body.shape, &body.holes, &lattice_3d(body), |_| n += 1);
+        } else {
+            geometry::seed(&body.shape, &body.holes, &lattice(body), |_| n += 1);
+        }
         if n == 0 {
             c.err(
                 &format!("bodies[{i}].shape"),
                 format!(
                     "holds no particle at cell size {} with {} particles per cell",
-                    file.grid.cell_size, body.particles_per_cell
+                    file.grid.cell_size,
+                    body.ppc(dim)
                 ),
             );
         }
@@ -974,10 +1215,14 @@ fn check_time_step(
             continue;
         };
         let v = body.velocity;
-        let mean_is_velocity =
-            body.velocity_gradient == [[0.0; 2]; 2] || body.velocity_origin.is_none();
+        let mean_is_velocity = body.velocity_gradient.is_zero() || body.velocity_origin.is_none();
         let speed = if mean_is_velocity {
-            (v[0] * v[0] + v[1] * v[1]).sqrt()
+            // x² + y² (+ z²), summed in that order
+            v.components()
+                .iter()
+                .skip(1)
+                .fold(v[0] * v[0], |s, x| s + x * x)
+                .sqrt()
         } else {
             0.0
         };

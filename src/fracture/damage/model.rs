@@ -145,7 +145,7 @@ impl DamageState {
                     particles,
                     member,
                     roots,
-                    tracker: TipTracker::new(o),
+                    tracker: TipTracker::new(o.xy()),
                 });
             }
         }

@@ -228,7 +228,7 @@ impl PhaseFields {
                     params,
                     system: PhaseFieldSystem::new(),
                     c: Vec::new(),
-                    tip: origin.map(TipTracker::new),
+                    tip: origin.map(|o| TipTracker::new(o.xy())),
                     in_plane,
                 }
             })
@@ -778,7 +778,7 @@ mod tests {
         let unit = 3.0 / (4.0 * 2.5e-4);
         let crack = |profile| {
             vec![CrackSpec {
-                points: vec![[0.0, 0.0], [1.0e-3, 0.0]],
+                points: vec![[0.0, 0.0].into(), [1.0e-3, 0.0].into()],
                 profile,
             }]
         };
