@@ -26,6 +26,7 @@
 //! a body sliding on such a surface is held back.
 
 use crate::grid::{GridFields, MultiField, SyncPtr};
+use crate::tensor::{dot, norm};
 use rayon::prelude::*;
 
 /// Contact parameters: Coulomb friction between dense contact-group
@@ -41,7 +42,8 @@ pub struct ContactLaw {
     /// μ between the two sides of one group (DFG crack faces and
     /// self-contact).
     pub self_friction: f64,
-    /// Mass of a node fully covered by the lightest material, ρ h² t, kg.
+    /// Mass of a node fully covered by the lightest material (2D: ρ h² t,
+    /// 3D: ρ h³), kg.
     pub full_node_mass: f64,
 }
 
@@ -73,7 +75,12 @@ pub const MIN_FIELD_FRACTION: f64 = 0.05;
 
 /// Applies contact at every multi-field node; returns how many nodes had
 /// at least one field in contact.
-pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min: f64) -> usize {
+pub fn apply<const D: usize>(
+    grid: &mut GridFields<D>,
+    multi: &MultiField,
+    law: &ContactLaw,
+    m_min: f64,
+) -> usize {
     let nodes = grid.mass.len() - multi.extra_node.len();
     let vel = SyncPtr::new(&mut grid.vel);
     let (mass, mgrad) = (&grid.mass, &grid.mass_grad);
@@ -99,7 +106,7 @@ pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min:
             // SAFETY: the slots of node n belong to n alone; nodes are distinct.
             let v = |s: usize| unsafe { *vel.at(s) };
             let floor = m_min.max(MIN_FIELD_FRACTION * law.full_node_mass);
-            let (mut mt, mut px, mut py) = (0.0, 0.0, 0.0);
+            let (mut mt, mut pm) = (0.0, [0.0; D]);
             let mut live = 0;
             for r in 0..k {
                 let m = mass[slot[r]];
@@ -107,15 +114,16 @@ pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min:
                     live += 1;
                     mt += m;
                     let vs = v(slot[r]);
-                    px += m * vs[0];
-                    py += m * vs[1];
+                    for a in 0..D {
+                        pm[a] += m * vs[a];
+                    }
                 }
             }
             if live < 2 {
                 return 0;
             }
-            let vcm = [px / mt, py / mt];
-            let mut dv = [[0.0f64; 2]; MAX_FIELDS];
+            let vcm: [f64; D] = std::array::from_fn(|a| pm[a] / mt);
+            let mut dv = [[0.0f64; D]; MAX_FIELDS];
             let mut touched = false;
             for r in 0..k {
                 let s = slot[r];
@@ -125,11 +133,12 @@ pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min:
                 let own = mgrad[s];
                 // the rest: the other fields' summed mass gradient, and the
                 // group of the heaviest of them for the friction coefficient
-                let (mut rx, mut ry, mut heavy, mut heavy_m) = (0.0, 0.0, group[r], -1.0);
+                let (mut rest, mut heavy, mut heavy_m) = ([0.0; D], group[r], -1.0);
                 for q in 0..k {
                     if q != r && mass[slot[q]] > floor {
-                        rx += mgrad[slot[q]][0];
-                        ry += mgrad[slot[q]][1];
+                        for a in 0..D {
+                            rest[a] += mgrad[slot[q]][a];
+                        }
                         if mass[slot[q]] > heavy_m {
                             heavy_m = mass[slot[q]];
                             heavy = group[q];
@@ -140,37 +149,36 @@ pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min:
                 // whichever of the two mass gradients is larger (the better
                 // resolved surface). Averaging them tilts the normal at a
                 // body's end and the body "plows" into a flat surface.
-                let own_norm = (own[0] * own[0] + own[1] * own[1]).sqrt();
-                let rest_norm = (rx * rx + ry * ry).sqrt();
-                let inward = if own_norm >= rest_norm {
-                    [-own[0], -own[1]]
+                let inward = if norm(own) >= norm(rest) {
+                    own.map(|c| -c)
                 } else {
-                    [rx, ry]
+                    rest
                 };
                 let Some(nrm) = unit(inward) else { continue };
                 let vs = v(s);
-                let d = [vcm[0] - vs[0], vcm[1] - vs[1]];
-                let dn = d[0] * nrm[0] + d[1] * nrm[1];
+                let d: [f64; D] = std::array::from_fn(|a| vcm[a] - vs[a]);
+                let dn = dot(d, nrm);
                 if dn <= 0.0 {
                     continue; // separating: no contact force
                 }
                 touched = true;
-                let t = [d[0] - dn * nrm[0], d[1] - dn * nrm[1]];
-                let tn = (t[0] * t[0] + t[1] * t[1]).sqrt();
+                let t: [f64; D] = std::array::from_fn(|a| d[a] - dn * nrm[a]);
+                let tn = norm(t);
                 let mu = law.friction(group[r], heavy);
                 dv[r] = if tn <= mu * dn {
                     d // stick
                 } else {
                     let f = mu * dn / tn;
-                    [dn * nrm[0] + f * t[0], dn * nrm[1] + f * t[1]]
+                    std::array::from_fn(|a| dn * nrm[a] + f * t[a])
                 };
             }
             for r in 0..k {
-                if dv[r] != [0.0, 0.0] {
+                if dv[r] != [0.0; D] {
                     // SAFETY: as above.
                     let vs = unsafe { vel.at(slot[r]) };
-                    vs[0] += dv[r][0];
-                    vs[1] += dv[r][1];
+                    for a in 0..D {
+                        vs[a] += dv[r][a];
+                    }
                 }
             }
             usize::from(touched)
@@ -178,10 +186,10 @@ pub fn apply(grid: &mut GridFields, multi: &MultiField, law: &ContactLaw, m_min:
         .sum()
 }
 
-pub(crate) fn unit(a: [f64; 2]) -> Option<[f64; 2]> {
-    let n = (a[0] * a[0] + a[1] * a[1]).sqrt();
+pub(crate) fn unit<const D: usize>(a: [f64; D]) -> Option<[f64; D]> {
+    let n = norm(a);
     if n > 0.0 && n.is_finite() {
-        Some([a[0] / n, a[1] / n])
+        Some(a.map(|c| c / n))
     } else {
         None
     }

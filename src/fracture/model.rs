@@ -21,22 +21,23 @@ use std::any::Any;
 /// What a model is built from: the validated scene, the grid, and the
 /// seeded particles in their final order (a model sets up its own
 /// particle arrays, e.g. `Particles::phase`).
-pub struct SetupContext<'a> {
+pub struct SetupContext<'a, const D: usize = 2, const V: usize = 3> {
     pub scene: &'a Scene,
-    pub geom: &'a GridGeom,
-    pub parts: &'a mut Particles,
+    pub geom: &'a GridGeom<D>,
+    pub parts: &'a mut Particles<D, V>,
 }
 
 /// Builds a model for a scene, or None when the scene's plan does not ask
 /// for it.
-pub type Build = fn(&mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>;
+pub type Build<const D: usize = 2, const V: usize = 3> =
+    fn(&mut SetupContext<'_, D, V>) -> Option<Box<dyn FractureModel<D, V>>>;
 
 /// What a model's stage works on: the step's particles (mutable), grid
 /// geometry, bins, materials and kernel, and where the step is.
-pub struct StepContext<'a> {
-    pub geom: &'a GridGeom,
+pub struct StepContext<'a, const D: usize = 2, const V: usize = 3> {
+    pub geom: &'a GridGeom<D>,
     pub bins: &'a Bins,
-    pub parts: &'a mut Particles,
+    pub parts: &'a mut Particles<D, V>,
     pub mats: &'a [Elastic],
     pub kernel: ShapeFunctionKind,
     /// The step's Δt, s.
@@ -49,9 +50,9 @@ pub struct StepContext<'a> {
 
 /// What a model reports from: the present particles and the run's energy
 /// account at a series row or snapshot.
-pub struct RowContext<'a> {
-    pub geom: &'a GridGeom,
-    pub parts: &'a Particles,
+pub struct RowContext<'a, const D: usize = 2, const V: usize = 3> {
+    pub geom: &'a GridGeom<D>,
+    pub parts: &'a Particles<D, V>,
     pub kernel: ShapeFunctionKind,
     pub step: u64,
     pub time: f64,
@@ -160,19 +161,23 @@ impl<T: Any> AsAny for T {
 }
 
 /// The model of type `T` among `models`, if there is one.
-pub fn find<T: Any>(models: &[Box<dyn FractureModel>]) -> Option<&T> {
+pub fn find<T: Any, const D: usize, const V: usize>(
+    models: &[Box<dyn FractureModel<D, V>>],
+) -> Option<&T> {
     models.iter().find_map(|m| (**m).as_any().downcast_ref())
 }
 
 /// The model of type `T` among `models`, mutable.
-pub fn find_mut<T: Any>(models: &mut [Box<dyn FractureModel>]) -> Option<&mut T> {
+pub fn find_mut<T: Any, const D: usize, const V: usize>(
+    models: &mut [Box<dyn FractureModel<D, V>>],
+) -> Option<&mut T> {
     models
         .iter_mut()
         .find_map(|m| (**m).as_any_mut().downcast_mut())
 }
 
 /// A fracture model in the explicit step.
-pub trait FractureModel: Send + AsAny {
+pub trait FractureModel<const D: usize = 2, const V: usize = 3>: Send + AsAny {
     /// The model's name as the scene and the docs know it.
     fn name(&self) -> &'static str;
 
@@ -181,14 +186,14 @@ pub trait FractureModel: Send + AsAny {
 
     /// Runs one of [`Self::stages`]. An error stops the run with its
     /// message.
-    fn run(&mut self, stage: Stage, ctx: StepContext<'_>) -> Result<(), String>;
+    fn run(&mut self, stage: Stage, ctx: StepContext<'_, D, V>) -> Result<(), String>;
 
     /// Declares (see [`SeriesOut::declaring`]) or fills this model's
     /// series columns.
-    fn series(&mut self, at: &RowContext<'_>, out: &mut SeriesOut);
+    fn series(&mut self, at: &RowContext<'_, D, V>, out: &mut SeriesOut);
 
     /// Adds this model's per-particle fields to a snapshot.
-    fn snapshot(&mut self, _at: &RowContext<'_>, _fields: &mut Vec<Field>) {}
+    fn snapshot(&mut self, _at: &RowContext<'_, D, V>, _fields: &mut Vec<Field>) {}
 
     /// This model's part of the run summary (its counters and times), as
     /// JSON.
@@ -201,7 +206,7 @@ pub trait FractureModel: Send + AsAny {
 
     /// Takes up the state [`Self::save`] wrote, for the freshly built
     /// model of the same scene; an error names what does not fit.
-    fn restore(&mut self, state: &[u8], at: RestoreContext<'_>) -> Result<(), String>;
+    fn restore(&mut self, state: &[u8], at: RestoreContext<'_, D, V>) -> Result<(), String>;
 
     /// The scene's top-level tables of this model that a resume from a
     /// checkpoint may change (its solver's settings, say: how something
@@ -211,7 +216,7 @@ pub trait FractureModel: Send + AsAny {
     }
 
     /// The model's split of the velocity fields, if it splits them.
-    fn field_split(&mut self) -> Option<&mut dyn FieldSplit> {
+    fn field_split(&mut self) -> Option<&mut dyn FieldSplit<D, V>> {
         None
     }
 }
@@ -228,7 +233,7 @@ pub trait FractureModel: Send + AsAny {
 /// both (moving crack particles after the gather, say) registers the two
 /// parts as two models, one whose slots read what the other's stages
 /// change (`tests/plan.rs` fails on a plan stage that did not run).
-pub trait FieldSplit {
+pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
     /// Coulomb friction between a group's two sides where they touch.
     fn self_friction(&self) -> f64;
 
@@ -239,7 +244,7 @@ pub trait FieldSplit {
     fn before_scatter(
         &mut self,
         stage: Stage,
-        at: ScatterContext<'_>,
+        at: ScatterContext<'_, D, V>,
         multi: &mut MultiField,
     ) -> Option<usize>;
 
@@ -274,9 +279,9 @@ impl SplitSlots<'_> {
 }
 
 /// What the stages before the scatter read.
-pub struct ScatterContext<'a> {
-    pub geom: &'a GridGeom,
-    pub parts: &'a Particles,
+pub struct ScatterContext<'a, const D: usize = 2, const V: usize = 3> {
+    pub geom: &'a GridGeom<D>,
+    pub parts: &'a Particles<D, V>,
     pub bins: &'a Bins,
     pub kernel: ShapeFunctionKind,
 }
@@ -291,9 +296,9 @@ pub struct SlotContext<'a> {
 }
 
 /// What a model restores against: the resumed particles and the grid.
-pub struct RestoreContext<'a> {
-    pub geom: &'a GridGeom,
-    pub parts: &'a Particles,
+pub struct RestoreContext<'a, const D: usize = 2, const V: usize = 3> {
+    pub geom: &'a GridGeom<D>,
+    pub parts: &'a Particles<D, V>,
 }
 
 /// A model's state in postcard bytes ([`FractureModel::save`]).

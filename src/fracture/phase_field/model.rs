@@ -839,7 +839,7 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
 "#;
         let scene = Scene::from_text(text, None).unwrap();
         let mut sim = crate::mpm::Simulation::new(&scene);
-        let pf = crate::fracture::model::find_mut::<PhaseFields>(&mut sim.models).unwrap();
+        let pf = crate::fracture::model::find_mut::<PhaseFields, 2, 3>(&mut sim.models).unwrap();
         pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, true)
             .unwrap();
         let c = pf.bodies[0].c.clone();
@@ -877,7 +877,7 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
             moved > 1.5 * solved,
             "measured after the move: {moved} against {solved}"
         );
-        let pf = crate::fracture::model::find_mut::<PhaseFields>(&mut sim.models).unwrap();
+        let pf = crate::fracture::model::find_mut::<PhaseFields, 2, 3>(&mut sim.models).unwrap();
         assert_eq!(
             pf.fracture_energies::<K>(&sim.geom, &sim.parts),
             vec![solved]
@@ -888,7 +888,7 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
             .sum();
         assert!((sum - solved).abs() < 1e-12 * solved);
         // the next step starts without the record
-        let pf = crate::fracture::model::find_mut::<PhaseFields>(&mut sim.models).unwrap();
+        let pf = crate::fracture::model::find_mut::<PhaseFields, 2, 3>(&mut sim.models).unwrap();
         pf.current = true;
         pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, false)
             .unwrap();
