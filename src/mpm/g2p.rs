@@ -267,9 +267,14 @@ fn gather<
                             dflip[a] += w * (vi[a] - vo[a]);
                         }
                     } else if dinv.is_some() {
+                        let mut d = [0.0; D];
+                        for c in 0..D {
+                            d[c] = n.at[c] as f64 - xi[c];
+                        }
                         for a in 0..D {
+                            let wv = w * vi[a];
                             for c in 0..D {
-                                b[a][c] += w * vi[a] * (n.at[c] as f64 - xi[c]);
+                                b[a][c] += wv * d[c];
                             }
                         }
                     }
@@ -285,15 +290,30 @@ fn gather<
                     let a = unsafe { affine.at(p) };
                     *a = match dinv {
                         // B is in cell units of distance: C = B h D⁻¹.
-                        Some(d) => b.map(|row| row.map(|v| v * geom.h * d)),
+                        Some(d) => {
+                            let mut c = [[0.0; D]; D];
+                            for r in 0..D {
+                                for k in 0..D {
+                                    c[r][k] = b[r][k] * geom.h * d;
+                                }
+                            }
+                            c
+                        }
                         None => l,
                     };
                     vpic
                 } else {
-                    std::array::from_fn(|a| alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a])
+                    let mut v = [0.0; D];
+                    for a in 0..D {
+                        v[a] = alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a];
+                    }
+                    v
                 };
                 *vp = vnew;
-                let mut moved: [f64; D] = std::array::from_fn(|a| xp[a] + dt * vpic[a]);
+                let mut moved = [0.0; D];
+                for a in 0..D {
+                    moved[a] = xp[a] + dt * vpic[a];
+                }
                 geom.keep_inside(&mut moved, vp);
                 if VELOCITY_ONLY {
                     // SAFETY: as above.

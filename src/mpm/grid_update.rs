@@ -89,7 +89,8 @@ enum Constraint {
     Fixed,
     /// Zero velocity along this axis.
     Roller(usize),
-    Velocity([Option<TimeFunction>; 2]),
+    /// Prescribed velocity components (x, y, z; None: free).
+    Velocity([Option<TimeFunction>; 3]),
 }
 
 /// Boundary conditions with their node lists, built once.
@@ -99,38 +100,39 @@ pub struct Boundary {
 }
 
 impl Boundary {
-    /// Resolves the scene's four sides. Each side acts on its wall node and
-    /// the ghost nodes beyond it.
-    pub fn new(geom: &GridGeom, spec: &crate::scene::BoundarySpec) -> Boundary {
-        let [nx, ny] = geom.nodes;
-        let side_nodes = |side: usize| -> Vec<u32> {
-            let mut v = Vec::new();
-            match side {
-                0 => (0..ny).for_each(|j| (0..=PAD).for_each(|i| v.push(geom.node([i, j]) as u32))),
-                1 => (0..ny).for_each(|j| {
-                    (nx - 1 - PAD..nx).for_each(|i| v.push(geom.node([i, j]) as u32))
-                }),
-                2 => (0..=PAD).for_each(|j| (0..nx).for_each(|i| v.push(geom.node([i, j]) as u32))),
-                _ => (ny - 1 - PAD..ny)
-                    .for_each(|j| (0..nx).for_each(|i| v.push(geom.node([i, j]) as u32))),
-            }
-            v
+    /// Resolves the scene's sides: left/right (x), bottom/top (y) and, in
+    /// 3D, back/front (z). Each side acts on its wall node and the ghost
+    /// nodes beyond it, listed in ascending node order.
+    pub fn new<const D: usize>(geom: &GridGeom<D>, spec: &crate::scene::BoundarySpec) -> Boundary {
+        let free = SideCondition::Free;
+        let conds = [
+            &spec.left,
+            &spec.right,
+            &spec.bottom,
+            &spec.top,
+            spec.back.as_ref().unwrap_or(&free),
+            spec.front.as_ref().unwrap_or(&free),
+        ];
+        let side_nodes = |axis: usize, high: bool| -> Vec<u32> {
+            let n = geom.nodes[axis];
+            let layer = if high { n - 1 - PAD..n } else { 0..PAD + 1 };
+            (0..geom.node_count())
+                .filter(|&k| layer.contains(&geom.node_coords(k)[axis]))
+                .map(|k| k as u32)
+                .collect()
         };
         let mut sides = Vec::new();
-        for (k, cond) in [&spec.left, &spec.right, &spec.bottom, &spec.top]
-            .into_iter()
-            .enumerate()
-        {
-            let normal_axis = if k < 2 { 0 } else { 1 };
+        for (k, cond) in conds.into_iter().enumerate().take(2 * D) {
+            let normal_axis = k / 2;
             let c = match cond {
                 SideCondition::Free | SideCondition::Traction { .. } => continue,
                 SideCondition::Fixed => Constraint::Fixed,
                 SideCondition::Roller => Constraint::Roller(normal_axis),
-                SideCondition::Velocity { x, y, .. } => {
-                    Constraint::Velocity([x.clone(), y.clone()])
+                SideCondition::Velocity { x, y, z } => {
+                    Constraint::Velocity([x.clone(), y.clone(), z.clone()])
                 }
             };
-            sides.push((c, side_nodes(k)));
+            sides.push((c, side_nodes(normal_axis, k % 2 == 1)));
         }
         Boundary { sides }
     }
@@ -139,21 +141,25 @@ impl Boundary {
     /// field at the boundary nodes. Returns the work done by the constraint
     /// impulses over the step, Σ m (v_bc − v)·v_bc (zero for fixed walls
     /// and rollers).
-    pub fn apply(&self, t: f64, grid: &mut GridFields, multi: Option<&MultiField>) -> f64 {
+    pub fn apply<const D: usize>(
+        &self,
+        t: f64,
+        grid: &mut GridFields<D>,
+        multi: Option<&MultiField>,
+    ) -> f64 {
         let nodes = grid.mass.len() - multi.map_or(0, |m| m.extra_node.len());
         let mut work = 0.0;
         for (c, list) in &self.sides {
-            let target: [Option<f64>; 2] = match c {
-                Constraint::Fixed => [Some(0.0), Some(0.0)],
+            let target: [Option<f64>; D] = match c {
+                Constraint::Fixed => [Some(0.0); D],
                 Constraint::Roller(a) => {
-                    let mut t = [None, None];
+                    let mut t = [None; D];
                     t[*a] = Some(0.0);
                     t
                 }
-                Constraint::Velocity(f) => [
-                    f[0].as_ref().map(|f| f.eval(t)),
-                    f[1].as_ref().map(|f| f.eval(t)),
-                ],
+                Constraint::Velocity(f) => {
+                    std::array::from_fn(|a| f[a].as_ref().map(|f| f.eval(t)))
+                }
             };
             for &n in list {
                 let n = n as usize;
@@ -163,7 +169,7 @@ impl Boundary {
                 for s in std::iter::once(n).chain(extra) {
                     let m = grid.mass[s].max(0.0);
                     let v = &mut grid.vel[s];
-                    for a in 0..2 {
+                    for a in 0..D {
                         if let Some(vb) = target[a] {
                             // the node moves at v_bc throughout the step, so the
                             // constraint's power is R·v_bc with R Δt = m (v_bc − v)
@@ -175,5 +181,71 @@ impl Boundary {
             }
         }
         work
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::BoundarySpec;
+
+    /// Every side lists its wall layer and the ghost layers beyond it, in
+    /// ascending node order: in 2D the lists the four-sided code built, in
+    /// 3D the six sides; a roller holds only its normal component.
+    #[test]
+    fn sides_list_their_wall_and_ghost_layers() {
+        let all = BoundarySpec {
+            left: SideCondition::Fixed,
+            right: SideCondition::Fixed,
+            bottom: SideCondition::Fixed,
+            top: SideCondition::Fixed,
+            back: Some(SideCondition::Fixed),
+            front: Some(SideCondition::Roller),
+        };
+        let g2 = GridGeom::<2>::new([0.0; 2], 0.1, [7, 5]);
+        let b2 = Boundary::new(&g2, &all);
+        assert_eq!(b2.sides.len(), 4, "back/front do not exist in 2D");
+        let [nx, ny] = g2.nodes;
+        let mut old: Vec<Vec<u32>> = vec![Vec::new(); 4];
+        (0..ny).for_each(|j| (0..=PAD).for_each(|i| old[0].push(g2.node([i, j]) as u32)));
+        (0..ny).for_each(|j| (nx - 1 - PAD..nx).for_each(|i| old[1].push(g2.node([i, j]) as u32)));
+        (0..=PAD).for_each(|j| (0..nx).for_each(|i| old[2].push(g2.node([i, j]) as u32)));
+        (ny - 1 - PAD..ny).for_each(|j| (0..nx).for_each(|i| old[3].push(g2.node([i, j]) as u32)));
+        for (k, (_, list)) in b2.sides.iter().enumerate() {
+            assert_eq!(list, &old[k], "2D side {k}");
+        }
+
+        let g3 = GridGeom::<3>::new([0.0; 3], 0.1, [6, 4, 5]);
+        let b3 = Boundary::new(&g3, &all);
+        assert_eq!(b3.sides.len(), 6);
+        for (k, (_, list)) in b3.sides.iter().enumerate() {
+            let (axis, high) = (k / 2, k % 2 == 1);
+            let others: usize = (0..3).filter(|&d| d != axis).map(|d| g3.nodes[d]).product();
+            assert_eq!(list.len(), (PAD + 1) * others, "3D side {k}");
+            assert!(list.windows(2).all(|w| w[0] < w[1]));
+            for &n in list {
+                let c = g3.node_coords(n as usize)[axis];
+                assert!(if high {
+                    c >= g3.nodes[axis] - 1 - PAD
+                } else {
+                    c <= PAD
+                });
+            }
+        }
+        // the front roller holds v_z only; the fixed back holds everything
+        let mut grid = GridFields::<3>::default();
+        let nodes = g3.node_count();
+        grid.reset(nodes, nodes, false, &[]);
+        grid.mass.fill(1.0);
+        grid.vel.fill([1.0, 2.0, 3.0]);
+        let only_front = BoundarySpec {
+            front: Some(SideCondition::Roller),
+            ..BoundarySpec::default()
+        };
+        Boundary::new(&g3, &only_front).apply(0.0, &mut grid, None);
+        let front = g3.node([3, 2, g3.nodes[2] - 1]);
+        let inside = g3.node([3, 2, 3]);
+        assert_eq!(grid.vel[front], [1.0, 2.0, 0.0]);
+        assert_eq!(grid.vel[inside], [1.0, 2.0, 3.0]);
     }
 }

@@ -17,30 +17,8 @@
 use crate::grid::shape::Kernel;
 use crate::grid::{scatter_coloured, Bins, FieldSlots, GridFields, GridGeom, SyncPtr};
 use crate::particles::Particles;
-use crate::tensor::{check_voigt, sym_times};
+use crate::tensor::{check_voigt, voigt};
 use rayon::prelude::*;
-
-/// p_i's share from one particle: N m (v + C (x_i − x_p)), the affine
-/// term (APIC) summed over the axes in order.
-#[inline(always)]
-fn momentum<const D: usize, const APIC: bool>(
-    wm: f64,
-    v: [f64; D],
-    c: &[[f64; D]; D],
-    d: [f64; D],
-) -> [f64; D] {
-    std::array::from_fn(|a| {
-        if APIC {
-            let mut s = v[a];
-            for b in 0..D {
-                s += c[a][b] * d[b];
-            }
-            wm * s
-        } else {
-            wm * v[a]
-        }
-    })
-}
 
 /// Scatters all particles to the grid. `grid` must have been reset.
 pub fn p2g<
@@ -74,17 +52,36 @@ pub fn p2g<
             let (w, g) = (n.w, n.grad);
             let slot = slots.slot(n.node, p);
             let wm = w * m;
-            let d: [f64; D] = std::array::from_fn(|a| (n.at[a] as f64 - xi[a]) * h);
-            let q = momentum::<D, APIC>(wm, v, &c, d);
-            let sg = sym_times::<D, V>(&s, g);
             // SAFETY: coloured scatter (see `scatter_coloured`).
             unsafe {
                 *mass.at(slot) += wm;
-                let qs = mom.at(slot);
+                let q = mom.at(slot);
+                if APIC {
+                    // N m (v + C (x_i − x_p)), the affine sum in axis order
+                    let mut d = [0.0; D];
+                    for a in 0..D {
+                        d[a] = (n.at[a] as f64 - xi[a]) * h;
+                    }
+                    for a in 0..D {
+                        let mut t = v[a];
+                        for b in 0..D {
+                            t += c[a][b] * d[b];
+                        }
+                        q[a] += wm * t;
+                    }
+                } else {
+                    for a in 0..D {
+                        q[a] += wm * v[a];
+                    }
+                }
                 let f = force.at(slot);
                 for a in 0..D {
-                    qs[a] += q[a];
-                    f[a] -= vol * sg[a];
+                    // (σ ∇N)_a summed over b in order from the first term
+                    let mut t = s[voigt::<D>(a, 0)] * g[0];
+                    for b in 1..D {
+                        t += s[voigt::<D>(a, b)] * g[b];
+                    }
+                    f[a] -= vol * t;
                 }
                 if MGRAD {
                     let mg = mgrad.at(slot);
@@ -154,13 +151,19 @@ pub fn remap_velocities<
         let xi = sup.xi();
         sup.for_each(|n| {
             let wm = n.w * m;
-            let d: [f64; D] = std::array::from_fn(|a| (n.at[a] as f64 - xi[a]) * geom.h);
-            // the remap always carries the affine term (zero without APIC)
-            let q = momentum::<D, true>(wm, v, &c, d);
             // SAFETY: coloured scatter (see `scatter_coloured`).
-            let qs = unsafe { mom.at(slots.slot(n.node, p)) };
+            let q = unsafe { mom.at(slots.slot(n.node, p)) };
+            // the remap always carries the affine term (zero without APIC)
+            let mut d = [0.0; D];
             for a in 0..D {
-                qs[a] += q[a];
+                d[a] = (n.at[a] as f64 - xi[a]) * geom.h;
+            }
+            for a in 0..D {
+                let mut t = v[a];
+                for b in 0..D {
+                    t += c[a][b] * d[b];
+                }
+                q[a] += wm * t;
             }
         });
     });
