@@ -5,7 +5,7 @@
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::run::{Method, MethodEntry, Resumed};
-use crate::scene::{Scene, SceneError};
+use crate::scene::{Scene, SceneError, SideCondition, Stage};
 
 /// Every method, the first whose `runs` accepts a scene runs it.
 pub const METHODS: &[MethodEntry] = &[crate::mpm::METHOD];
@@ -19,23 +19,64 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
         .unwrap_or(&METHODS[0])
 }
 
-/// Whether some method runs `scene`, or why none does. A 3D scene
-/// validates and seeds (issue 32), but no method steps one yet: the grid
-/// MPM's core is 2D until it is made generic over the dimension. Asked
-/// before a run is set up, so that the CLI's `run` and a server's submit
-/// refuse the scene, naming `grid.min`, before writing or queueing
-/// anything.
+/// Whether some method runs `scene`, or why none does. A 3D scene runs the
+/// grid MPM's explicit core (issue 32: the grid, the transfers, the
+/// materials, contact and the walls are generic over the dimension); what
+/// is still 2D is refused here, naming the key: the fracture models
+/// (phase field, damage, DFG), tractions, and snapshots (the snapshot
+/// and its files hold 2D positions). Asked before a run is set up, so
+/// that the CLI's `run` and a server's submit refuse the scene before
+/// writing or queueing anything.
 pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
-    match scene.dimension() {
-        2 => Ok(()),
-        d => Err(SceneError::single(
-            "grid.min",
-            format!(
-                "the grid is {d}D (grid.min and grid.max have {d} components): a 3D scene \
-                 validates and seeds its bodies, but it cannot be run yet (only 2D scenes run)"
-            ),
-        )),
+    if scene.dimension() == 2 {
+        return Ok(());
     }
+    let file = &scene.file;
+    let not_yet = |path: String, what: &str| {
+        Err(SceneError::single(
+            &path,
+            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls)"),
+        ))
+    };
+    for stage in [Stage::PhaseFieldSolve, Stage::Damage, Stage::DamageField] {
+        if scene.plan.has(stage) {
+            let key = if stage == Stage::DamageField {
+                "dfg"
+            } else if stage.is_phase_field() {
+                "materials.phase_field"
+            } else {
+                "materials.damage"
+            };
+            return not_yet(key.into(), "a fracture model");
+        }
+    }
+    if file.dfg.is_some() {
+        return not_yet("dfg".into(), "DFG partitioning");
+    }
+    if let Some(i) = file.bodies.iter().position(|b| !b.cracks.is_empty()) {
+        return not_yet(format!("bodies[{i}].cracks"), "an initial crack");
+    }
+    let b = &file.grid.boundary;
+    let sides = [
+        ("left", Some(&b.left)),
+        ("right", Some(&b.right)),
+        ("bottom", Some(&b.bottom)),
+        ("top", Some(&b.top)),
+        ("back", b.back.as_ref()),
+        ("front", b.front.as_ref()),
+    ];
+    for (name, side) in sides {
+        if matches!(side, Some(SideCondition::Traction { .. })) {
+            return not_yet(format!("grid.boundary.{name}"), "a traction side");
+        }
+    }
+    if file.output.snapshots > 0 {
+        return not_yet(
+            "output.snapshots".into(),
+            "writing snapshots (set output.snapshots = 0; the series is written)",
+        );
+    }
+    Ok(())
 }
 
 /// Sets up the run of a validated scene with its method; refuses a scene

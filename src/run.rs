@@ -15,7 +15,6 @@
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::diagnostics::{Observer, SeriesRow};
 use crate::fracture::model::AsAny;
-use crate::particles::Particles;
 use crate::scene::{Plan, Scene, Stage};
 use serde::Serialize;
 
@@ -26,8 +25,8 @@ pub trait Method: Send + AsAny {
 
     fn scene(&self) -> &Scene;
 
-    /// The particles now.
-    fn particles(&self) -> &Particles;
+    /// How many particles the run has.
+    fn particle_count(&self) -> usize;
 
     /// Simulated time reached, s.
     fn time(&self) -> f64;
@@ -68,6 +67,14 @@ pub struct MethodEntry {
     pub resume: fn(&Scene, Checkpoint<'_>) -> Resumed,
 }
 
+/// A point of an error message: `(x, y)` in 2D, `(x, y, z)` in 3D.
+fn point(x: f64, y: f64, z: Option<f64>) -> String {
+    match z {
+        Some(z) => format!("({x:.6e}, {y:.6e}, {z:.6e})"),
+        None => format!("({x:.6e}, {y:.6e})"),
+    }
+}
+
 /// Why a run stopped early.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SimError {
@@ -79,7 +86,8 @@ pub enum SimError {
         quantity: &'static str,
     },
     #[error(
-        "step {step}, t = {time:.6e} s: particle {particle} left the grid at ({x:.6e}, {y:.6e}) m"
+        "step {step}, t = {time:.6e} s: particle {particle} left the grid at {} m",
+        point(*x, *y, *z)
     )]
     LeftGrid {
         step: u64,
@@ -87,6 +95,8 @@ pub enum SimError {
         particle: u32,
         x: f64,
         y: f64,
+        /// 3D only.
+        z: Option<f64>,
     },
     #[error("step {step}, t = {time:.6e} s: particle {particle} volume vanished or inverted (J = {j:.3e})")]
     VolumeVanished {
@@ -95,7 +105,10 @@ pub enum SimError {
         particle: u32,
         j: f64,
     },
-    #[error("step {step}, t = {time:.6e} s: negative nodal mass {mass:.3e} kg at node {node} ({x:.6e}, {y:.6e}) m")]
+    #[error(
+        "step {step}, t = {time:.6e} s: negative nodal mass {mass:.3e} kg at node {node} {} m",
+        point(*x, *y, *z)
+    )]
     NegativeMass {
         step: u64,
         time: f64,
@@ -103,6 +116,8 @@ pub enum SimError {
         mass: f64,
         x: f64,
         y: f64,
+        /// 3D only.
+        z: Option<f64>,
     },
     #[error(
         "step {step}, t = {time:.6e} s: runaway energy: kinetic + strain = {energy:.6e} J exceeds {bound:.6e} J \

@@ -1,7 +1,8 @@
 //! 3D scenes (issue 32, the scene side): a scene whose `grid.max` has
 //! three components describes a 3D problem; it validates with errors that
-//! name their field, seeds its bodies, and is refused by every method
-//! (no 3D run yet) naming `grid.min`. 2D scenes serialise as before.
+//! name their field, seeds its bodies, and runs the explicit core; what is
+//! still 2D (fracture models, tractions, snapshots) is refused naming its
+//! key. 2D scenes serialise as before.
 
 use cleave::jobs::{JobConfig, JobError, JobManager};
 use cleave::scene::{Format, Scene, SceneError};
@@ -408,17 +409,35 @@ fn bad_3d_shapes_name_their_field() {
     );
 }
 
-/// No method runs a 3D scene yet: building one is refused naming
-/// `grid.min`, and so is a server's submit.
+/// A 3D scene runs the explicit core, but what is still 2D is refused,
+/// naming its key: here the snapshots a scene asks for by default (their
+/// files hold 2D positions); the same scene with `snapshots = 0` is built.
+/// A server's submit refuses it alike.
 #[test]
-fn a_3d_scene_is_refused_by_the_methods_and_the_job_queue() {
+fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue() {
     let scene = Scene::from_text(BLOCK, Some(Format::Toml)).unwrap();
     let e = match cleave::methods::build(&scene) {
-        Ok(_) => panic!("a 3D scene was built"),
+        Ok(_) => panic!("a 3D scene with snapshots was built"),
         Err(e) => e,
     };
-    assert_eq!(e.errors[0].path, "grid.min");
-    assert!(e.errors[0].reason.contains("cannot be run yet"), "{e}");
+    assert_eq!(e.errors[0].path, "output.snapshots");
+    assert!(e.errors[0].reason.contains("not run yet"), "{e}");
+    let quiet = format!("{BLOCK}\n[output]\nsnapshots = 0\n");
+    let scene = Scene::from_text(&quiet, Some(Format::Toml)).unwrap();
+    let mut run = cleave::methods::build(&scene).expect("a 3D scene without snapshots runs");
+    run.step().expect("a 3D step");
+    assert_eq!(run.particle_count(), 8 * 6 * 4 * 8);
+    // a fracture model is still 2D
+    let cracked = quiet.replace(
+        "poissons_ratio = 0.3 }",
+        "poissons_ratio = 0.3, damage = { model = \"rankine\", strength = 1.0e4, fracture_energy = 10.0 } }",
+    );
+    let scene =
+        Scene::from_text(&cracked, Some(Format::Toml)).expect("a 3D damage scene validates");
+    match cleave::methods::build(&scene) {
+        Ok(_) => panic!("a 3D damage model was built"),
+        Err(e) => assert!(e.errors[0].path.starts_with("materials"), "{e}"),
+    }
     let flat = Scene::from_text(FLAT, Some(Format::Toml)).unwrap();
     assert!(cleave::methods::build(&flat).is_ok());
 
@@ -435,8 +454,8 @@ fn a_3d_scene_is_refused_by_the_methods_and_the_job_queue() {
     .unwrap();
     match jobs.submit(BLOCK, Some(Format::Toml), "block") {
         Err(JobError::Invalid(e)) => {
-            assert_eq!(e.errors[0].path, "grid.min", "{e}");
+            assert_eq!(e.errors[0].path, "output.snapshots", "{e}");
         }
-        other => panic!("expected a refusal naming grid.min, got {other:?}"),
+        other => panic!("expected a refusal naming output.snapshots, got {other:?}"),
     }
 }

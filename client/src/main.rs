@@ -734,10 +734,9 @@ fn validate(path: &Path, json: bool) -> ExitCode {
                     path.display(),
                     scene.total_particles(),
                     cells_text(&scene),
-                    if scene.dimension() == 3 {
-                        " (3D: validated and seeded; it cannot be run yet)"
-                    } else {
-                        ""
+                    match cleave::methods::runnable(&scene) {
+                        Ok(()) => String::new(),
+                        Err(e) => format!(" (it cannot be run yet: {e})"),
                     },
                     scene.plan
                 );

@@ -155,15 +155,14 @@ fn bad_input_exits_2_and_names_the_field() {
 }
 
 /// A 3D scene validates (exit 0, its particles and its three cell counts
-/// printed) but is not run: `run` refuses it as it refuses an invalid
-/// scene (exit 2), naming `grid.min`, and writes nothing; so does a study.
+/// printed) and runs (`series.csv` with the 3D columns) when it asks only
+/// for what 3D runs; with snapshots (still 2D files) `run` refuses it as
+/// it refuses an invalid scene (exit 2), naming `output.snapshots`, and
+/// writes nothing; so does a study.
 #[test]
-fn a_3d_scene_validates_but_does_not_run() {
+fn a_3d_scene_validates_and_runs_and_what_is_still_2d_is_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = write(
-        dir.path(),
-        "block.toml",
-        br#"
+    let text = r#"
 [grid]
 cell_size = 0.1
 max = [1.0, 1.0, 1.0]
@@ -174,13 +173,17 @@ end = 0.01
 [[bodies]]
 shape = { type = "sphere", center = [0.5, 0.5, 0.5], radius = 0.3 }
 material = { model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }
-"#,
-    );
+velocity = [0.5, 0.0, -0.25]
+"#;
+    let scene = write(dir.path(), "block.toml", text.as_bytes());
     let out = cleave().arg("validate").arg(&scene).output().unwrap();
-    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    assert!(text.contains("10 x 10 x 10 cells"), "{text}");
-    assert!(text.contains("cannot be run yet"), "{text}");
+    assert!(stdout.contains("10 x 10 x 10 cells"), "{stdout}");
+    assert!(
+        stdout.contains("cannot be run yet: output.snapshots"),
+        "{stdout}"
+    );
     let out = cleave()
         .args(["validate", "--json"])
         .arg(&scene)
@@ -203,8 +206,7 @@ material = { model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6,
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("grid.min: the grid is 3D")
-            && stderr(&out).contains("cannot be run yet"),
+        stderr(&out).contains("output.snapshots") && stderr(&out).contains("not run yet"),
         "{}",
         stderr(&out)
     );
@@ -218,7 +220,48 @@ material = { model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6,
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
-    assert!(stderr(&out).contains("grid.min"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("output.snapshots"),
+        "{}",
+        stderr(&out)
+    );
+
+    // without snapshots it runs: the series has the 3D columns, and the
+    // momentum is the sphere's m v₀
+    let quiet = write(
+        dir.path(),
+        "quiet.toml",
+        format!("{text}\n[output]\nsnapshots = 0\n").as_bytes(),
+    );
+    let out = cleave()
+        .arg("run")
+        .arg(&quiet)
+        .arg("--out")
+        .arg(&results)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let series = std::fs::read_to_string(results.join("series.csv")).unwrap();
+    let mut lines = series.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for c in [
+        "momentum_z",
+        "angular_momentum_x",
+        "angular_momentum_y",
+        "angular_momentum_z",
+    ] {
+        assert!(header.contains(&c), "{c} in {header:?}");
+    }
+    let last: Vec<f64> = lines
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let at = |c: &str| last[header.iter().position(|h| *h == c).unwrap()];
+    let m = at("total_mass");
+    assert!((at("momentum_x") - 0.5 * m).abs() < 1e-9 * m);
+    assert!((at("momentum_z") + 0.25 * m).abs() < 1e-9 * m);
 }
 
 #[test]

@@ -7,6 +7,7 @@ use super::{Field, FieldData, GridSnapshot, Snapshot};
 use crate::grid::{GridFields, GridGeom, MultiField};
 use crate::material::{Elastic, MaterialModel};
 use crate::particles::Particles;
+use crate::tensor::{dot, resize, resize_mat};
 use rayon::prelude::*;
 
 const CHUNK: usize = 4096;
@@ -17,15 +18,24 @@ pub struct Measures {
     pub kinetic: f64,
     pub strain: f64,
     pub mass: f64,
-    pub momentum: [f64; 2],
-    pub angular: f64,
+    /// Σ m v (z zero in 2D).
+    pub momentum: [f64; 3],
+    /// Σ m x × v about the origin (x and y zero in 2D: the 2D angular
+    /// momentum is `angular[2]`).
+    pub angular: [f64; 3],
 }
 
 /// Kinetic energy ½Σ m v², strain energy Σ V ψ, mass, linear momentum and
-/// angular momentum about the origin. `apic_d`: with APIC and B-splines,
-/// the inertia scale D (h²/4 quadratic, h²/3 cubic) for the affine spin
-/// term m D (C₂₁ − C₁₂) of Jiang et al. (2015).
-pub fn measure(parts: &Particles, mats: &[Elastic], apic_d: Option<f64>) -> Measures {
+/// angular momentum about the origin, in 2D or 3D. `apic_d`: with APIC and
+/// B-splines, the inertia scale D (h²/4 quadratic, h²/3 cubic) for the
+/// affine spin term m D (ε : Cᵀ) of Jiang et al. (2015) (in 2D
+/// m D (C₂₁ − C₁₂)).
+pub fn measure<const D: usize, const V: usize>(
+    parts: &Particles<D, V>,
+    mats: &[Elastic],
+    apic_d: Option<f64>,
+) -> Measures {
+    crate::tensor::check_voigt::<D, V>();
     let n = parts.len();
     let partial: Vec<Measures> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
@@ -34,20 +44,41 @@ pub fn measure(parts: &Particles, mats: &[Elastic], apic_d: Option<f64>) -> Meas
             for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let (mass, v, x) = (parts.mass[p], parts.v[p], parts.x[p]);
                 m.mass += mass;
-                m.kinetic += 0.5 * mass * (v[0] * v[0] + v[1] * v[1]);
-                m.momentum[0] += mass * v[0];
-                m.momentum[1] += mass * v[1];
-                m.angular += mass * (x[0] * v[1] - x[1] * v[0]);
-                if let Some(d) = apic_d {
-                    let a = parts.affine[p];
-                    m.angular += mass * d * (a[1][0] - a[0][1]);
+                m.kinetic += 0.5 * mass * dot(v, v);
+                for a in 0..D {
+                    m.momentum[a] += mass * v[a];
+                }
+                if D == 2 {
+                    m.angular[2] += mass * (x[0] * v[1] - x[1] * v[0]);
+                    if let Some(d) = apic_d {
+                        let a = parts.affine[p];
+                        m.angular[2] += mass * d * (a[1][0] - a[0][1]);
+                    }
+                } else {
+                    // (x × v)_a = x_b v_c − x_c v_b for (a, b, c) cyclic
+                    for a in 0..3 {
+                        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+                        m.angular[a] += mass * (x[b] * v[c] - x[c] * v[b]);
+                        if let Some(d) = apic_d {
+                            let cm = parts.affine[p];
+                            m.angular[a] += mass * d * (cm[c][b] - cm[b][c]);
+                        }
+                    }
                 }
                 let mat = &mats[parts.material[p] as usize];
-                let psi = match mat.model {
-                    MaterialModel::LinearElastic => {
-                        Elastic::energy_linear(parts.stress[p], parts.strain[p])
+                let psi = match (mat.model, D) {
+                    (MaterialModel::LinearElastic, 2) => {
+                        Elastic::energy_linear(resize(parts.stress[p]), resize(parts.strain[p]))
                     }
-                    MaterialModel::NeoHookean => mat.energy_neo_hookean(parts.def_grad[p]),
+                    (MaterialModel::LinearElastic, _) => {
+                        Elastic::energy_linear_3d(resize(parts.stress[p]), resize(parts.strain[p]))
+                    }
+                    (MaterialModel::NeoHookean, 2) => {
+                        mat.energy_neo_hookean(resize_mat(parts.def_grad[p]))
+                    }
+                    (MaterialModel::NeoHookean, _) => {
+                        mat.energy_neo_hookean_3d(resize_mat(parts.def_grad[p]))
+                    }
                 };
                 // ψ is per current volume for the linear model (small strain:
                 // V ≈ V₀) and per reference volume for neo-Hookean.
@@ -65,9 +96,10 @@ pub fn measure(parts: &Particles, mats: &[Elastic], apic_d: Option<f64>) -> Meas
         total.kinetic += m.kinetic;
         total.strain += m.strain;
         total.mass += m.mass;
-        total.momentum[0] += m.momentum[0];
-        total.momentum[1] += m.momentum[1];
-        total.angular += m.angular;
+        for a in 0..3 {
+            total.momentum[a] += m.momentum[a];
+            total.angular[a] += m.angular[a];
+        }
     }
     total
 }

@@ -22,7 +22,7 @@
 //! tolerance, not bit for bit. The solver's counts and the stage times in
 //! the run summary are those since the resume.
 
-use super::{Simulation, StageTimes};
+use super::{Saved, Simulation, StageTimes};
 use crate::checkpoint::{Checkpoint, CheckpointError, SaveState};
 use crate::diagnostics::SeriesRow;
 use crate::fracture::model::RestoreContext;
@@ -42,7 +42,11 @@ pub(super) struct RunClock {
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub(super) struct State<'a> {
+#[serde(bound(
+    serialize = "Particles<D, V>: Serialize",
+    deserialize = "Particles<D, V>: Deserialize<'de>"
+))]
+pub(super) struct State<'a, const D: usize = 2, const V: usize = 3> {
     pub step: u64,
     pub time: f64,
     pub dt: f64,
@@ -54,7 +58,7 @@ pub(super) struct State<'a> {
     pub snapshot_index: u32,
     pub times: StageTimes,
     pub clock: RunClock,
-    pub parts: Cow<'a, Particles>,
+    pub parts: Cow<'a, Particles<D, V>>,
     pub bins_order: Cow<'a, [u32]>,
     /// Each fracture model's own state ([`FractureModel::save`]), in the
     /// order of `mpm::models`.
@@ -70,7 +74,10 @@ pub(super) struct SavedModel {
     pub state: Vec<u8>,
 }
 
-impl SaveState for State<'_> {
+impl<const D: usize, const V: usize> SaveState for State<'_, D, V>
+where
+    Particles<D, V>: Saved,
+{
     fn write(&self, out: &mut dyn std::io::Write) -> Result<(), String> {
         postcard::to_io(self, out)
             .map(|_| ())
@@ -79,8 +86,11 @@ impl SaveState for State<'_> {
 }
 
 /// The first particle array whose length differs between `a` and `b`.
-fn other_layout(a: &Particles, b: &Particles) -> Option<&'static str> {
-    let lengths = |p: &Particles| {
+fn other_layout<const D: usize, const V: usize>(
+    a: &Particles<D, V>,
+    b: &Particles<D, V>,
+) -> Option<&'static str> {
+    let lengths = |p: &Particles<D, V>| {
         [
             ("id", p.id.len()),
             ("body", p.body.len()),
@@ -110,6 +120,17 @@ fn other_layout(a: &Particles, b: &Particles) -> Option<&'static str> {
 }
 
 impl Simulation {
+    /// The simulation of a 2D `scene` at the checkpoint
+    /// ([`Simulation::resume_in`]).
+    pub fn resume(scene: &Scene, cp: Checkpoint<'_>) -> Result<Simulation, CheckpointError> {
+        Simulation::resume_in(scene, cp)
+    }
+}
+
+impl<const D: usize, const V: usize> Simulation<D, V>
+where
+    Particles<D, V>: Saved,
+{
     /// The state at the end of the present step, with the run loop at
     /// `clock`.
     pub(super) fn checkpoint_at(&self, clock: RunClock) -> Checkpoint<'_> {
@@ -150,9 +171,12 @@ impl Simulation {
     /// be the one the checkpoint was written for, but for its
     /// `[phase_field_solver]` (then the results agree with the straight
     /// run's to the solvers' tolerance, not bit for bit).
-    pub fn resume(scene: &Scene, cp: Checkpoint<'_>) -> Result<Simulation, CheckpointError> {
+    pub fn resume_in(
+        scene: &Scene,
+        cp: Checkpoint<'_>,
+    ) -> Result<Simulation<D, V>, CheckpointError> {
         // the scene's models say which of their tables may change
-        let mut sim = Simulation::new(scene);
+        let mut sim = Simulation::<D, V>::build(scene);
         let may_change: Vec<&str> = sim
             .model_list()
             .flat_map(|m| m.may_change_on_resume().iter().copied())
@@ -165,7 +189,7 @@ impl Simulation {
                 super::METHOD.name
             )));
         }
-        let s: State<'static> = postcard::from_bytes(cp.state_bytes().unwrap_or_default())
+        let s: State<'static, D, V> = postcard::from_bytes(cp.state_bytes().unwrap_or_default())
             .map_err(|e| CheckpointError::Decode(e.to_string()))?;
         let bad = |m: String| CheckpointError::Inconsistent(m);
         if s.parts.len() != sim.parts.len() || s.parts.id != sim.parts.id {

@@ -39,19 +39,55 @@ use std::time::Instant;
 pub const METHOD: MethodEntry = MethodEntry {
     name: "grid_mpm",
     runs: |_| true,
-    build: |scene| Box::new(Simulation::new(scene)),
-    resume: |scene, cp| Ok(Box::new(Simulation::resume(scene, cp)?)),
+    build: |scene| {
+        if scene.dimension() == 3 {
+            Box::new(Simulation::<3, 6>::build(scene))
+        } else {
+            Box::new(Simulation::new(scene))
+        }
+    },
+    resume: |scene, cp| {
+        if scene.dimension() == 3 {
+            Ok(Box::new(Simulation::<3, 6>::resume_in(scene, cp)?))
+        } else {
+            Ok(Box::new(Simulation::resume(scene, cp)?))
+        }
+    },
 };
 
-impl Method for Simulation {
+/// The series' columns after [`SeriesRow::COLUMNS`] in 3D, where
+/// `angular_momentum` is |L|.
+pub const COLUMNS_3D: [&str; 4] = [
+    "momentum_z",
+    "angular_momentum_x",
+    "angular_momentum_y",
+    "angular_momentum_z",
+];
+
+/// What a particle array must be to go into a checkpoint: every concrete
+/// dimension's is (serde's arrays stop at length 32, so a generic `D`
+/// cannot promise it by itself).
+pub trait Saved:
+    serde::Serialize + serde::de::DeserializeOwned + Clone + Send + Sync + 'static
+{
+}
+impl<T: serde::Serialize + serde::de::DeserializeOwned + Clone + Send + Sync + 'static> Saved
+    for T
+{
+}
+
+impl<const D: usize, const V: usize> Method for Simulation<D, V>
+where
+    Particles<D, V>: Saved,
+{
     fn name(&self) -> &'static str {
         METHOD.name
     }
     fn scene(&self) -> &Scene {
         Simulation::scene(self)
     }
-    fn particles(&self) -> &Particles {
-        Simulation::particles(self)
+    fn particle_count(&self) -> usize {
+        self.parts.len()
     }
     fn time(&self) -> f64 {
         Simulation::time(self)
@@ -73,33 +109,35 @@ impl Method for Simulation {
     }
 }
 
-/// A simulation in progress: the particles, the grid, and the clock.
-pub struct Simulation {
+/// A simulation in progress: the particles, the grid, and the clock, in
+/// `D` = 2 or 3 dimensions (`V`: the Voigt length, 3 or 6; see
+/// [`crate::tensor`]).
+pub struct Simulation<const D: usize = 2, const V: usize = 3> {
     scene: Scene,
     // (crate-visible: the phase-field model's tests step one by hand)
-    pub(crate) geom: GridGeom,
+    pub(crate) geom: GridGeom<D>,
     mats: Vec<Elastic>,
-    pub(crate) parts: Particles,
-    grid: GridFields,
+    pub(crate) parts: Particles<D, V>,
+    grid: GridFields<D>,
     /// Present iff the plan has contact.
     multi: Option<MultiField>,
     friction: ContactLaw,
     pub(crate) bins: Bins,
     boundary: Boundary,
-    tractions: setup::Tractions,
+    tractions: setup::Tractions<D>,
     /// The scene's fracture models, in the order of
     /// [`crate::fracture::MODELS`].
-    pub(crate) models: Vec<Box<dyn FractureModel>>,
+    pub(crate) models: Vec<Box<dyn FractureModel<D, V>>>,
     /// Dense contact group of each particle (a copy of `parts.group` the
     /// field slots borrow while the step mutates the particles).
     group_of: Vec<u8>,
     apic: bool,
     /// MUSL scratch: where the particles move this step.
-    x_next: Vec<[f64; 2]>,
+    x_next: Vec<[f64; D]>,
     /// Node runs the last scatter wrote (cleared at the next reset).
     written: Vec<std::ops::Range<usize>>,
     flip: f64,
-    body_force: [f64; 2],
+    body_force: [f64; D],
     m_min: f64,
     time: f64,
     step: u64,
@@ -126,8 +164,20 @@ pub struct Simulation {
 }
 
 impl Simulation {
-    /// Seeds the particles and builds the grid for a validated scene.
+    /// Seeds the particles and builds the grid for a validated 2D scene
+    /// (a 3D one: [`Simulation::build`]).
     pub fn new(scene: &Scene) -> Simulation {
+        Simulation::build(scene)
+    }
+}
+
+impl<const D: usize, const V: usize> Simulation<D, V>
+where
+    Particles<D, V>: Saved,
+{
+    /// Seeds the particles and builds the grid for a validated scene of
+    /// `D` dimensions.
+    pub fn build(scene: &Scene) -> Simulation<D, V> {
         setup::build(scene)
     }
 
@@ -135,7 +185,7 @@ impl Simulation {
         &self.scene
     }
 
-    pub fn particles(&self) -> &Particles {
+    pub fn particles(&self) -> &Particles<D, V> {
         &self.parts
     }
 
@@ -169,6 +219,9 @@ impl Simulation {
     /// [`crate::fracture::MODELS`]).
     pub fn series_columns(&mut self) -> Vec<String> {
         let mut c: Vec<String> = SeriesRow::COLUMNS.iter().map(|s| s.to_string()).collect();
+        if D == 3 {
+            c.extend(COLUMNS_3D.iter().map(|s| s.to_string()));
+        }
         let mut out = SeriesOut::declare();
         let (at, models) = self.reporting(0.0);
         for m in models {
@@ -179,7 +232,7 @@ impl Simulation {
     }
 
     /// The scene's fracture models, read-only.
-    fn model_list(&self) -> impl Iterator<Item = &dyn FractureModel> {
+    fn model_list(&self) -> impl Iterator<Item = &dyn FractureModel<D, V>> {
         self.models.iter().map(|m| m.as_ref())
     }
 
@@ -189,8 +242,8 @@ impl Simulation {
         &mut self,
         energy: f64,
     ) -> (
-        RowContext<'_>,
-        impl Iterator<Item = &mut (dyn FractureModel + 'static)> + '_,
+        RowContext<'_, D, V>,
+        impl Iterator<Item = &mut (dyn FractureModel<D, V> + 'static)> + '_,
     ) {
         let Simulation {
             scene,
@@ -369,8 +422,7 @@ impl Simulation {
         let mut best = (0usize, -1.0);
         for p in 0..self.parts.len() {
             let m = &self.mats[self.parts.material[p] as usize];
-            let v = self.parts.v[p];
-            let s = m.wave_speed + (v[0] * v[0] + v[1] * v[1]).sqrt();
+            let s = m.wave_speed + crate::tensor::norm(self.parts.v[p]);
             if s > best.1 {
                 best = (p, s);
             }
@@ -455,7 +507,7 @@ impl Simulation {
                 }
                 (_, Some(_)) => true,
                 (Stage::FieldPartition, None) => {
-                    slots_n = p2g::partition_fields::<K, 2, 3>(
+                    slots_n = p2g::partition_fields::<K, D, V>(
                         &self.geom,
                         &self.parts,
                         &self.bins,
@@ -474,7 +526,7 @@ impl Simulation {
             group: &group,
         };
         let r = match split.as_mut().and_then(|m| m.field_split()) {
-            Some(s) => s.slots(at_slots).visit(Rest::<K> {
+            Some(s) => s.slots(at_slots).visit(Rest::<K, D, V> {
                 sim: self,
                 dt,
                 multi: &multi,
@@ -502,8 +554,8 @@ impl Simulation {
 
 /// The stages from the scatter on, run with a splitting model's slots
 /// ([`fm::SplitSlots::visit`]: compiled for its concrete slot rule).
-struct Rest<'s, K> {
-    sim: &'s mut Simulation,
+struct Rest<'s, K, const D: usize, const V: usize> {
+    sim: &'s mut Simulation<D, V>,
     dt: f64,
     multi: &'s MultiField,
     slots_n: usize,
@@ -511,7 +563,10 @@ struct Rest<'s, K> {
     kernel: std::marker::PhantomData<K>,
 }
 
-impl<K: Kernel> fm::SlotsVisitor for Rest<'_, K> {
+impl<K: Kernel, const D: usize, const V: usize> fm::SlotsVisitor for Rest<'_, K, D, V>
+where
+    Particles<D, V>: Saved,
+{
     type Output = Result<(), SimError>;
     fn visit<S: FieldSlots>(self, slots: &S) -> Self::Output {
         self.sim
@@ -519,7 +574,10 @@ impl<K: Kernel> fm::SlotsVisitor for Rest<'_, K> {
     }
 }
 
-impl Simulation {
+impl<const D: usize, const V: usize> Simulation<D, V>
+where
+    Particles<D, V>: Saved,
+{
     /// The stages from the scatter on, with the field slots `slots`
     /// (`slots_n` of them) fixed for the step.
     fn stages<K: Kernel, S: FieldSlots>(
@@ -546,7 +604,7 @@ impl Simulation {
                     // Tractions at mid-step: the impulse of a linear ramp is then exact
                     Stage::Traction => {
                         let t_mid = self.time + 0.5 * dt;
-                        let w = self.tractions.apply::<K, S>(
+                        let w = self.tractions.apply::<K, S, V>(
                             t_mid,
                             dt,
                             &self.geom,
@@ -576,7 +634,7 @@ impl Simulation {
                     }
                     Stage::G2p => {
                         let stats = if self.apic {
-                            g2p::g2p::<K, S, true, 2, 3>(
+                            g2p::g2p::<K, S, true, D, V>(
                                 &self.geom,
                                 &mut self.parts,
                                 &mut self.bins,
@@ -587,7 +645,7 @@ impl Simulation {
                                 dt,
                             )
                         } else {
-                            g2p::g2p::<K, S, false, 2, 3>(
+                            g2p::g2p::<K, S, false, D, V>(
                                 &self.geom,
                                 &mut self.parts,
                                 &mut self.bins,
@@ -613,7 +671,7 @@ impl Simulation {
                         true
                     }
                     Stage::G2pStress => {
-                        let stats = g2p::musl_stress::<K, S, 2, 3>(
+                        let stats = g2p::musl_stress::<K, S, D, V>(
                             &self.geom,
                             &mut self.parts,
                             &mut self.bins,
@@ -689,10 +747,10 @@ impl Simulation {
         self.written.clone_from(&self.bins.active);
         let (geom, parts, bins, grid) = (&self.geom, &self.parts, &self.bins, &mut self.grid);
         match (self.apic, contact) {
-            (false, false) => p2g::p2g::<K, S, false, false, 2, 3>(geom, parts, bins, slots, grid),
-            (true, false) => p2g::p2g::<K, S, true, false, 2, 3>(geom, parts, bins, slots, grid),
-            (false, true) => p2g::p2g::<K, S, false, true, 2, 3>(geom, parts, bins, slots, grid),
-            (true, true) => p2g::p2g::<K, S, true, true, 2, 3>(geom, parts, bins, slots, grid),
+            (false, false) => p2g::p2g::<K, S, false, false, D, V>(geom, parts, bins, slots, grid),
+            (true, false) => p2g::p2g::<K, S, true, false, D, V>(geom, parts, bins, slots, grid),
+            (false, true) => p2g::p2g::<K, S, false, true, D, V>(geom, parts, bins, slots, grid),
+            (true, true) => p2g::p2g::<K, S, true, true, D, V>(geom, parts, bins, slots, grid),
         }
     }
 
@@ -717,14 +775,15 @@ impl Simulation {
                 Some(m) if slot >= nodes => m.extra_node[slot - nodes] as usize,
                 _ => slot,
             };
-            let [x, y] = self.geom.node_position(node);
+            let at = self.geom.node_position(node);
             return Err(SimError::NegativeMass {
                 step: self.step + 1,
                 time: self.time + dt,
                 node,
                 mass,
-                x,
-                y,
+                x: at[0],
+                y: at[1],
+                z: (D == 3).then(|| at[D - 1]),
             });
         }
         self.add_work(w);
@@ -737,7 +796,7 @@ impl Simulation {
     /// the particle guards (non-finite values, leaving the grid, vanished
     /// volume) turn a bad particle into the run's error. Returns whether a
     /// particle changed tile (the re-binning's cue).
-    fn finish_gather(&mut self, dt: f64, stats: g2p::G2pStats) -> Result<bool, SimError> {
+    fn finish_gather(&mut self, dt: f64, stats: g2p::G2pStats<D>) -> Result<bool, SimError> {
         self.step += 1;
         self.time += dt;
         self.dt = dt;
@@ -754,12 +813,13 @@ impl Simulation {
                 particle,
                 quantity,
             },
-            BadKind::LeftGrid([x, y]) => SimError::LeftGrid {
+            BadKind::LeftGrid(x) => SimError::LeftGrid {
                 step,
                 time,
                 particle,
-                x,
-                y,
+                x: x[0],
+                y: x[1],
+                z: (D == 3).then(|| x[D - 1]),
             },
             BadKind::VolumeVanished(j) => SimError::VolumeVanished {
                 step,
@@ -777,7 +837,7 @@ impl Simulation {
         slots: &S,
         transfer: g2p::Transfer,
     ) {
-        self.x_next.resize(self.parts.len(), [0.0; 2]);
+        self.x_next.resize(self.parts.len(), [0.0; D]);
         let args = (
             &self.geom,
             &mut self.parts,
@@ -785,11 +845,11 @@ impl Simulation {
             &mut self.x_next,
         );
         if self.apic {
-            g2p::musl_velocities::<K, S, true, 2, 3>(
+            g2p::musl_velocities::<K, S, true, D, V>(
                 args.0, args.1, args.2, args.3, slots, &self.grid, &self.mats, transfer, dt,
             );
         } else {
-            g2p::musl_velocities::<K, S, false, 2, 3>(
+            g2p::musl_velocities::<K, S, false, D, V>(
                 args.0, args.1, args.2, args.3, slots, &self.grid, &self.mats, transfer, dt,
             );
         }
@@ -799,7 +859,7 @@ impl Simulation {
     fn remap<K: Kernel, S: FieldSlots>(&mut self, slots: &S) {
         let (geom, parts, bins, grid) = (&self.geom, &self.parts, &self.bins, &mut self.grid);
         if self.apic {
-            p2g::remap_velocities::<K, S, true, 2, 3>(
+            p2g::remap_velocities::<K, S, true, D, V>(
                 geom,
                 parts,
                 bins,
@@ -809,7 +869,7 @@ impl Simulation {
                 self.m_min,
             );
         } else {
-            p2g::remap_velocities::<K, S, false, 2, 3>(
+            p2g::remap_velocities::<K, S, false, D, V>(
                 geom,
                 parts,
                 bins,
@@ -844,7 +904,16 @@ impl Simulation {
         for model in models {
             model.series(&at, &mut out);
         }
-        let (extra, fracture_energy) = out.values();
+        let (mut extra, fracture_energy) = out.values();
+        // 3D: |L| in the core column, then the components (after the core
+        // columns, before the models')
+        let angular = if D == 3 {
+            let l = m.angular;
+            extra.splice(0..0, [m.momentum[2], l[0], l[1], l[2]]);
+            crate::tensor::norm(l)
+        } else {
+            m.angular[2]
+        };
         let fracture_energy = fracture_energy.unwrap_or(0.0);
         let e = m.kinetic + m.strain;
         let row = SeriesRow {
@@ -861,7 +930,7 @@ impl Simulation {
             total_mass: m.mass,
             momentum_x: m.momentum[0],
             momentum_y: m.momentum[1],
-            angular_momentum: m.angular,
+            angular_momentum: angular,
             dt: self.dt,
             fracture_energy,
             extra,
@@ -885,7 +954,22 @@ impl Simulation {
         Ok(())
     }
 
+    /// A snapshot to `obs`. 2D only so far: the snapshot, the VTK files
+    /// and the server's snapshot file hold 2D positions, and
+    /// [`crate::methods::runnable`] refuses a 3D scene that asks for
+    /// snapshots.
     fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
+        match (self as &mut dyn std::any::Any).downcast_mut::<Simulation<2, 3>>() {
+            Some(sim) => sim.emit_snapshot_2d(obs),
+            None => Err(SimError::Observer(
+                "snapshots of a 3D run are not written yet (output.snapshots = 0)".into(),
+            )),
+        }
+    }
+}
+
+impl Simulation {
+    fn emit_snapshot_2d(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
         let t0 = Instant::now();
         let grid = if self.scene.file.output.grid_fields && self.grid_valid {
             Some(measure::grid_snapshot(

@@ -2,8 +2,9 @@
 //! boundary conditions, tractions, friction table.
 
 use super::grid_update::Boundary;
-use super::{Simulation, StageTimes};
+use super::{Saved, Simulation, StageTimes};
 use crate::contact::ContactLaw;
+use crate::fracture::model::Build;
 use crate::fracture::model::SetupContext;
 use crate::geometry;
 use crate::grid::shape::{self, Kernel};
@@ -13,16 +14,28 @@ use crate::particles::Particles;
 use crate::scene::{
     MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage, TimeFunction, TransferKind,
 };
+use crate::tensor::{check_voigt, dot, identity, norm, resize};
 
-pub(super) fn build(scene: &Scene) -> Simulation {
+pub(super) fn build<const D: usize, const V: usize>(scene: &Scene) -> Simulation<D, V>
+where
+    Particles<D, V>: Saved,
+{
+    check_voigt::<D, V>();
     let file = &scene.file;
-    let mut geom = GridGeom::new(file.grid.min.xy(), file.grid.cell_size, scene.cells);
+    let cells: [usize; D] = std::array::from_fn(|d| scene.cell_counts()[d]);
+    let mut geom = GridGeom::new(file.grid.min.get::<D>(), file.grid.cell_size, cells);
     let b = &file.grid.boundary;
     let wall = |s: &SideCondition| matches!(s, SideCondition::Fixed | SideCondition::Roller);
-    geom.walls = [
+    let free = SideCondition::Free;
+    let sides = [
         [wall(&b.left), wall(&b.right)],
         [wall(&b.bottom), wall(&b.top)],
+        [
+            wall(b.back.as_ref().unwrap_or(&free)),
+            wall(b.front.as_ref().unwrap_or(&free)),
+        ],
     ];
+    geom.walls = std::array::from_fn(|d| sides[d]);
     let mats: Vec<Elastic> = scene
         .materials
         .iter()
@@ -34,14 +47,24 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     let any_neo = mats.iter().any(|m| m.model == MaterialModel::NeoHookean);
 
     let n_total = scene.total_particles();
-    let mut parts = Particles::default();
+    let mut parts = Particles::<D, V>::default();
     let reserve = |v: &mut Vec<_>| v.reserve_exact(n_total);
     reserve(&mut parts.x);
     let thickness = file.analysis.thickness;
     for (b, body) in file.bodies.iter().enumerate() {
-        let lat = scene.lattice(b);
-        let spacing = lat.spacing();
-        let vol = spacing * spacing * thickness;
+        let first = parts.x.len();
+        // the particle volume: 2D spacing² × thickness, 3D spacing³
+        let (vol, per_dir) = if D == 2 {
+            let lat = scene.lattice(b);
+            geometry::seed(&body.shape, &body.holes, &lat, |p| parts.x.push(resize(p)));
+            let spacing = lat.spacing();
+            (spacing * spacing * thickness, lat.per_dir)
+        } else {
+            let lat = scene.lattice_3d(b);
+            geometry::seed_3d(&body.shape, &body.holes, &lat, |p| parts.x.push(resize(p)));
+            let spacing = lat.spacing();
+            (spacing * spacing * spacing, lat.per_dir)
+        };
         let mi = scene.body_material[b];
         let mat = &mats[mi];
         let group = scene
@@ -49,25 +72,36 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             .iter()
             .position(|&g| g == body.contact_group)
             .unwrap_or(0) as u8;
-        let first = parts.x.len();
-        geometry::seed(&body.shape, &body.holes, &lat, |p| parts.x.push(p));
         let count = parts.x.len() - first;
-        let origin = body.velocity_origin.map(|o| o.xy()).unwrap_or_else(|| {
-            let (mut sx, mut sy) = (0.0, 0.0);
-            for p in &parts.x[first..] {
-                sx += p[0];
-                sy += p[1];
-            }
-            [sx / count.max(1) as f64, sy / count.max(1) as f64]
-        });
-        let g = body.velocity_gradient.xy();
+        let origin = body
+            .velocity_origin
+            .map(|o| o.get::<D>())
+            .unwrap_or_else(|| {
+                let mut sum = [0.0; D];
+                for p in &parts.x[first..] {
+                    for d in 0..D {
+                        sum[d] += p[d];
+                    }
+                }
+                sum.map(|s| s / count.max(1) as f64)
+            });
+        let g = body.velocity_gradient.get::<D>();
+        let v0 = body.velocity.get::<D>();
         for k in 0..count {
             let x = parts.x[first + k];
-            let d = [x[0] - origin[0], x[1] - origin[1]];
-            parts.v.push([
-                body.velocity[0] + g[0][0] * d[0] + g[0][1] * d[1],
-                body.velocity[1] + g[1][0] * d[0] + g[1][1] * d[1],
-            ]);
+            let mut d = [0.0; D];
+            for a in 0..D {
+                d[a] = x[a] - origin[a];
+            }
+            let mut v = [0.0; D];
+            for a in 0..D {
+                let mut t = v0[a];
+                for c in 0..D {
+                    t += g[a][c] * d[c];
+                }
+                v[a] = t;
+            }
+            parts.v.push(v);
             parts.id.push((first + k) as u32);
             parts.body.push(b as u16);
             parts.material.push(mi as u16);
@@ -75,19 +109,19 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             parts.mass.push(mat.density * vol);
             parts.vol.push(vol);
             parts.vol0.push(vol);
-            parts.stress.push([0.0; 3]);
+            parts.stress.push([0.0; V]);
             if any_linear {
-                parts.strain.push([0.0; 3]);
+                parts.strain.push([0.0; V]);
             }
             if any_neo {
-                parts.def_grad.push([[1.0, 0.0], [0.0, 1.0]]);
+                parts.def_grad.push(identity());
             }
             if apic {
                 // the affine field of a linear velocity is its gradient
-                parts.affine.push([[g[0][0], g[0][1]], [g[1][0], g[1][1]]]);
+                parts.affine.push(g);
             }
             if gimp {
-                parts.half_size.push(0.5 / lat.per_dir as f64);
+                parts.half_size.push(0.5 / per_dir as f64);
             }
         }
     }
@@ -103,7 +137,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     for p in 0..parts.len() {
         let m = &mats[parts.material[p] as usize];
         let v = parts.v[p];
-        max_signal = max_signal.max(m.wave_speed + (v[0] * v[0] + v[1] * v[1]).sqrt());
+        max_signal = max_signal.max(m.wave_speed + norm(v));
         scale += parts.mass[p] * m.wave_speed * m.wave_speed;
         min_mass = min_mass.min(parts.mass[p]);
     }
@@ -114,7 +148,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         geom: &geom,
         parts: &mut parts,
     };
-    let mut models: Vec<_> = crate::fracture::MODELS
+    let mut models: Vec<_> = registry::<D, V>()
         .iter()
         .filter_map(|build| build(&mut at))
         .collect();
@@ -126,10 +160,18 @@ pub(super) fn build(scene: &Scene) -> Simulation {
         mu: vec![file.contact.friction; groups * groups],
         fields_per_group: if split.is_some() { 2 } else { 1 },
         self_friction: split.map_or(0.0, |s| s.self_friction()),
-        full_node_mass: mats.iter().map(|m| m.density).fold(f64::INFINITY, f64::min)
-            * file.grid.cell_size
-            * file.grid.cell_size
-            * thickness,
+        full_node_mass: {
+            let (rho, h) = (
+                mats.iter().map(|m| m.density).fold(f64::INFINITY, f64::min),
+                file.grid.cell_size,
+            );
+            // ρ h² t in 2D, ρ h³ in 3D
+            if D == 2 {
+                rho * h * h * thickness
+            } else {
+                rho * h * h * h
+            }
+        },
     };
     for pair in &file.contact.pairs {
         let ia = scene
@@ -145,7 +187,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             friction.mu[b * groups + a] = pair.friction;
         }
     }
-    let tractions = Tractions::new(scene, &parts);
+    let tractions = Tractions::<D>::new(scene, &parts);
     Simulation {
         scene: scene.clone(),
         boundary: Boundary::new(&geom, &file.grid.boundary),
@@ -166,7 +208,7 @@ pub(super) fn build(scene: &Scene) -> Simulation {
             TransferKind::Pic => 0.0,
             _ => file.transfer.flip_blend,
         },
-        body_force: file.body_force.xy(),
+        body_force: file.body_force.get::<D>(),
         m_min: file.guards.min_node_mass_fraction * min_mass,
         time: 0.0,
         step: 0,
@@ -186,9 +228,21 @@ pub(super) fn build(scene: &Scene) -> Simulation {
     }
 }
 
+/// The fracture models of a `D`-dimensional run: [`crate::fracture::MODELS`]
+/// in 2D; none in 3D yet ([`crate::methods::runnable`] refuses a 3D scene
+/// that asks for one). The registry is typed for 2D, so a generic `D`
+/// reaches it by a type check at run time.
+fn registry<const D: usize, const V: usize>() -> &'static [Build<D, V>] {
+    let models: &'static [Build] = crate::fracture::MODELS;
+    (&models as &dyn std::any::Any)
+        .downcast_ref::<&'static [Build<D, V>]>()
+        .copied()
+        .unwrap_or(&[])
+}
+
 /// Reorders every particle array so that new index k holds old particle
 /// `order[k]`.
-fn permute(parts: &mut Particles, order: &[u32]) {
+fn permute<const D: usize, const V: usize>(parts: &mut Particles<D, V>, order: &[u32]) {
     fn apply<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
         if !v.is_empty() {
             *v = order.iter().map(|&p| v[p as usize]).collect();
@@ -214,66 +268,80 @@ fn permute(parts: &mut Particles, order: &[u32]) {
 
 /// Surface tractions of the grid sides that ask for one, carried by the
 /// particles that face each side (in every row or column of the particle
-/// lattice, the outermost particle of all bodies).
+/// lattice, the outermost particle of all bodies). In 3D the lattice lines
+/// run across the side's face; the shear acts along +y on the x sides and
+/// along +x on the others.
 #[derive(Debug, Clone, Default)]
-pub(super) struct Tractions {
-    sides: Vec<TractionSide>,
+pub(super) struct Tractions<const D: usize> {
+    sides: Vec<TractionSide<D>>,
 }
 
 #[derive(Debug, Clone)]
-struct TractionSide {
+struct TractionSide<const D: usize> {
     normal: Option<TimeFunction>,
     shear: Option<TimeFunction>,
     /// Outward unit normal of the side.
-    out: [f64; 2],
-    /// Shear direction: +x on bottom/top, +y on left/right.
-    tangent: [f64; 2],
-    /// (particle index, surface length × thickness per particle, m²).
+    out: [f64; D],
+    /// Shear direction: +x on bottom/top (and back/front), +y on left/right.
+    tangent: [f64; D],
+    /// (particle index, surface per particle, m²: 2D spacing × thickness,
+    /// 3D spacing²).
     particles: Vec<(u32, f64)>,
 }
 
-impl Tractions {
-    fn new(scene: &Scene, parts: &Particles) -> Tractions {
+impl<const D: usize> Tractions<D> {
+    fn new<const V: usize>(scene: &Scene, parts: &Particles<D, V>) -> Tractions<D> {
         let file = &scene.file;
         let b = &file.grid.boundary;
         let spacing: Vec<f64> = (0..file.bodies.len())
             .map(|k| scene.particle_spacing(k))
             .collect();
         let finest = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+        let min = file.grid.min.get::<D>();
+        let free = SideCondition::Free;
+        let conds = [
+            &b.left,
+            &b.right,
+            &b.bottom,
+            &b.top,
+            b.back.as_ref().unwrap_or(&free),
+            b.front.as_ref().unwrap_or(&free),
+        ];
         let mut sides = Vec::new();
-        for (k, cond) in [&b.left, &b.right, &b.bottom, &b.top]
-            .into_iter()
-            .enumerate()
-        {
+        for (k, cond) in conds.into_iter().enumerate().take(2 * D) {
             let SideCondition::Traction { normal, shear } = cond else {
                 continue;
             };
-            // along = axis running along the side; across = the side's normal axis
-            let (along, across, sign) = match k {
-                0 => (1, 0, -1.0),
-                1 => (1, 0, 1.0),
-                2 => (0, 1, -1.0),
-                _ => (0, 1, 1.0),
-            };
-            let mut best: std::collections::BTreeMap<i64, usize> =
+            // across = the side's normal axis; the lattice lines run along it
+            let (across, sign) = (k / 2, if k % 2 == 0 { -1.0 } else { 1.0 });
+            let along: Vec<usize> = (0..D).filter(|&d| d != across).collect();
+            let mut best: std::collections::BTreeMap<[i64; 2], usize> =
                 std::collections::BTreeMap::new();
             for p in 0..parts.len() {
-                let key = ((parts.x[p][along] - file.grid.min[along]) / finest).floor() as i64;
+                let mut key = [0i64; 2];
+                for (slot, &d) in along.iter().enumerate() {
+                    key[slot] = ((parts.x[p][d] - min[d]) / finest).floor() as i64;
+                }
                 let e = best.entry(key).or_insert(p);
                 if sign * parts.x[p][across] > sign * parts.x[*e][across] {
                     *e = p;
                 }
             }
-            let mut out = [0.0; 2];
+            let mut out = [0.0; D];
             out[across] = sign;
-            let mut tangent = [0.0; 2];
-            tangent[along] = 1.0;
+            let mut tangent = [0.0; D];
+            tangent[if across == 0 { 1 } else { 0 }] = 1.0;
             let particles = best
                 .values()
                 .map(|&p| {
+                    let s = spacing[parts.body[p] as usize];
                     (
                         p as u32,
-                        spacing[parts.body[p] as usize] * file.analysis.thickness,
+                        if D == 2 {
+                            s * file.analysis.thickness
+                        } else {
+                            s * s
+                        },
                     )
                 })
                 .collect();
@@ -290,32 +358,33 @@ impl Tractions {
 
     /// Adds the traction forces at time `t` to the grid; returns their work
     /// over the step, F·v_p Δt.
-    pub(super) fn apply<K: Kernel, S: FieldSlots>(
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn apply<K: Kernel, S: FieldSlots, const V: usize>(
         &self,
         t: f64,
         dt: f64,
-        geom: &GridGeom,
-        parts: &Particles,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
         slots: &S,
-        grid: &mut GridFields,
+        grid: &mut GridFields<D>,
     ) -> f64 {
         let mut work = 0.0;
         for side in &self.sides {
             let sn = side.normal.as_ref().map_or(0.0, |f| f.eval(t));
             let ss = side.shear.as_ref().map_or(0.0, |f| f.eval(t));
-            let tr = [
-                sn * side.out[0] + ss * side.tangent[0],
-                sn * side.out[1] + ss * side.tangent[1],
-            ];
+            let mut tr = [0.0; D];
+            for a in 0..D {
+                tr[a] = sn * side.out[a] + ss * side.tangent[a];
+            }
             for &(p, area) in &side.particles {
                 let p = p as usize;
-                let f = [tr[0] * area, tr[1] * area];
-                let v = parts.v[p];
-                work += (f[0] * v[0] + f[1] * v[1]) * dt;
-                particle_support::<K, 2, 3>(geom, parts, p).for_each(|n| {
+                let f = tr.map(|c| c * area);
+                work += dot(f, parts.v[p]) * dt;
+                particle_support::<K, D, V>(geom, parts, p).for_each(|n| {
                     let s = slots.slot(n.node, p);
-                    grid.force[s][0] += n.w * f[0];
-                    grid.force[s][1] += n.w * f[1];
+                    for a in 0..D {
+                        grid.force[s][a] += n.w * f[a];
+                    }
                 });
             }
         }

@@ -1,0 +1,323 @@
+//! The explicit core in 3D against theory (issue 32): scenes whose grid
+//! has three axes, run through `Simulation<3, 6>` as `cleave run` runs
+//! them. Each test compares with an analytic value.
+
+use cleave::diagnostics::Recorder;
+use cleave::mpm::Simulation;
+use cleave::scene::{Format, Scene};
+
+type Sim3 = Simulation<3, 6>;
+
+fn scene(text: &str) -> Scene {
+    match Scene::from_text(text, Some(Format::Toml)) {
+        Ok(s) => s,
+        Err(e) => panic!("{e}\n{text}"),
+    }
+}
+
+/// Time at which `f` first crosses `level` upward, linearly interpolated.
+fn crossing(samples: &[(f64, f64)], level: f64) -> Option<f64> {
+    samples
+        .windows(2)
+        .find(|w| w[0].1 < level && w[1].1 >= level)
+        .map(|w| {
+            let (t0, v0, t1, v1) = (w[0].0, w[0].1, w[1].0, w[1].1);
+            t0 + (level - v0) / (v1 - v0) * (t1 - t0)
+        })
+}
+
+/// A bar whose sides are rollers (uniaxial strain) carries a compressive
+/// front at the dilatational speed √(E(1−ν)/((1+ν)(1−2ν)ρ)), within 2 %.
+#[test]
+fn a_laterally_constrained_bar_carries_the_dilatational_wave() {
+    let s = scene(
+        r#"
+[grid]
+cell_size = 0.01
+min = [0.0, 0.0, 0.0]
+max = [1.0, 0.03, 0.03]
+[grid.boundary]
+left = { type = "velocity", x = 1.0 }
+bottom = "roller"
+top = "roller"
+back = "roller"
+front = "roller"
+[time]
+end = 1.5e-4
+cfl = 0.4
+[transfer]
+scheme = "flip"
+flip_blend = 1.0
+[[bodies]]
+shape = { type = "box", min = [0.0, 0.0, 0.0], max = [1.0, 0.03, 0.03] }
+material = { model = "linear_elastic", density = 8000.0, youngs_modulus = 2.0e11, poissons_ratio = 0.3 }
+[output]
+snapshots = 0
+"#,
+    );
+    let (e, nu, rho): (f64, f64, f64) = (2.0e11, 0.3, 8000.0);
+    let c = (e * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu) * rho)).sqrt();
+    let h = s.file.grid.cell_size;
+    let mut sim = Sim3::build(&s);
+    let stations = [0.25, 0.75];
+    let mut at: Vec<Vec<(f64, f64)>> = vec![Vec::new(); 2];
+    while sim.time() < s.file.time.end * (1.0 - 1e-12) {
+        sim.step().expect("the bar runs");
+        let p = sim.particles();
+        for (k, &x) in stations.iter().enumerate() {
+            let (mut sum, mut n) = (0.0, 0usize);
+            for q in 0..p.len() {
+                if (p.x[q][0] - x).abs() <= 0.5 * h {
+                    sum += p.v[q][0];
+                    n += 1;
+                }
+            }
+            at[k].push((sim.time(), sum / n.max(1) as f64));
+        }
+    }
+    let t1 = crossing(&at[0], 0.5).expect("the front reaches x = 0.25");
+    let t2 = crossing(&at[1], 0.5).expect("the front reaches x = 0.75");
+    let speed = 0.5 / (t2 - t1);
+    println!(
+        "3D bar: front speed {speed:.1} m/s vs the dilatational {c:.1} m/s ({:+.2} %)",
+        100.0 * (speed / c - 1.0)
+    );
+    assert!((speed / c - 1.0).abs() < 0.02, "{speed} m/s vs {c} m/s");
+}
+
+/// A free sphere spinning about a skew axis (APIC): mass and momentum to
+/// round-off, angular momentum within 1 % (APIC keeps it to round-off
+/// where no node is below the guard's mass).
+#[test]
+fn a_free_spinning_sphere_keeps_its_momenta() {
+    // ω = 4 rad/s about (1, 2, 2)/3: the velocity gradient is the spin W
+    let (w1, w2, w3) = (4.0 / 3.0, 8.0 / 3.0, 8.0 / 3.0);
+    let s = scene(&format!(
+        r#"
+[grid]
+cell_size = 0.05
+min = [0.0, 0.0, 0.0]
+max = [1.0, 1.0, 1.0]
+[time]
+end = 0.3
+[transfer]
+scheme = "apic"
+[[bodies]]
+shape = {{ type = "sphere", center = [0.5, 0.5, 0.5], radius = 0.25 }}
+material = {{ model = "neo_hookean", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }}
+velocity_origin = [0.5, 0.5, 0.5]
+velocity_gradient = [[0.0, {m3}, {w2}], [{w3}, 0.0, {m1}], [{m2}, {w1}, 0.0]]
+[output]
+series_rows = 11
+snapshots = 0
+"#,
+        m1 = -w1,
+        m2 = -w2,
+        m3 = -w3
+    ));
+    let mut sim = Sim3::build(&s);
+    let mut rec = Recorder::default();
+    sim.run(&mut rec).expect("the sphere spins");
+    let cols = sim.series_columns();
+    let col = |name: &str| cols.iter().position(|c| c == name).expect(name);
+    let first = rec.rows.first().unwrap().values();
+    let last = rec.rows.last().unwrap().values();
+    assert_eq!(first[col("total_mass")], last[col("total_mass")]);
+    let m = first[col("total_mass")];
+    for c in ["momentum_x", "momentum_y", "momentum_z"] {
+        assert!(last[col(c)].abs() < 1e-12 * m, "{c} = {}", last[col(c)]);
+    }
+    let l0: Vec<f64> = [
+        "angular_momentum_x",
+        "angular_momentum_y",
+        "angular_momentum_z",
+    ]
+    .iter()
+    .map(|c| first[col(c)])
+    .collect();
+    let l1: Vec<f64> = [
+        "angular_momentum_x",
+        "angular_momentum_y",
+        "angular_momentum_z",
+    ]
+    .iter()
+    .map(|c| last[col(c)])
+    .collect();
+    let n0 = first[col("angular_momentum")];
+    assert!((n0 - (l0[0] * l0[0] + l0[1] * l0[1] + l0[2] * l0[2]).sqrt()).abs() < 1e-12 * n0);
+    // L ∥ ω for a sphere
+    assert!(
+        l0[1] > 0.0 && (l0[1] / l0[0] - 2.0).abs() < 1e-6 && (l0[2] / l0[0] - 2.0).abs() < 1e-6
+    );
+    let dl = ((l1[0] - l0[0]).powi(2) + (l1[1] - l0[1]).powi(2) + (l1[2] - l0[2]).powi(2)).sqrt();
+    println!(
+        "3D spinning sphere: |L| {n0:.6e}, |ΔL| {dl:.3e} ({:.4} %)",
+        100.0 * dl / n0
+    );
+    assert!(dl < 0.01 * n0, "L {l0:?} → {l1:?}");
+}
+
+/// Two elastic spheres collide (`scenes/two_spheres_3d.toml`: Sulsky's
+/// disks as spheres, the same radius, centres and velocities in the xy
+/// plane): momentum to round-off, the
+/// energy drift below 5 % (measured 0.9 %). Neo-Hookean, whose energy is
+/// exact at any strain: with the small-strain model at these strains
+/// (~15 %) ½σ:ε V under-counts the stored energy at the moment of
+/// greatest compression by 10.5, 8.7 and 6.7 % at h = 0.05, 0.025,
+/// 0.0125 (`docs/verification.md`), as it does in 2D (8.4, 5.9, 4.6 %).
+#[test]
+fn two_elastic_spheres_collide_keeping_momentum_and_energy() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/two_spheres_3d.toml");
+    let s = Scene::from_path(&path).expect("the shipped 3D scene");
+    assert_eq!(s.dimension(), 3);
+    let mut sim = Sim3::build(&s);
+    let mut rec = Recorder::default();
+    sim.run(&mut rec).expect("the spheres collide");
+    let cols = sim.series_columns();
+    let col = |name: &str| cols.iter().position(|c| c == name).expect(name);
+    let e = |r: &Vec<f64>| r[col("kinetic_energy")] + r[col("strain_energy")];
+    let rows: Vec<Vec<f64>> = rec.rows.iter().map(|r| r.values()).collect();
+    let e0 = e(&rows[0]);
+    let m = rows[0][col("total_mass")];
+    let mut drift: f64 = 0.0;
+    let mut min_kinetic = f64::INFINITY;
+    for r in &rows {
+        drift = drift.max((e(r) - e0).abs() / e0);
+        min_kinetic = min_kinetic.min(r[col("kinetic_energy")]);
+        for c in ["momentum_x", "momentum_y", "momentum_z"] {
+            assert!(r[col(c)].abs() < 1e-12 * m * 0.1, "{c} = {}", r[col(c)]);
+        }
+    }
+    println!(
+        "3D spheres: energy drift {:.2} %, kinetic energy down to {:.1} % at impact",
+        100.0 * drift,
+        100.0 * min_kinetic / e0
+    );
+    // they did collide: most of the kinetic energy went into strain
+    assert!(
+        min_kinetic < 0.5 * e0,
+        "no collision: kinetic ≥ {min_kinetic}"
+    );
+    assert!(drift < 0.05, "energy drift {drift}");
+}
+
+/// The 3D sliding block: tilted gravity (θ = 30°) on a block resting on a
+/// plane, Coulomb friction μ = 0.3: a = g(sin θ − μ cos θ) within 3 %.
+#[test]
+fn a_block_slides_down_an_incline_with_coulomb_friction() {
+    let s = scene(
+        r#"
+body_force = [4.905, -8.495709, 0.0]
+[grid]
+cell_size = 0.01
+min = [0.0, 0.0, 0.0]
+max = [0.4, 0.12, 0.05]
+boundary = { bottom = "fixed" }
+[time]
+end = 0.12
+cfl = 0.4
+[transfer]
+scheme = "flip"
+flip_blend = 0.99
+[materials.rubbery]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 2.0e7
+poissons_ratio = 0.3
+[[bodies]]
+shape = { type = "box", min = [0.0, 0.0, 0.0], max = [0.4, 0.04, 0.05] }
+material = "rubbery"
+contact_group = 0
+[[bodies]]
+shape = { type = "box", min = [0.04, 0.04, 0.0], max = [0.09, 0.09, 0.05] }
+material = "rubbery"
+contact_group = 1
+[contact]
+friction = 0.3
+[output]
+snapshots = 0
+"#,
+    );
+    let theta = 30f64.to_radians();
+    let expected = 9.81 * (theta.sin() - 0.3 * theta.cos());
+    let mut sim = Sim3::build(&s);
+    let mut samples = Vec::new();
+    while sim.time() < s.file.time.end * (1.0 - 1e-12) {
+        sim.step().expect("the block slides");
+        let p = sim.particles();
+        let (mut m, mut px) = (0.0, 0.0);
+        for k in 0..p.len() {
+            if p.body[k] == 1 {
+                m += p.mass[k];
+                px += p.mass[k] * p.v[k][0];
+            }
+        }
+        samples.push((sim.time(), px / m));
+    }
+    // least-squares slope after 20 ms of settling
+    let fit: Vec<_> = samples.iter().filter(|s| s.0 > 0.02).collect();
+    let n = fit.len() as f64;
+    let (mt, mv) = fit
+        .iter()
+        .fold((0.0, 0.0), |a, s| (a.0 + s.0 / n, a.1 + s.1 / n));
+    let (num, den) = fit.iter().fold((0.0, 0.0), |a, s| {
+        (a.0 + (s.0 - mt) * (s.1 - mv), a.1 + (s.0 - mt).powi(2))
+    });
+    let a = num / den;
+    println!(
+        "3D sliding block: a = {a:.4} m/s² vs g(sin θ − μ cos θ) = {expected:.4} m/s² ({:+.2} %)",
+        100.0 * (a / expected - 1.0)
+    );
+    assert!((a / expected - 1.0).abs() < 0.03, "a = {a} vs {expected}");
+}
+
+/// 1 and 2 threads give the same bits in 3D: a sphere dropped on a block
+/// in contact (two velocity fields, the 8-colour scatter, the walls).
+#[test]
+fn three_d_runs_do_not_depend_on_the_thread_count() {
+    let s = scene(
+        r#"
+body_force = [0.0, -9.81, 0.0]
+[grid]
+cell_size = 0.02
+min = [0.0, 0.0, 0.0]
+max = [0.3, 0.3, 0.3]
+boundary = { bottom = "fixed", back = "roller" }
+[time]
+end = 0.02
+[transfer]
+scheme = "apic"
+[[bodies]]
+shape = { type = "box", min = [0.0, 0.0, 0.0], max = [0.3, 0.06, 0.3] }
+material = { model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }
+contact_group = 0
+[[bodies]]
+shape = { type = "sphere", center = [0.15, 0.13, 0.15], radius = 0.06 }
+material = { model = "neo_hookean", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }
+velocity = [0.3, -2.0, 0.1]
+contact_group = 1
+[contact]
+friction = 0.2
+[output]
+series_rows = 5
+snapshots = 0
+"#,
+    );
+    let go = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut sim = Sim3::build(&s);
+            let mut rec = Recorder::default();
+            let summary = sim.run(&mut rec).expect("the sphere lands");
+            let rows: Vec<Vec<f64>> = rec.rows.iter().map(|r| r.values()).collect();
+            (rows, sim.particles().clone(), summary.contact_steps)
+        })
+    };
+    let (a, b) = (go(1), go(2));
+    assert!(a.2 > 0, "the sphere touched the block");
+    assert!(a.0 == b.0, "series differ");
+    assert!(a.1 == b.1, "particles differ");
+}
