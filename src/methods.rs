@@ -5,7 +5,7 @@
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::run::{Method, MethodEntry, Resumed};
-use crate::scene::{Scene, SceneError, SideCondition, Stage};
+use crate::scene::{MaterialRef, Scene, SceneError, SideCondition};
 
 /// Every method, the first whose `runs` accepts a scene runs it.
 pub const METHODS: &[MethodEntry] = &[crate::mpm::METHOD];
@@ -38,16 +38,18 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
             format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls)"),
         ))
     };
-    for stage in [Stage::PhaseFieldSolve, Stage::Damage, Stage::DamageField] {
-        if scene.plan.has(stage) {
-            let key = if stage == Stage::DamageField {
-                "dfg"
-            } else if stage.is_phase_field() {
-                "materials.phase_field"
-            } else {
-                "materials.damage"
-            };
-            return not_yet(key.into(), "a fracture model");
+    // a fracture model, named at its body's material
+    for (b, body) in file.bodies.iter().enumerate() {
+        let m = &scene.materials[scene.body_material[b]];
+        let key = match &body.material {
+            MaterialRef::Name(n) => format!("materials.{n}"),
+            MaterialRef::Inline(_) => format!("bodies[{b}].material"),
+        };
+        if m.phase_field().is_some() {
+            return not_yet(format!("{key}.phase_field"), "a phase field");
+        }
+        if m.damage().is_some() {
+            return not_yet(format!("{key}.damage"), "a damage model");
         }
     }
     if file.dfg.is_some() {
