@@ -5,7 +5,7 @@
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::run::{Method, MethodEntry, Resumed};
-use crate::scene::{MaterialRef, Scene, SceneError, SideCondition};
+use crate::scene::{MaterialRef, Scene, SceneError};
 
 /// Every method, the first whose `runs` accepts a scene runs it.
 pub const METHODS: &[MethodEntry] = &[crate::mpm::METHOD];
@@ -23,8 +23,8 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 /// grid MPM's explicit core (issue 32: the grid, the transfers, the
 /// materials, contact and the walls are generic over the dimension); what
 /// is still 2D is refused here, naming the key: the fracture models
-/// (phase field, damage, DFG), tractions, and snapshots (the snapshot
-/// and its files hold 2D positions). Asked before a run is set up, so
+/// (phase field, damage, DFG), initial cracks, and snapshots (the
+/// snapshot and its files hold 2D positions). Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
 /// writing or queueing anything.
 pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
@@ -35,7 +35,7 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
     let not_yet = |path: String, what: &str| {
         Err(SceneError::single(
             &path,
-            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls)"),
+            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions)"),
         ))
     };
     // a fracture model, named at its body's material
@@ -57,20 +57,6 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
     }
     if let Some(i) = file.bodies.iter().position(|b| !b.cracks.is_empty()) {
         return not_yet(format!("bodies[{i}].cracks"), "an initial crack");
-    }
-    let b = &file.grid.boundary;
-    let sides = [
-        ("left", Some(&b.left)),
-        ("right", Some(&b.right)),
-        ("bottom", Some(&b.bottom)),
-        ("top", Some(&b.top)),
-        ("back", b.back.as_ref()),
-        ("front", b.front.as_ref()),
-    ];
-    for (name, side) in sides {
-        if matches!(side, Some(SideCondition::Traction { .. })) {
-            return not_yet(format!("grid.boundary.{name}"), "a traction side");
-        }
     }
     if file.output.snapshots > 0 {
         return not_yet(

@@ -152,7 +152,9 @@ impl Plan {
     pub(super) fn build(file: &SceneFile, contact_groups: &[u32]) -> Plan {
         let b = &file.grid.boundary;
         let traction = [&b.left, &b.right, &b.bottom, &b.top]
-            .iter()
+            .into_iter()
+            .chain(b.back.as_ref())
+            .chain(b.front.as_ref())
             .any(|s| matches!(s, SideCondition::Traction { .. }));
         let dfg = file.dfg.is_some();
         let contact = contact_groups.len() > 1 || dfg;
