@@ -1,7 +1,7 @@
 //! 3D scenes (issue 32, the scene side): a scene whose `grid.max` has
 //! three components describes a 3D problem; it validates with errors that
 //! name their field, seeds its bodies, and runs the explicit core; what is
-//! still 2D (fracture models, tractions, snapshots) is refused naming its
+//! still 2D (fracture models, initial cracks, snapshots) is refused naming its
 //! key. 2D scenes serialise as before.
 
 use cleave::jobs::{JobConfig, JobError, JobManager};
