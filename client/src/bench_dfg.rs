@@ -143,6 +143,11 @@ pub fn run(
             scene_path.display()
         );
     };
+    anyhow::ensure!(
+        base.dimension() == 2,
+        "{}: the DFG benchmark runs 2D scenes (DFG is 2D so far)",
+        scene_path.display()
+    );
     let thickness = base.analysis.thickness;
     let end = instants[0].max(instants[1]);
     let threads = rayon::current_num_threads();

@@ -177,6 +177,11 @@ pub fn run(
 ) -> anyhow::Result<()> {
     let scene = Scene::from_path(scene_path)
         .map_err(|e| anyhow::anyhow!("{}: {e}", scene_path.display()))?;
+    anyhow::ensure!(
+        scene.dimension() == 2,
+        "{}: the phase-field benchmark runs 2D scenes (the phase field is 2D so far)",
+        scene_path.display()
+    );
     let dt =
         scene.file.time.dt.context(
             "the benchmark needs a scene with a fixed time.dt (to extrapolate to time.end)",

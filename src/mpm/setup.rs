@@ -21,6 +21,14 @@ where
     Particles<D, V>: Saved,
 {
     check_voigt::<D, V>();
+    // a caller's mistake, not a user's: methods::build picks by dimension
+    assert_eq!(
+        scene.dimension(),
+        D,
+        "a {}D scene set up as a {D}D simulation (Simulation::new is 2D; \
+         Simulation::<3, 6>::build or methods::build for 3D)",
+        scene.dimension()
+    );
     let file = &scene.file;
     let cells: [usize; D] = std::array::from_fn(|d| scene.cell_counts()[d]);
     let mut geom = GridGeom::new(file.grid.min.get::<D>(), file.grid.cell_size, cells);
