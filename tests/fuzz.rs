@@ -14,7 +14,6 @@
 //! scene to the temporary directory.
 
 use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
-use cleave::mpm::Simulation;
 use cleave::scene::{Format, Scene};
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64;
@@ -218,11 +217,12 @@ fn one_case(text: &str) -> Outcome {
     if scene.total_particles() > RUN_PARTICLES {
         return Outcome::Valid;
     }
-    // a valid scene no method runs (a 3D one): refused as `run` refuses it
-    if let Err(e) = cleave::methods::runnable(&scene) {
-        return Outcome::Refused(e.errors.iter().map(|f| f.to_string()).collect());
-    }
-    let mut sim = Simulation::new(&scene);
+    // what `run` does: the method for the scene's dimension, or the
+    // refusal of what it does not run yet (a 3D fracture model, say)
+    let mut sim = match cleave::methods::build(&scene) {
+        Ok(sim) => sim,
+        Err(e) => return Outcome::Refused(e.errors.iter().map(|f| f.to_string()).collect()),
+    };
     match sim.run(&mut Short) {
         Ok(_) => Outcome::Ran,
         Err(e) => Outcome::Stopped(e.to_string()),
