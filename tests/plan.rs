@@ -18,40 +18,56 @@ fn every_shipped_scene_runs_the_plan_it_prints() {
     assert!(paths.len() >= 20, "{} scenes", paths.len());
     for path in paths {
         let scene = Scene::from_path(&path).unwrap();
-        let mut sim = Simulation::new(&scene);
-        // (steps of the scene's size, past its end where it is that short)
-        for _ in 0..2 {
-            sim.advance(scene.time_step.dt)
-                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        // each scene in its own dimension (two_spheres_3d.toml is 3D)
+        if scene.dimension() == 3 {
+            runs_its_plan(Simulation::<3, 6>::build(&scene), &scene, &path);
+        } else {
+            runs_its_plan(Simulation::new(&scene), &scene, &path);
         }
-        let ran: Vec<(Stage, u64)> = sim
-            .stage_times()
-            .stages
-            .iter()
-            .map(|t| (t.stage, t.runs))
-            .collect();
-        let planned: Vec<(Stage, u64)> = scene.plan.stages.iter().map(|&s| (s, 2)).collect();
-        assert_eq!(ran, planned, "{}", path.display());
-        // the fracture models declare and fill their columns in one function
-        let columns = sim.series_columns();
-        let row = sim.row();
-        assert_eq!(
-            columns.len(),
-            SeriesRow::COLUMNS.len() + row.extra.len(),
-            "{}: {columns:?}",
-            path.display()
-        );
-        // the core of every explicit step, whatever else the scene asks for
-        for core in [Stage::P2g, Stage::GridUpdate, Stage::Rebin] {
-            assert!(scene.plan.has(core), "{}: no {core}", path.display());
-        }
-        assert!(
-            scene.plan.has(Stage::G2p)
-                != (scene.plan.has(Stage::G2pVelocity) && scene.plan.has(Stage::G2pStress)),
-            "{}: USL or MUSL, not both",
-            path.display()
-        );
     }
+}
+
+/// Two steps of `sim`: the stages that ran are the plan's, the series
+/// columns match a row, and the core stages are there.
+fn runs_its_plan<const D: usize, const V: usize>(
+    mut sim: Simulation<D, V>,
+    scene: &Scene,
+    path: &std::path::Path,
+) where
+    cleave::particles::Particles<D, V>: cleave::mpm::Saved,
+{
+    // (steps of the scene's size, past its end where it is that short)
+    for _ in 0..2 {
+        sim.advance(scene.time_step.dt)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    }
+    let ran: Vec<(Stage, u64)> = sim
+        .stage_times()
+        .stages
+        .iter()
+        .map(|t| (t.stage, t.runs))
+        .collect();
+    let planned: Vec<(Stage, u64)> = scene.plan.stages.iter().map(|&s| (s, 2)).collect();
+    assert_eq!(ran, planned, "{}", path.display());
+    // the fracture models declare and fill their columns in one function
+    let columns = sim.series_columns();
+    let row = sim.row();
+    assert_eq!(
+        columns.len(),
+        SeriesRow::COLUMNS.len() + row.extra.len(),
+        "{}: {columns:?}",
+        path.display()
+    );
+    // the core of every explicit step, whatever else the scene asks for
+    for core in [Stage::P2g, Stage::GridUpdate, Stage::Rebin] {
+        assert!(scene.plan.has(core), "{}: no {core}", path.display());
+    }
+    assert!(
+        scene.plan.has(Stage::G2p)
+            != (scene.plan.has(Stage::G2pVelocity) && scene.plan.has(Stage::G2pStress)),
+        "{}: USL or MUSL, not both",
+        path.display()
+    );
 }
 
 /// A scene without fracture or contact runs the three core stages and the
