@@ -23,8 +23,7 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 /// grid MPM's explicit core (issue 32: the grid, the transfers, the
 /// materials, contact and the walls are generic over the dimension); what
 /// is still 2D is refused here, naming the key: the fracture models
-/// (phase field, damage, DFG), initial cracks, and snapshots (the
-/// snapshot and its files hold 2D positions). Asked before a run is set up, so
+/// (phase field, damage, DFG) and initial cracks. Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
 /// writing or queueing anything.
 pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
@@ -57,12 +56,6 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
     }
     if let Some(i) = file.bodies.iter().position(|b| !b.cracks.is_empty()) {
         return not_yet(format!("bodies[{i}].cracks"), "an initial crack");
-    }
-    if file.output.snapshots > 0 {
-        return not_yet(
-            "output.snapshots".into(),
-            "writing snapshots (set output.snapshots = 0; the series is written)",
-        );
     }
     Ok(())
 }

@@ -1,8 +1,7 @@
 //! 3D scenes (issue 32, the scene side): a scene whose `grid.max` has
 //! three components describes a 3D problem; it validates with errors that
 //! name their field, seeds its bodies, and runs the explicit core; what is
-//! still 2D (fracture models, initial cracks, snapshots) is refused naming its
-//! key. 2D scenes serialise as before.
+//! still 2D (fracture models, initial cracks) is refused naming its key. 2D scenes serialise as before.
 
 use cleave::jobs::{JobConfig, JobError, JobManager};
 use cleave::scene::{Format, Scene, SceneError};
@@ -409,24 +408,29 @@ fn bad_3d_shapes_name_their_field() {
     );
 }
 
-/// A 3D scene runs the explicit core, but what is still 2D is refused,
-/// naming its key: here the snapshots a scene asks for by default (their
-/// files hold 2D positions); the same scene with `snapshots = 0` is built.
-/// A server's submit refuses it alike.
+/// A 3D scene runs the explicit core (and writes its snapshots), but what
+/// is still 2D is refused, naming its key: here a phase field. A server's
+/// submit refuses it alike.
 #[test]
 fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue() {
     let scene = Scene::from_text(BLOCK, Some(Format::Toml)).unwrap();
-    let e = match cleave::methods::build(&scene) {
-        Ok(_) => panic!("a 3D scene with snapshots was built"),
-        Err(e) => e,
-    };
-    assert_eq!(e.errors[0].path, "output.snapshots");
-    assert!(e.errors[0].reason.contains("not run yet"), "{e}");
-    let quiet = format!("{BLOCK}\n[output]\nsnapshots = 0\n");
-    let scene = Scene::from_text(&quiet, Some(Format::Toml)).unwrap();
-    let mut run = cleave::methods::build(&scene).expect("a 3D scene without snapshots runs");
+    let mut run = cleave::methods::build(&scene).expect("a 3D scene runs");
     run.step().expect("a 3D step");
     assert_eq!(run.particle_count(), 8 * 6 * 4 * 8);
+    let quiet = BLOCK.to_string();
+    let phase_field = BLOCK.replace(
+        "poissons_ratio = 0.3 }",
+        "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.1 } }",
+    );
+    let scene = Scene::from_text(&phase_field, Some(Format::Toml))
+        .expect("a 3D phase-field scene validates");
+    match cleave::methods::build(&scene) {
+        Ok(_) => panic!("a 3D phase field was built"),
+        Err(e) => {
+            assert_eq!(e.errors[0].path, "bodies[0].material.phase_field", "{e}");
+            assert!(e.errors[0].reason.contains("not run yet"), "{e}");
+        }
+    }
     // a fracture model is still 2D
     let cracked = quiet.replace(
         "poissons_ratio = 0.3 }",
@@ -452,10 +456,10 @@ fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue(
         checkpoint_every: None,
     })
     .unwrap();
-    match jobs.submit(BLOCK, Some(Format::Toml), "block") {
+    match jobs.submit(&phase_field, Some(Format::Toml), "block") {
         Err(JobError::Invalid(e)) => {
-            assert_eq!(e.errors[0].path, "output.snapshots", "{e}");
+            assert_eq!(e.errors[0].path, "bodies[0].material.phase_field", "{e}");
         }
-        other => panic!("expected a refusal naming output.snapshots, got {other:?}"),
+        other => panic!("expected a refusal naming the phase field, got {other:?}"),
     }
 }

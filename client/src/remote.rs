@@ -319,6 +319,11 @@ pub async fn validate(
         })
         .await?
         .into_inner();
+    // x, y and, for a 3D scene, z
+    let cells: Vec<u64> = [r.cells_x, r.cells_y]
+        .into_iter()
+        .chain((r.cells_z > 0).then_some(r.cells_z))
+        .collect();
     if json_out {
         let errors: Vec<_> = r
             .errors
@@ -327,17 +332,20 @@ pub async fn validate(
             .collect();
         println!(
             "{}",
-            json!({"status": if r.valid { "valid" } else { "invalid" }, "scene": path, "particles": r.particles, "cells": [r.cells_x, r.cells_y], "stages": r.stages, "memory_bytes": r.memory_bytes, "memory": r.memory, "time_step": {"dt": r.time_step, "steps": r.steps}, "errors": errors})
+            json!({"status": if r.valid { "valid" } else { "invalid" }, "scene": path, "particles": r.particles, "cells": cells, "stages": r.stages, "memory_bytes": r.memory_bytes, "memory": r.memory, "time_step": {"dt": r.time_step, "steps": r.steps}, "errors": errors})
         );
     }
     if r.valid {
         if !json_out {
             println!(
-                "{}: valid; {} particles, {} x {} cells; plan: {}",
+                "{}: valid; {} particles, {} cells; plan: {}",
                 path.display(),
                 r.particles,
-                r.cells_x,
-                r.cells_y,
+                cells
+                    .iter()
+                    .map(u64::to_string)
+                    .collect::<Vec<_>>()
+                    .join(" x "),
                 r.stages.join(" → ")
             );
             println!("  memory: {}", r.memory);
@@ -438,10 +446,19 @@ async fn fetch_snapshot(
         fetch_location(client, id, index, proto::Location::Particles).await?;
     let mut positions = Vec::new();
     let mut fields = Vec::new();
+    // 2 or 3 (a server older than 3D runs sends no dimension: 2)
+    let dimension = if info.dimension == 3 { 3 } else { 2 };
     for f in particle_fields {
         if f.name == "position" && positions.is_empty() {
             if let FieldData::F64(v) = &f.data {
-                positions = v.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+                positions = v
+                    .chunks_exact(dimension)
+                    .map(|c| {
+                        let mut x = [0.0; 3];
+                        x[..dimension].copy_from_slice(c);
+                        x
+                    })
+                    .collect();
             }
         } else {
             fields.push(f);
@@ -451,9 +468,9 @@ async fn fetch_snapshot(
         (Some(g), true) => {
             let (_, gf) = fetch_location(client, id, index, proto::Location::Grid).await?;
             Some(GridSnapshot {
-                origin: [g.origin_x, g.origin_y],
+                origin: [g.origin_x, g.origin_y, g.origin_z],
                 spacing: g.spacing,
-                dims: [g.nx as usize, g.ny as usize],
+                dims: [g.nx as usize, g.ny as usize, g.nz.max(1) as usize],
                 fields: gf,
             })
         }
@@ -463,6 +480,7 @@ async fn fetch_snapshot(
         index: info.index,
         step: info.step,
         time: info.time,
+        dimension,
         positions,
         fields,
         grid,

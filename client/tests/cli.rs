@@ -155,10 +155,9 @@ fn bad_input_exits_2_and_names_the_field() {
 }
 
 /// A 3D scene validates (exit 0, its particles and its three cell counts
-/// printed) and runs (`series.csv` with the 3D columns) when it asks only
-/// for what 3D runs; with snapshots (still 2D files) `run` refuses it as
-/// it refuses an invalid scene (exit 2), naming `output.snapshots`, and
-/// writes nothing; so does a study.
+/// printed) and runs (`series.csv` with the 3D columns, 3D VTK files);
+/// with a phase field (still 2D) `run` refuses it as it refuses an invalid
+/// scene (exit 2), naming the key, and writes nothing; so does a study.
 #[test]
 fn a_3d_scene_validates_and_runs_and_what_is_still_2d_is_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -180,10 +179,7 @@ velocity = [0.5, 0.0, -0.25]
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     assert!(stdout.contains("10 x 10 x 10 cells"), "{stdout}");
-    assert!(
-        stdout.contains("cannot be run yet: output.snapshots"),
-        "{stdout}"
-    );
+    assert!(!stdout.contains("cannot be run yet"), "{stdout}");
     let out = cleave()
         .args(["validate", "--json"])
         .arg(&scene)
@@ -196,24 +192,36 @@ velocity = [0.5, 0.0, -0.25]
     let expected = 4.0 / 3.0 * std::f64::consts::PI * 0.3f64.powi(3) / 0.05f64.powi(3);
     assert!((n - expected).abs() < 0.03 * expected, "{n} vs {expected}");
 
+    // a phase field is still 2D: refused by run and study, naming the key,
+    // before anything is written
+    let cracking = write(
+        dir.path(),
+        "cracking.toml",
+        text.replace(
+            "poissons_ratio = 0.3 }",
+            "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.2 } }",
+        )
+        .as_bytes(),
+    );
     let results = dir.path().join("out");
     let out = cleave()
         .arg("run")
-        .arg(&scene)
+        .arg(&cracking)
         .arg("--out")
         .arg(&results)
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("output.snapshots") && stderr(&out).contains("not run yet"),
+        stderr(&out).contains("bodies[0].material.phase_field")
+            && stderr(&out).contains("not run yet"),
         "{}",
         stderr(&out)
     );
     assert!(!results.exists());
     let out = cleave()
         .arg("study")
-        .arg(&scene)
+        .arg(&cracking)
         .args(["--vary", "bodies[0].particles_per_cell=1,8"])
         .args(["--metric", "final:momentum_x", "--out"])
         .arg(dir.path().join("study"))
@@ -221,26 +229,58 @@ velocity = [0.5, 0.0, -0.25]
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("output.snapshots"),
+        stderr(&out).contains("bodies[0].material.phase_field"),
         "{}",
         stderr(&out)
     );
 
-    // without snapshots it runs: the series has the 3D columns, and the
-    // momentum is the sphere's m v₀
-    let quiet = write(
-        dir.path(),
-        "quiet.toml",
-        format!("{text}\n[output]\nsnapshots = 0\n").as_bytes(),
-    );
+    // the elastic sphere runs: the series has the 3D columns, the momentum
+    // is the sphere's m v₀, and the snapshots are 3D (ParaView's shapes: a
+    // 3-vector velocity, a 6-component stress, points with their z, a grid
+    // over three axes)
     let out = cleave()
         .arg("run")
-        .arg(&quiet)
+        .arg(&scene)
         .arg("--out")
         .arg(&results)
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
+    let vtp = std::fs::read(results.join("particles_0000.vtp")).unwrap();
+    let vtp = String::from_utf8_lossy(&vtp);
+    for array in [
+        "Name=\"velocity\" NumberOfComponents=\"3\"",
+        "Name=\"stress\" NumberOfComponents=\"6\"",
+        "Name=\"strain\" NumberOfComponents=\"6\"",
+        "Name=\"position\" NumberOfComponents=\"3\"",
+    ] {
+        assert!(vtp.contains(array), "{array} not in the particles' file");
+    }
+    assert!(vtp.contains(&format!("NumberOfPoints=\"{}\"", n as u64)));
+    // the grid of the last snapshot (the first, at t = 0, has none yet)
+    let mut grids: Vec<_> = std::fs::read_dir(&results)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "vti"))
+        .collect();
+    grids.sort();
+    let vti = std::fs::read(grids.last().expect("a grid file")).unwrap();
+    let vti = String::from_utf8_lossy(&vti);
+    // 10 cells and the padding (PAD nodes) on each side, along every axis
+    let extent = vti
+        .split("WholeExtent=\"")
+        .nth(1)
+        .and_then(|t| t.split('"').next())
+        .unwrap()
+        .split(' ')
+        .map(|v| v.parse::<usize>().unwrap())
+        .collect::<Vec<_>>();
+    assert_eq!(extent.len(), 6);
+    assert!(
+        extent[1] >= 10 && extent[1] == extent[3] && extent[3] == extent[5],
+        "{extent:?}"
+    );
+    assert!(vti.contains("Name=\"velocity\" NumberOfComponents=\"3\""));
     let series = std::fs::read_to_string(results.join("series.csv")).unwrap();
     let mut lines = series.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

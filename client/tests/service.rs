@@ -268,6 +268,95 @@ fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
     );
 }
 
+/// A 3D job: the snapshots and the series fetched from a server are the
+/// files an embedded run writes, bit for bit, and ListSnapshots says the
+/// shapes a client needs to read them: dimension 3, positions and
+/// velocities of 3 components, stresses of 6, a grid with nz nodes along z.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_3d_job_fetches_what_an_embedded_run_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = Server::start(&dir.path().join("data"), &[]);
+    let scene = scenes().join("two_spheres_3d.toml");
+    let local = dir.path().join("local");
+    let o = Command::new(cleave_bin())
+        .args(["run", "--quiet"])
+        .arg(&scene)
+        .arg("--out")
+        .arg(&local)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut c = server.client().await;
+    let v = c
+        .validate_scene(proto::ValidateSceneRequest {
+            scene: std::fs::read_to_string(&scene).unwrap(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    assert!(v.valid);
+    assert_eq!((v.cells_x, v.cells_y, v.cells_z), (20, 20, 20));
+    let job = c
+        .submit_job(proto::SubmitJobRequest {
+            scene: std::fs::read_to_string(&scene).unwrap(),
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    wait_state(
+        &mut c,
+        &job.id,
+        proto::JobState::Succeeded,
+        Duration::from_secs(120),
+    )
+    .await;
+    let snaps = c
+        .list_snapshots(proto::ListSnapshotsRequest {
+            job_id: job.id.clone(),
+        })
+        .await
+        .unwrap()
+        .into_inner()
+        .snapshots;
+    assert_eq!(snaps.len(), 11);
+    let s = &snaps[0];
+    assert_eq!(s.dimension, 3);
+    let comps = |name: &str| {
+        s.particle_fields
+            .iter()
+            .find(|f| f.name == name)
+            .map(|f| f.components)
+    };
+    assert_eq!(s.particle_fields[0].name, "position");
+    assert_eq!(
+        [comps("position"), comps("velocity"), comps("stress")],
+        [Some(3), Some(3), Some(6)]
+    );
+    // the grid of the last snapshot (the first, at t = 0, has none yet)
+    let last = snaps.last().unwrap();
+    let g = last.grid.as_ref().unwrap();
+    assert!(g.nz > 20 && g.nx == g.nz && g.ny == g.nz, "{g:?}");
+    let mut chunks = c
+        .fetch_fields(proto::FetchFieldsRequest {
+            job_id: job.id.clone(),
+            snapshot: last.index,
+            location: proto::Location::Grid as i32,
+            fields: vec!["mass".into()],
+            ..Default::default()
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    let first = chunks.message().await.unwrap().unwrap();
+    assert_eq!(first.total, g.nx * g.ny * g.nz);
+    let remote = dir.path().join("remote");
+    let o = server.cli(&["fetch", &job.id, "--out", remote.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    same_files(&local, &remote);
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn errors_have_the_right_status_codes() {
     let dir = tempfile::tempdir().unwrap();

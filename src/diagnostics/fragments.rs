@@ -237,6 +237,8 @@ pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
     else {
         return None;
     };
+    // 2D or 3D velocities (the speed is their length); the centroid is x, y
+    let d = snap.dimension;
     let count = label
         .iter()
         .filter(|&&l| l != NONE)
@@ -257,7 +259,7 @@ pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
         if l == NONE
             || p >= mass.len()
             || p >= vol.len()
-            || 2 * p + 1 >= vel.len()
+            || d * (p + 1) > vel.len()
             || p >= snap.positions.len()
         {
             continue;
@@ -267,7 +269,11 @@ pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
         f.particles += 1;
         f.mass += m;
         f.volume += vol[p];
-        f.speed += m * (vel[2 * p] * vel[2 * p] + vel[2 * p + 1] * vel[2 * p + 1]).sqrt();
+        f.speed += m * vel[d * p..d * (p + 1)]
+            .iter()
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt();
         f.centroid[0] += m * snap.positions[p][0];
         f.centroid[1] += m * snap.positions[p][1];
     }

@@ -120,55 +120,75 @@ fn u32_field(name: &str, data: Vec<u32>) -> Field {
     }
 }
 
-/// Particle fields at this instant: velocity, stress and strain
-/// (xx, yy, xy, zz), mass, volume, material_id, body_id, particle_id.
-pub fn snapshot(
+/// Particle fields at this instant: velocity (`D` components), stress and
+/// strain (2D: xx, yy, xy, zz; 3D: the six components in VTK's order, see
+/// [`Field::components`]), mass, volume, material_id, body_id,
+/// particle_id, and the phase field, history and damage where the run has
+/// them. Positions go out as (x, y, z), z = 0 in 2D.
+pub fn snapshot<const D: usize, const V: usize>(
     index: u32,
     step: u64,
     time: f64,
-    parts: &Particles,
+    parts: &Particles<D, V>,
     mats: &[Elastic],
     grid: Option<GridSnapshot>,
 ) -> Snapshot {
     let n = parts.len();
-    let mut vel = Vec::with_capacity(2 * n);
-    let mut stress = Vec::with_capacity(4 * n);
-    let mut strain = Vec::with_capacity(4 * n);
+    let tensor = if D == 2 { 4 } else { 6 };
+    let mut vel = Vec::with_capacity(D * n);
+    let mut stress = Vec::with_capacity(tensor * n);
+    let mut strain = Vec::with_capacity(tensor * n);
     for p in 0..n {
         vel.extend_from_slice(&parts.v[p]);
         let mat = &mats[parts.material[p] as usize];
-        let s = parts.stress[p];
-        let (e, ezz) = match mat.model {
-            MaterialModel::LinearElastic => {
-                let e = parts.strain[p];
-                (e, mat.strain_zz(e))
-            }
-            MaterialModel::NeoHookean => {
-                // Green–Lagrange strain E = ½(FᵀF − I)
-                let [[f11, f12], [f21, f22]] = parts.def_grad[p];
-                let c11 = f11 * f11 + f21 * f21;
-                let c22 = f12 * f12 + f22 * f22;
-                let c12 = f11 * f12 + f21 * f22;
-                ([0.5 * (c11 - 1.0), 0.5 * (c22 - 1.0), 0.5 * c12], 0.0)
-            }
-        };
-        let szz = mat.stress_zz(
-            s,
-            parts.strain.get(p).copied(),
-            parts.def_grad.get(p).copied(),
-        );
-        stress.extend_from_slice(&[s[0], s[1], s[2], szz]);
-        strain.extend_from_slice(&[e[0], e[1], e[2], ezz]);
+        if D == 2 {
+            let (s, small) = (resize::<V, 3>(parts.stress[p]), e_of(parts, p));
+            let f = parts.def_grad.get(p).map(|&f| resize_mat::<D, 2>(f));
+            let (e, ezz) = match mat.model {
+                MaterialModel::LinearElastic => {
+                    let e = small.unwrap_or([0.0; 3]);
+                    (e, mat.strain_zz(e))
+                }
+                MaterialModel::NeoHookean => {
+                    // Green–Lagrange strain E = ½(FᵀF − I)
+                    let [[f11, f12], [f21, f22]] = f.unwrap_or([[1.0, 0.0], [0.0, 1.0]]);
+                    let c11 = f11 * f11 + f21 * f21;
+                    let c22 = f12 * f12 + f22 * f22;
+                    let c12 = f11 * f12 + f21 * f22;
+                    ([0.5 * (c11 - 1.0), 0.5 * (c22 - 1.0), 0.5 * c12], 0.0)
+                }
+            };
+            let szz = mat.stress_zz(s, small, f);
+            stress.extend_from_slice(&[s[0], s[1], s[2], szz]);
+            strain.extend_from_slice(&[e[0], e[1], e[2], ezz]);
+        } else {
+            let s = resize::<V, 6>(parts.stress[p]);
+            let e = match mat.model {
+                MaterialModel::LinearElastic => {
+                    parts.strain.get(p).map_or([0.0; 6], |&e| resize::<V, 6>(e))
+                }
+                MaterialModel::NeoHookean => {
+                    let f = parts
+                        .def_grad
+                        .get(p)
+                        .map_or(crate::tensor::identity::<3>(), |&f| resize_mat::<D, 3>(f));
+                    green_lagrange_3d(f)
+                }
+            };
+            stress.extend_from_slice(&vtk_order(s));
+            strain.extend_from_slice(&vtk_order(e));
+        }
     }
     Snapshot {
         index,
         step,
         time,
-        positions: parts.x.clone(),
+        dimension: D,
+        positions: parts.x.iter().map(|&x| resize::<D, 3>(x)).collect(),
         fields: vec![
-            f64_field("velocity", 2, vel),
-            f64_field("stress", 4, stress),
-            f64_field("strain", 4, strain),
+            f64_field("velocity", D, vel),
+            f64_field("stress", tensor, stress),
+            f64_field("strain", tensor, strain),
             f64_field("mass", 1, parts.mass.clone()),
             f64_field("volume", 1, parts.vol.clone()),
             u32_field(
@@ -187,39 +207,68 @@ pub fn snapshot(
     }
 }
 
+/// The 2D small strain of particle `p`, if the run keeps one.
+fn e_of<const D: usize, const V: usize>(parts: &Particles<D, V>, p: usize) -> Option<[f64; 3]> {
+    parts.strain.get(p).map(|&e| resize::<V, 3>(e))
+}
+
+/// A 3D symmetric tensor from the engine's Voigt order (xx, yy, zz, yz,
+/// xz, xy) into VTK's (xx, yy, zz, xy, yz, xz).
+fn vtk_order(a: [f64; 6]) -> [f64; 6] {
+    [a[0], a[1], a[2], a[5], a[3], a[4]]
+}
+
+/// The Green–Lagrange strain E = ½(FᵀF − I) of a 3D F, in Voigt order.
+fn green_lagrange_3d(f: [[f64; 3]; 3]) -> [f64; 6] {
+    let c = |a: usize, b: usize| (0..3).map(|k| f[k][a] * f[k][b]).sum::<f64>();
+    [
+        0.5 * (c(0, 0) - 1.0),
+        0.5 * (c(1, 1) - 1.0),
+        0.5 * (c(2, 2) - 1.0),
+        0.5 * c(1, 2),
+        0.5 * c(0, 2),
+        0.5 * c(0, 1),
+    ]
+}
+
 /// Nodal mass and velocity (momentum-weighted over the velocity fields) of
 /// the last step, on the whole padded lattice.
-pub fn grid_snapshot(
-    geom: &GridGeom,
-    grid: &GridFields,
+pub fn grid_snapshot<const D: usize>(
+    geom: &GridGeom<D>,
+    grid: &GridFields<D>,
     multi: Option<&MultiField>,
 ) -> GridSnapshot {
     let nodes = geom.node_count();
     let mut mass = grid.mass[..nodes].to_vec();
     let mut mom: Vec<f64> = (0..nodes)
-        .flat_map(|s| [grid.mass[s] * grid.vel[s][0], grid.mass[s] * grid.vel[s][1]])
+        .flat_map(|s| grid.vel[s].map(|v| grid.mass[s] * v))
         .collect();
     if let Some(m) = multi {
         for (k, &n) in m.extra_node.iter().enumerate() {
             let (s, n) = (nodes + k, n as usize);
             mass[n] += grid.mass[s];
-            mom[2 * n] += grid.mass[s] * grid.vel[s][0];
-            mom[2 * n + 1] += grid.mass[s] * grid.vel[s][1];
+            for a in 0..D {
+                mom[D * n + a] += grid.mass[s] * grid.vel[s][a];
+            }
         }
     }
     let vel = (0..nodes)
         .flat_map(|n| {
+            let mut v = [0.0; D];
             if mass[n] > 0.0 {
-                [mom[2 * n] / mass[n], mom[2 * n + 1] / mass[n]]
-            } else {
-                [0.0, 0.0]
+                for a in 0..D {
+                    v[a] = mom[D * n + a] / mass[n];
+                }
             }
+            v
         })
         .collect();
+    let mut dims = [1; 3];
+    dims[..D].copy_from_slice(&geom.nodes);
     GridSnapshot {
-        origin: geom.origin,
+        origin: resize::<D, 3>(geom.origin),
         spacing: geom.h,
-        dims: geom.nodes,
-        fields: vec![f64_field("mass", 1, mass), f64_field("velocity", 2, vel)],
+        dims,
+        fields: vec![f64_field("mass", 1, mass), f64_field("velocity", D, vel)],
     }
 }

@@ -138,10 +138,12 @@ impl FieldData {
 /// A named field on particles or grid nodes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Field {
-    /// e.g. `velocity`, `stress` (xx, yy, xy, zz), `particle_id`.
+    /// e.g. `velocity`, `stress`, `particle_id`.
     pub name: String,
-    /// Numbers per point: 1 scalar, 2 vector, 4 for the in-plane symmetric
-    /// tensors written as (xx, yy, xy, zz).
+    /// Numbers per point: 1 a scalar; 2 a 2D vector (x, y); 3 a 3D vector;
+    /// 4 a 2D run's symmetric tensor with its out-of-plane normal
+    /// component, (xx, yy, xy, zz); 6 a 3D symmetric tensor in VTK's
+    /// order, (xx, yy, zz, xy, yz, xz).
     pub components: usize,
     pub data: FieldData,
 }
@@ -149,12 +151,13 @@ pub struct Field {
 /// Grid fields of a snapshot on the uniform node lattice.
 #[derive(Debug, Clone, PartialEq)]
 pub struct GridSnapshot {
-    /// Coordinates of node (0, 0), m.
-    pub origin: [f64; 2],
+    /// Coordinates of node (0, 0, 0), m (z = 0 in 2D).
+    pub origin: [f64; 3],
     /// Node spacing, m.
     pub spacing: f64,
-    /// Nodes along x and y; node (i, j) has index i + j·dims[0].
-    pub dims: [usize; 2],
+    /// Nodes along x, y and z (1 in 2D); node (i, j, k) has index
+    /// i + dims[0]·(j + dims[1]·k).
+    pub dims: [usize; 3],
     /// Nodal fields (e.g. `mass`, `velocity`), summed over velocity fields.
     pub fields: Vec<Field>,
 }
@@ -166,8 +169,11 @@ pub struct Snapshot {
     pub index: u32,
     pub step: u64,
     pub time: f64,
-    /// Particle positions, m (x, y per particle).
-    pub positions: Vec<[f64; 2]>,
+    /// The run's dimension, 2 or 3: the number of components of a
+    /// position and of a vector field.
+    pub dimension: usize,
+    /// Particle positions, m (x, y, z; z = 0 in 2D).
+    pub positions: Vec<[f64; 3]>,
     /// Particle fields: velocity, stress, strain, mass, volume, material_id,
     /// body_id, particle_id, ...
     pub fields: Vec<Field>,

@@ -4,8 +4,10 @@
 //! ```text
 //! b"CLEAVESNAP1\n"  u64 header length  header (JSON)  arrays...
 //! ```
-//! Particle arrays come first (`position` as 2 components, then the
-//! snapshot's fields in order), then the grid's.
+//! Particle arrays come first (`position` as 2 components in 2D, 3 in 3D,
+//! then the snapshot's fields in order), then the grid's. The grid's
+//! `origin` and `dims` have one entry per dimension, so that a 2D file is
+//! byte for byte what it was before 3D runs wrote snapshots.
 
 use crate::diagnostics::{Field, FieldData, GridSnapshot, Snapshot};
 use serde::{Deserialize, Serialize};
@@ -46,10 +48,36 @@ pub struct ArrayInfo {
 /// Grid metadata of a stored snapshot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GridInfo {
-    pub origin: [f64; 2],
+    /// Node (0, 0[, 0]), m: one entry per dimension.
+    pub origin: Vec<f64>,
     pub spacing: f64,
-    pub dims: [usize; 2],
+    /// Nodes along each axis; as many as `origin`.
+    pub dims: Vec<usize>,
     pub fields: Vec<ArrayInfo>,
+}
+
+impl GridInfo {
+    /// The origin as (x, y, z), z = 0 in 2D.
+    pub fn origin3(&self) -> [f64; 3] {
+        let mut o = [0.0; 3];
+        self.origin
+            .iter()
+            .take(3)
+            .enumerate()
+            .for_each(|(a, &x)| o[a] = x);
+        o
+    }
+
+    /// The node counts as (x, y, z), z = 1 in 2D.
+    pub fn dims3(&self) -> [usize; 3] {
+        let mut d = [1; 3];
+        self.dims
+            .iter()
+            .take(3)
+            .enumerate()
+            .for_each(|(a, &n)| d[a] = n);
+        d
+    }
 }
 
 /// The header of a stored snapshot.
@@ -62,6 +90,35 @@ pub struct SnapshotHeader {
     /// `position` first, then the particle fields.
     pub fields: Vec<ArrayInfo>,
     pub grid: Option<GridInfo>,
+}
+
+impl SnapshotHeader {
+    /// 2 or 3: the components of `position` (2 when it is missing).
+    pub fn dimension(&self) -> usize {
+        self.fields
+            .iter()
+            .find(|a| a.name == "position")
+            .map_or(2, |a| a.components)
+    }
+
+    /// Why a header read from disk cannot be a snapshot's: a dimension
+    /// other than 2 or 3, or a grid of another dimension.
+    fn check(&self) -> Result<(), String> {
+        let d = self.dimension();
+        if d != 2 && d != 3 {
+            return Err(format!("position has {d} components, not 2 or 3"));
+        }
+        if let Some(g) = &self.grid {
+            if g.origin.len() != d || g.dims.len() != d {
+                return Err(format!(
+                    "the grid has {} origin and {} dims entries in a {d}D snapshot",
+                    g.origin.len(),
+                    g.dims.len()
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 fn io(path: &Path, e: std::io::Error) -> String {
@@ -86,17 +143,23 @@ pub fn write(path: &Path, snap: &Snapshot) -> Result<(), String> {
         offset += (len * dtype.size()) as u64;
         a
     };
-    let positions = FieldData::F64(snap.positions.iter().flat_map(|p| [p[0], p[1]]).collect());
-    let mut fields = vec![info("position", &positions, 2)];
+    let d = snap.dimension;
+    let positions = FieldData::F64(
+        snap.positions
+            .iter()
+            .flat_map(|p| p.iter().copied().take(d))
+            .collect(),
+    );
+    let mut fields = vec![info("position", &positions, d)];
     fields.extend(
         snap.fields
             .iter()
             .map(|f| info(&f.name, &f.data, f.components)),
     );
     let grid = snap.grid.as_ref().map(|g| GridInfo {
-        origin: g.origin,
+        origin: g.origin[..d].to_vec(),
         spacing: g.spacing,
-        dims: g.dims,
+        dims: g.dims[..d].to_vec(),
         fields: g
             .fields
             .iter()
@@ -161,6 +224,9 @@ impl SnapshotReader {
         file.read_exact(&mut json).map_err(|e| io(path, e))?;
         let header: SnapshotHeader = serde_json::from_slice(&json)
             .map_err(|e| format!("{}: corrupt header: {e}", path.display()))?;
+        header
+            .check()
+            .map_err(|e| format!("{}: corrupt header: {e}", path.display()))?;
         Ok(SnapshotReader {
             file,
             path: path.to_path_buf(),
@@ -207,13 +273,21 @@ impl SnapshotReader {
     /// Loads the whole snapshot.
     pub fn read_all(&mut self) -> Result<Snapshot, String> {
         let h = self.header.clone();
+        let d = h.dimension();
         let mut fields = Vec::new();
         let mut positions = Vec::new();
         for a in &h.fields {
             let data = self.read_array(a)?;
             if a.name == "position" && positions.is_empty() {
                 if let FieldData::F64(v) = data {
-                    positions = v.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+                    positions = v
+                        .chunks_exact(d)
+                        .map(|c| {
+                            let mut x = [0.0; 3];
+                            x[..d].copy_from_slice(c);
+                            x
+                        })
+                        .collect();
                 }
             } else {
                 fields.push(Field {
@@ -234,9 +308,9 @@ impl SnapshotReader {
                     });
                 }
                 Some(GridSnapshot {
-                    origin: g.origin,
+                    origin: g.origin3(),
                     spacing: g.spacing,
-                    dims: g.dims,
+                    dims: g.dims3(),
                     fields: gf,
                 })
             }
@@ -246,6 +320,7 @@ impl SnapshotReader {
             index: h.index,
             step: h.step,
             time: h.time,
+            dimension: d,
             positions,
             fields,
             grid,
@@ -263,7 +338,8 @@ mod tests {
             index: 2,
             step: 9,
             time: 1.25e-5,
-            positions: vec![[0.1, 0.2], [f64::MIN_POSITIVE, -3.0]],
+            dimension: 2,
+            positions: vec![[0.1, 0.2, 0.0], [f64::MIN_POSITIVE, -3.0, 0.0]],
             fields: vec![
                 Field {
                     name: "velocity".into(),
@@ -277,9 +353,9 @@ mod tests {
                 },
             ],
             grid: Some(GridSnapshot {
-                origin: [-1.0, -1.0],
+                origin: [-1.0, -1.0, 0.0],
                 spacing: 0.5,
-                dims: [2, 1],
+                dims: [2, 1, 1],
                 fields: vec![Field {
                     name: "mass".into(),
                     components: 1,
@@ -302,5 +378,62 @@ mod tests {
         assert_eq!(back.fields[1], snap.fields[1]);
         std::fs::write(&p, b"not a snapshot at all").unwrap();
         assert!(SnapshotReader::open(&p).is_err());
+    }
+
+    /// A 2D snapshot's header keeps the two-entry grid it always had (so
+    /// files written before 3D read the same); a 3D one round-trips with
+    /// three-component positions and a three-axis grid; a header whose grid
+    /// is of another dimension than its positions is refused as corrupt.
+    #[test]
+    fn the_dimension_is_the_positions_and_the_grids() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.bin");
+        let mut snap = Snapshot {
+            index: 0,
+            step: 1,
+            time: 0.0,
+            dimension: 3,
+            positions: vec![[0.1, 0.2, 0.3], [4.0, 5.0, -6.0]],
+            fields: vec![],
+            grid: Some(GridSnapshot {
+                origin: [-1.0, -2.0, -3.0],
+                spacing: 0.5,
+                dims: [2, 1, 3],
+                fields: vec![Field {
+                    name: "mass".into(),
+                    components: 1,
+                    data: FieldData::F64(vec![1.0; 6]),
+                }],
+            }),
+        };
+        write(&p, &snap).unwrap();
+        let r = SnapshotReader::open(&p).unwrap();
+        assert_eq!(r.header.dimension(), 3);
+        assert_eq!(r.header.fields[0].components, 3);
+        assert_eq!(r.header.grid.as_ref().unwrap().dims, [2, 1, 3]);
+        let back = { r }.read_all().unwrap();
+        assert_eq!(back, snap);
+
+        snap.dimension = 2;
+        snap.positions.iter_mut().for_each(|x| x[2] = 0.0);
+        let g = snap.grid.as_mut().unwrap();
+        (g.origin[2], g.dims, g.fields[0].data) = (0.0, [2, 1, 1], FieldData::F64(vec![1.0; 2]));
+        write(&p, &snap).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(text.contains("\"origin\":[-1.0,-2.0],\"spacing\":0.5,\"dims\":[2,1]"));
+        assert_eq!(SnapshotReader::open(&p).unwrap().read_all().unwrap(), snap);
+
+        // a 2D grid under 3D positions (`position` is the first array)
+        let key = b"\"components\":2";
+        let at = bytes.windows(key.len()).position(|w| w == key).unwrap() + key.len() - 1;
+        let mut bad = bytes.clone();
+        bad[at] = b'3';
+        std::fs::write(&p, bad).unwrap();
+        let e = SnapshotReader::open(&p).err().unwrap();
+        assert!(
+            e.contains("corrupt header") && e.contains("3D snapshot"),
+            "{e}"
+        );
     }
 }

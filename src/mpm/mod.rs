@@ -954,22 +954,10 @@ where
         Ok(())
     }
 
-    /// A snapshot to `obs`. 2D only so far: the snapshot, the VTK files
-    /// and the server's snapshot file hold 2D positions, and
-    /// [`crate::methods::runnable`] refuses a 3D scene that asks for
-    /// snapshots.
+    /// A snapshot to `obs`: the particles (and the grid, with
+    /// `output.grid_fields`) in the run's dimension, and what the fracture
+    /// models add.
     fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
-        match (self as &mut dyn std::any::Any).downcast_mut::<Simulation<2, 3>>() {
-            Some(sim) => sim.emit_snapshot_2d(obs),
-            None => Err(SimError::Observer(
-                "snapshots of a 3D run are not written yet (output.snapshots = 0)".into(),
-            )),
-        }
-    }
-}
-
-impl Simulation {
-    fn emit_snapshot_2d(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
         let t0 = Instant::now();
         let grid = if self.scene.file.output.grid_fields && self.grid_valid {
             Some(measure::grid_snapshot(

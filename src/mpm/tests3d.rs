@@ -277,3 +277,62 @@ fn three_d_results_do_not_depend_on_the_thread_count() {
     let (a, b) = (go(1), go(2));
     assert!(a == b, "1 and 2 threads differ");
 }
+
+/// A 3D snapshot: positions (x, y, z), the velocity as a 3-vector, and
+/// stress and strain as six components in VTK's order (xx, yy, zz, xy, yz,
+/// xz), the strain of a neo-Hookean particle its Green–Lagrange ½(FᵀF − I).
+#[test]
+fn a_3d_snapshot_has_z_and_its_tensors_in_vtk_order() {
+    let mut parts = Particles::<3, 6>::default();
+    let f = [[1.1, 0.2, 0.0], [0.0, 1.0, 0.3], [0.1, 0.0, 0.9]];
+    for p in 0..2 {
+        parts.id.push(p as u32);
+        parts.body.push(0);
+        parts.material.push(p as u16);
+        parts.group.push(0);
+        parts.x.push([1.0, 2.0, 3.0 + p as f64]);
+        parts.v.push([4.0, 5.0, 6.0]);
+        parts.mass.push(1.0);
+        parts.vol.push(1.0);
+        parts.vol0.push(1.0);
+        // xx yy zz yz xz xy
+        parts.stress.push([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        // a run with both laws keeps both arrays for every particle
+        parts.strain.push([0.1, 0.2, 0.3, 0.4, 0.5, 0.6]);
+        parts.def_grad.push(f);
+    }
+    let mats = [
+        material(MaterialModel::LinearElastic),
+        material(MaterialModel::NeoHookean),
+    ];
+    let snap = crate::diagnostics::measure::snapshot(0, 0, 0.0, &parts, &mats, None);
+    assert_eq!(snap.dimension, 3);
+    assert_eq!(snap.positions, [[1.0, 2.0, 3.0], [1.0, 2.0, 4.0]]);
+    let field = |name: &str| {
+        let f = snap.fields.iter().find(|f| f.name == name).unwrap();
+        match &f.data {
+            crate::diagnostics::FieldData::F64(v) => (f.components, v.clone()),
+            _ => panic!("{name} is not f64"),
+        }
+    };
+    assert_eq!(field("velocity"), (3, vec![4.0, 5.0, 6.0, 4.0, 5.0, 6.0]));
+    let (c, stress) = field("stress");
+    assert_eq!(c, 6);
+    assert_eq!(stress[..6], [1.0, 2.0, 3.0, 6.0, 4.0, 5.0]);
+    let (c, strain) = field("strain");
+    assert_eq!(c, 6);
+    assert_eq!(strain[..6], [0.1, 0.2, 0.3, 0.6, 0.4, 0.5]);
+    // C = FᵀF, E = ½(C − I), in VTK's order
+    let cc = |a: usize, b: usize| (0..3).map(|k| f[k][a] * f[k][b]).sum::<f64>();
+    let e = [
+        0.5 * (cc(0, 0) - 1.0),
+        0.5 * (cc(1, 1) - 1.0),
+        0.5 * (cc(2, 2) - 1.0),
+        0.5 * cc(0, 1),
+        0.5 * cc(1, 2),
+        0.5 * cc(0, 2),
+    ];
+    for (a, b) in strain[6..].iter().zip(e) {
+        assert!((a - b).abs() < 1e-15, "{a} vs {b}");
+    }
+}

@@ -503,7 +503,13 @@ mod tests {
             index: 0,
             step: 0,
             time: 0.0,
-            positions: vec![[0.0, 0.0], [1e-3, 0.0], [0.0, 1e-3], [1e-3, 1e-3]],
+            dimension: 2,
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [1e-3, 0.0, 0.0],
+                [0.0, 1e-3, 0.0],
+                [1e-3, 1e-3, 0.0],
+            ],
             fields: vec![Field {
                 name: "phase_field".into(),
                 components: 1,

@@ -8,7 +8,7 @@
 //! pictures as a desktop.
 
 use super::OutputError;
-use crate::diagnostics::SeriesRow;
+use crate::diagnostics::{FieldData, SeriesRow, Snapshot};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -538,15 +538,30 @@ fn particle_spacing(positions: &[[f64; 2]], x0: f64, y0: f64, w: f64, h: f64) ->
     (cells * cell * cell / n).sqrt()
 }
 
+/// The side of a particle's square in a picture of `snap` (mm, as
+/// `positions`): in 2D [`particle_spacing`]; a 3D snapshot is seen along z,
+/// where its particles' columns overlap, so there it is the mean cube root
+/// of their volume.
+fn view_spacing(snap: &Snapshot, positions: &[[f64; 2]], x0: f64, y0: f64, w: f64, h: f64) -> f64 {
+    match (snap.dimension, snap.field("volume")) {
+        (3, Some(FieldData::F64(vol))) if !vol.is_empty() => {
+            1e3 * vol.iter().map(|v| v.abs().cbrt()).sum::<f64>() / vol.len() as f64
+        }
+        _ => particle_spacing(positions, x0, y0, w, h),
+    }
+}
+
 /// An image of one scalar particle field (the phase field, the damage) on
 /// the deformed particles: each particle a square of its spacing coloured
 /// from `lo` to `hi` ([`viridis`]), the most broken drawn last so that a
 /// thin crack is not hidden under intact neighbours, on axes in mm, with
-/// a colour bar naming the field and the range of its values. Ok(false)
-/// and nothing written when the snapshot has no such field or no particle.
+/// a colour bar naming the field and the range of its values. A 3D
+/// snapshot is drawn seen along z (x across, y up): each column of
+/// particles shows its most broken one. Ok(false) and nothing written when
+/// the snapshot has no such field or no particle.
 pub fn plot_particle_field(
     path: &Path,
-    snap: &crate::diagnostics::Snapshot,
+    snap: &Snapshot,
     field: &str,
     lo: f64,
     hi: f64,
@@ -556,7 +571,7 @@ pub fn plot_particle_field(
         .iter()
         .find(|f| f.name == field && f.components == 1)
         .and_then(|f| match &f.data {
-            crate::diagnostics::FieldData::F64(v) => Some(v),
+            FieldData::F64(v) => Some(v),
             _ => None,
         })
     else {
@@ -586,7 +601,7 @@ pub fn plot_particle_field(
         y1 = y1.max(p[1]);
     }
     let positions: Vec<[f64; 2]> = pts.iter().map(|(p, _)| *p).collect();
-    let spacing = particle_spacing(&positions, x0, y0, x1 - x0, y1 - y0)
+    let spacing = view_spacing(snap, &positions, x0, y0, x1 - x0, y1 - y0)
         .max(1e-6 * (x1 - x0).max(y1 - y0))
         .max(f64::MIN_POSITIVE);
     // the particles' squares reach half a spacing beyond their centres
@@ -739,6 +754,7 @@ pub fn plot_particle_field(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diagnostics::Field;
 
     #[test]
     fn plots_survive_nan_and_flat_data() {
@@ -751,6 +767,62 @@ mod tests {
         assert!(plot_energies(&p, &rows).unwrap());
         assert!(std::fs::metadata(&p).unwrap().len() > 1000);
         assert!(!plot_energies(&dir.path().join("one.png"), &rows[..1]).unwrap());
+    }
+
+    /// A 3D block seen along z: each particle's square is its spacing
+    /// (the cube root of its volume), not the far smaller side the area
+    /// per particle of the overlapping columns gives; the picture is drawn.
+    #[test]
+    fn a_3d_snapshot_is_drawn_along_z_with_squares_of_its_spacing() {
+        let (n, h) = (6, 1e-3);
+        let mut positions = Vec::new();
+        let mut damage = Vec::new();
+        for k in 0..n {
+            for j in 0..n {
+                for i in 0..n {
+                    positions.push([i as f64 * h, j as f64 * h, k as f64 * h]);
+                    damage.push(if i == 3 { 1.0 } else { 0.0 });
+                }
+            }
+        }
+        let count = positions.len();
+        let snap = Snapshot {
+            index: 0,
+            step: 0,
+            time: 0.0,
+            dimension: 3,
+            positions,
+            fields: vec![
+                Field {
+                    name: "damage".into(),
+                    components: 1,
+                    data: FieldData::F64(damage),
+                },
+                Field {
+                    name: "volume".into(),
+                    components: 1,
+                    data: FieldData::F64(vec![h * h * h; count]),
+                },
+            ],
+            grid: None,
+        };
+        let mm: Vec<[f64; 2]> = snap
+            .positions
+            .iter()
+            .map(|p| [1e3 * p[0], 1e3 * p[1]])
+            .collect();
+        let side = 1e3 * h * (n - 1) as f64;
+        let s = view_spacing(&snap, &mm, 0.0, 0.0, side, side);
+        assert!((s - 1.0).abs() < 1e-12, "{s}");
+        let flat = Snapshot {
+            dimension: 2,
+            ..snap.clone()
+        };
+        assert!(view_spacing(&flat, &mm, 0.0, 0.0, side, side) < 0.5);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("d.png");
+        assert!(plot_particle_field(&p, &snap, "damage", 0.0, 1.0).unwrap());
+        assert!(std::fs::metadata(&p).unwrap().len() > 1000);
     }
 
     #[test]

@@ -28,7 +28,7 @@ enum Values<'a> {
     /// order (xx, yy, zz, xy, yz, xz) with yz = xz = 0.
     SymTensor2(&'a [f64]),
     U32(&'a [u32]),
-    Points(&'a [[f64; 2]]),
+    Points(&'a [[f64; 3]]),
     Iota(usize),
     IotaFrom1(usize),
 }
@@ -61,11 +61,10 @@ impl Values<'_> {
                     .try_for_each(|x| w.write_all(&x.to_le_bytes()))
             }),
             Values::U32(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
-            Values::Points(p) => p.iter().try_for_each(|x| {
-                w.write_all(&x[0].to_le_bytes())?;
-                w.write_all(&x[1].to_le_bytes())?;
-                w.write_all(&0f64.to_le_bytes())
-            }),
+            Values::Points(p) => p
+                .iter()
+                .flatten()
+                .try_for_each(|x| w.write_all(&x.to_le_bytes())),
             Values::Iota(n) => (0..*n as i64).try_for_each(|k| w.write_all(&k.to_le_bytes())),
             Values::IotaFrom1(n) => (1..=*n as i64).try_for_each(|k| w.write_all(&k.to_le_bytes())),
         }
@@ -172,14 +171,25 @@ pub fn write_particles_vtp(path: &Path, snap: &Snapshot) -> Result<(), OutputErr
 
 /// Grid nodes as VTK ImageData with the nodal fields as point data.
 pub fn write_grid_vti(path: &Path, grid: &GridSnapshot) -> Result<(), OutputError> {
-    let [nx, ny] = grid.dims;
+    let [nx, ny, nz] = grid.dims;
     let (o, h) = (grid.origin, grid.spacing);
-    let extent = format!("0 {} 0 {} 0 0", nx.saturating_sub(1), ny.saturating_sub(1));
+    let extent = format!(
+        "0 {} 0 {} 0 {}",
+        nx.saturating_sub(1),
+        ny.saturating_sub(1),
+        nz.saturating_sub(1)
+    );
+    // a 2D grid's plane is z = 0, written as the files have always had it
+    let z = if nz <= 1 && o[2] == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{:?}", o[2])
+    };
     let mut xml = String::from(HEADER);
     let _ = writeln!(xml, "<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">");
     let _ = writeln!(
         xml,
-        "  <ImageData WholeExtent=\"{extent}\" Origin=\"{:?} {:?} 0\" Spacing=\"{h:?} {h:?} {h:?}\">",
+        "  <ImageData WholeExtent=\"{extent}\" Origin=\"{:?} {:?} {z}\" Spacing=\"{h:?} {h:?} {h:?}\">",
         o[0], o[1]
     );
     let _ = writeln!(xml, "    <Piece Extent=\"{extent}\">");
@@ -217,7 +227,8 @@ mod tests {
             index: 0,
             step: 3,
             time: 1.5e-6,
-            positions: vec![[0.1, 0.2], [0.3, -0.4], [1e-300, 7.0]],
+            dimension: 2,
+            positions: vec![[0.1, 0.2, 0.0], [0.3, -0.4, 0.0], [1e-300, 7.0, 0.0]],
             fields: vec![
                 Field {
                     name: "velocity".into(),
@@ -231,9 +242,9 @@ mod tests {
                 },
             ],
             grid: Some(GridSnapshot {
-                origin: [-0.2, -0.2],
+                origin: [-0.2, -0.2, 0.0],
                 spacing: 0.1,
-                dims: [2, 2],
+                dims: [2, 2, 1],
                 fields: vec![Field {
                     name: "mass".into(),
                     components: 1,
@@ -340,6 +351,59 @@ mod tests {
                 0.0, 0.0
             ]
         );
+    }
+
+    /// A 3D snapshot: positions with their z, a 3-vector and a symmetric
+    /// tensor already in VTK's order go out as they are; the grid spans
+    /// three axes from a 3D origin.
+    #[test]
+    fn a_3d_snapshot_goes_out_as_it_is() {
+        let dir = tempfile::tempdir().unwrap();
+        let snap = Snapshot {
+            index: 0,
+            step: 1,
+            time: 0.0,
+            dimension: 3,
+            positions: vec![[0.1, 0.2, 0.3], [-0.4, 0.5, -0.6]],
+            fields: vec![
+                Field {
+                    name: "velocity".into(),
+                    components: 3,
+                    data: FieldData::F64(vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]),
+                },
+                Field {
+                    name: "stress".into(),
+                    components: 6,
+                    data: FieldData::F64((1..=12).map(f64::from).collect()),
+                },
+            ],
+            grid: Some(GridSnapshot {
+                origin: [-0.2, -0.1, 0.5],
+                spacing: 0.1,
+                dims: [2, 3, 4],
+                fields: vec![Field {
+                    name: "mass".into(),
+                    components: 1,
+                    data: FieldData::F64((0..24).map(f64::from).collect()),
+                }],
+            }),
+        };
+        let p = dir.path().join("p.vtp");
+        write_particles_vtp(&p, &snap).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(text.contains("Name=\"velocity\" NumberOfComponents=\"3\""));
+        assert!(text.contains("Name=\"stress\" NumberOfComponents=\"6\""));
+        let b = blocks(&bytes);
+        assert_eq!(f64s(&b[0]), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+        assert_eq!(f64s(&b[1]), (1..=12).map(f64::from).collect::<Vec<_>>());
+        assert_eq!(f64s(&b[2]), [0.1, 0.2, 0.3, -0.4, 0.5, -0.6]);
+        let g = dir.path().join("g.vti");
+        write_grid_vti(&g, snap.grid.as_ref().unwrap()).unwrap();
+        let bytes = std::fs::read(&g).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(text.contains("WholeExtent=\"0 1 0 2 0 3\" Origin=\"-0.2 -0.1 0.5\""));
+        assert_eq!(f64s(&blocks(&bytes)[0]).len(), 24);
     }
 
     #[test]

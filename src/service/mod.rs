@@ -207,14 +207,20 @@ fn snapshot_to_proto(h: &jobs::SnapshotHeader) -> proto::SnapshotInfo {
         time: h.time,
         particles: h.particles as u64,
         particle_fields: h.fields.iter().map(field_info).collect(),
-        grid: h.grid.as_ref().map(|g| proto::GridInfo {
-            origin_x: g.origin[0],
-            origin_y: g.origin[1],
-            spacing: g.spacing,
-            nx: g.dims[0] as u64,
-            ny: g.dims[1] as u64,
-            fields: g.fields.iter().map(field_info).collect(),
+        grid: h.grid.as_ref().map(|g| {
+            let ([x, y, z], [nx, ny, nz]) = (g.origin3(), g.dims3());
+            proto::GridInfo {
+                origin_x: x,
+                origin_y: y,
+                origin_z: z,
+                spacing: g.spacing,
+                nx: nx as u64,
+                ny: ny as u64,
+                nz: nz as u64,
+                fields: g.fields.iter().map(field_info).collect(),
+            }
         }),
+        dimension: h.dimension() as u32,
     }
 }
 
@@ -515,6 +521,7 @@ impl Cleave for CleaveService {
                 stages: scene.plan.names().into_iter().map(String::from).collect(),
                 cells_x: scene.cells[0] as u64,
                 cells_y: scene.cells[1] as u64,
+                cells_z: scene.cells_z.unwrap_or(0) as u64,
                 memory_bytes: scene.memory.total(),
                 memory: scene.memory.to_string(),
                 time_step: scene.time_step.dt,
