@@ -21,9 +21,11 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 
 /// Whether some method runs `scene`, or why none does. A 3D scene runs the
 /// grid MPM's explicit core (issue 32: the grid, the transfers, the
-/// materials, contact and the walls are generic over the dimension); what
-/// is still 2D is refused here, naming the key: the fracture models
-/// (phase field, damage, DFG) and initial cracks. Asked before a run is set up, so
+/// materials, contact and the walls are generic over the dimension), and
+/// continuum damage (`materials.NAME.damage`: Rankine, time to failure,
+/// Weibull strengths, fragments); what is still 2D is refused here,
+/// naming the key: the phase field, DFG partitioning, initial cracks and
+/// crack origins (2D polylines and an in-plane tip tracker). Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
 /// writing or queueing anything.
 pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
@@ -34,7 +36,7 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
     let not_yet = |path: String, what: &str| {
         Err(SceneError::single(
             &path,
-            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions)"),
+            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; and continuum damage)"),
         ))
     };
     // a fracture model, named at its body's material
@@ -47,15 +49,15 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
         if m.phase_field().is_some() {
             return not_yet(format!("{key}.phase_field"), "a phase field");
         }
-        if m.damage().is_some() {
-            return not_yet(format!("{key}.damage"), "a damage model");
-        }
     }
     if file.dfg.is_some() {
         return not_yet("dfg".into(), "DFG partitioning");
     }
     if let Some(i) = file.bodies.iter().position(|b| !b.cracks.is_empty()) {
         return not_yet(format!("bodies[{i}].cracks"), "an initial crack");
+    }
+    if let Some(i) = file.bodies.iter().position(|b| b.crack_origin.is_some()) {
+        return not_yet(format!("bodies[{i}].crack_origin"), "tracking a crack tip");
     }
     Ok(())
 }

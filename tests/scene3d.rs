@@ -1,7 +1,9 @@
 //! 3D scenes (issue 32, the scene side): a scene whose `grid.max` has
 //! three components describes a 3D problem; it validates with errors that
-//! name their field, seeds its bodies, and runs the explicit core; what is
-//! still 2D (fracture models, initial cracks) is refused naming its key. 2D scenes serialise as before.
+//! name their field, seeds its bodies, and runs the explicit core,
+//! continuum damage and snapshots; what is still 2D (the phase field, DFG,
+//! initial cracks and crack origins) is refused naming its key. 2D scenes
+//! serialise as before.
 
 use cleave::jobs::{JobConfig, JobError, JobManager};
 use cleave::scene::{Format, Scene, SceneError};
@@ -431,16 +433,34 @@ fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue(
             assert!(e.errors[0].reason.contains("not run yet"), "{e}");
         }
     }
-    // a fracture model is still 2D
-    let cracked = quiet.replace(
+    // continuum damage runs in 3D
+    let damaged = quiet.replace(
         "poissons_ratio = 0.3 }",
         "poissons_ratio = 0.3, damage = { model = \"rankine\", strength = 1.0e4, fracture_energy = 10.0 } }",
     );
     let scene =
-        Scene::from_text(&cracked, Some(Format::Toml)).expect("a 3D damage scene validates");
-    match cleave::methods::build(&scene) {
-        Ok(_) => panic!("a 3D damage model was built"),
-        Err(e) => assert_eq!(e.errors[0].path, "bodies[0].material.damage", "{e}"),
+        Scene::from_text(&damaged, Some(Format::Toml)).expect("a 3D damage scene validates");
+    let mut run = cleave::methods::build(&scene).expect("a 3D damage scene runs");
+    run.step().expect("a 3D step with damage");
+    // DFG partitioning and a tracked crack tip are still 2D
+    for (text, key) in [
+        (format!("{damaged}\n[dfg]\n"), "dfg"),
+        (
+            damaged.replace(
+                "velocity = [0.0, 0.0, -1.0]",
+                "velocity = [0.0, 0.0, -1.0]\ncrack_origin = [0.3, 0.2, 0.2]",
+            ),
+            "bodies[0].crack_origin",
+        ),
+    ] {
+        let scene = Scene::from_text(&text, Some(Format::Toml)).expect("the 3D scene validates");
+        match cleave::methods::build(&scene) {
+            Ok(_) => panic!("a 3D scene with {key} was built"),
+            Err(e) => {
+                assert_eq!(e.errors[0].path, key, "{e}");
+                assert!(e.errors[0].reason.contains("not run yet"), "{e}");
+            }
+        }
     }
     let flat = Scene::from_text(FLAT, Some(Format::Toml)).unwrap();
     assert!(cleave::methods::build(&flat).is_ok());

@@ -11,6 +11,13 @@
 //! more than 6 %, and never across the one-particle-wide band that a
 //! crack leaves damaged. A fragment is one connected set.
 //!
+//! In 3D (`D` = 3) the same rule: a particle links to its 18 face and
+//! edge neighbours (1 and √2 spacings; the corner ones at √3 are beyond
+//! 1.5), which connect a lattice as the 8 do in 2D, and never across a
+//! damaged layer one particle thick. Positions, velocities and centroids
+//! have `D` components; the sums over axes go in axis order, so 2D gives
+//! the numbers it gave before 3D.
+//!
 //! Deterministic: union-find over particles in index order, every set
 //! rooted at its smallest index, fragments numbered by decreasing
 //! particle count and then by smallest particle index. The same particle
@@ -25,7 +32,7 @@ const LINK: f64 = 1.5;
 
 /// One fragment.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Fragment {
+pub struct Fragment<const D: usize = 2> {
     pub particles: u32,
     /// Σ m_p, kg.
     pub mass: f64,
@@ -34,16 +41,16 @@ pub struct Fragment {
     /// Mass-weighted mean |v_p|, m/s.
     pub speed: f64,
     /// Centre of mass, m.
-    pub centroid: [f64; 2],
+    pub centroid: [f64; D],
 }
 
 /// Fragments of one instant.
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct Fragments {
+pub struct Fragments<const D: usize = 2> {
     /// Per particle: its fragment's number (0 = the largest), or [`NONE`].
     pub label: Vec<u32>,
     /// The fragments, largest first.
-    pub list: Vec<Fragment>,
+    pub list: Vec<Fragment<D>>,
 }
 
 /// Reusable work space of [`find`] (cell lists and the union-find forest).
@@ -70,25 +77,25 @@ impl FragmentFinder {
     /// `spacing[b]` is body b's initial particle spacing, m.
     // one argument per particle array it reads (struct of arrays)
     #[allow(clippy::too_many_arguments)]
-    pub fn find(
+    pub fn find<const D: usize>(
         &mut self,
-        x: &[[f64; 2]],
-        v: &[[f64; 2]],
+        x: &[[f64; D]],
+        v: &[[f64; D]],
         mass: &[f64],
         vol: &[f64],
         spacing: &[f64],
         body: &[u16],
         eligible: impl Fn(usize) -> bool,
-    ) -> Fragments {
+    ) -> Fragments<D> {
         let n = x.len();
         let ok: Vec<bool> = (0..n)
             .map(|p| eligible(p) && x[p].iter().all(|c| c.is_finite()))
             .collect();
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
+        let mut lo = [f64::INFINITY; D];
+        let mut hi = [f64::NEG_INFINITY; D];
         let mut reach: f64 = 0.0;
         for p in (0..n).filter(|&p| ok[p]) {
-            for k in 0..2 {
+            for k in 0..D {
                 lo[k] = lo[k].min(x[p][k]);
                 hi[k] = hi[k].max(x[p][k]);
             }
@@ -99,18 +106,33 @@ impl FragmentFinder {
         if reach > 0.0 && reach.is_finite() {
             // Cell lists with cells at least the largest link distance wide:
             // every link is between particles of the same or adjacent cells.
-            let dims =
-                [0, 1].map(|k| (((hi[k] - lo[k]) / reach).floor() as usize + 1).min(1 << 15));
-            let cell = [0, 1].map(|k| ((hi[k] - lo[k]) / dims[k] as f64).max(reach));
-            let ncell = dims[0] * dims[1];
+            // At most 2^15 cells along an axis and 2^24 in all (a stray
+            // particle far away makes the cells larger, not more).
+            let mut dims: [usize; D] = std::array::from_fn(|k| {
+                (((hi[k] - lo[k]) / reach).floor() as usize + 1).min(1 << 15)
+            });
+            while dims.iter().product::<usize>() > 1 << 24 {
+                dims = dims.map(|c| c.div_ceil(2));
+            }
+            let cell: [f64; D] =
+                std::array::from_fn(|k| ((hi[k] - lo[k]) / dims[k] as f64).max(reach));
+            let ncell: usize = dims.iter().product();
             let index =
                 |p: usize, k: usize| (((x[p][k] - lo[k]) / cell[k]) as usize).min(dims[k] - 1);
+            // the cell of p: x innermost
+            let cell_index = |p: usize| {
+                let mut c = index(p, D - 1);
+                for k in (0..D - 1).rev() {
+                    c = c * dims[k] + index(p, k);
+                }
+                c
+            };
             self.cell_of.clear();
             self.cell_of.resize(n, u32::MAX);
             self.start.clear();
             self.start.resize(ncell + 1, 0);
             for p in (0..n).filter(|&p| ok[p]) {
-                let c = index(p, 0) + index(p, 1) * dims[0];
+                let c = cell_index(p);
                 self.cell_of[p] = c as u32;
                 self.start[c + 1] += 1;
             }
@@ -129,32 +151,47 @@ impl FragmentFinder {
                 if !ok[p] {
                     continue;
                 }
-                let c = self.cell_of[p] as usize;
-                let (ci, cj) = (c % dims[0], c / dims[0]);
-                for cj2 in cj.saturating_sub(1)..(cj + 2).min(dims[1]) {
-                    for ci2 in ci.saturating_sub(1)..(ci + 2).min(dims[0]) {
-                        let c2 = ci2 + cj2 * dims[0];
-                        for &q in &self.order[self.start[c2] as usize..self.start[c2 + 1] as usize]
-                        {
-                            let q = q as usize;
-                            if q <= p || body[q] != body[p] {
-                                continue;
-                            }
-                            let l = LINK * spacing[body[p] as usize];
-                            let d = [x[q][0] - x[p][0], x[q][1] - x[p][1]];
-                            if d[0] * d[0] + d[1] * d[1] > l * l {
-                                continue;
-                            }
-                            let (a, b) = (
-                                root(&mut self.parent, p as u32),
-                                root(&mut self.parent, q as u32),
-                            );
-                            if a != b {
-                                // the smaller index is the root: labels do not
-                                // depend on the order links are found in
-                                let (r, s) = if a < b { (a, b) } else { (b, a) };
-                                self.parent[s as usize] = r;
-                            }
+                let mut rest = self.cell_of[p] as usize;
+                let mut at = [0usize; D];
+                for k in 0..D {
+                    at[k] = rest % dims[k];
+                    rest /= dims[k];
+                }
+                // the 3^D cells around p's (fewer at the edges), x innermost
+                'around: for off in 0..3usize.pow(D as u32) {
+                    let (mut c2, mut stride, mut o) = (0, 1, off);
+                    for k in 0..D {
+                        let a = at[k] + o % 3;
+                        o /= 3;
+                        if a == 0 || a > dims[k] {
+                            continue 'around;
+                        }
+                        c2 += (a - 1) * stride;
+                        stride *= dims[k];
+                    }
+                    for &q in &self.order[self.start[c2] as usize..self.start[c2 + 1] as usize] {
+                        let q = q as usize;
+                        if q <= p || body[q] != body[p] {
+                            continue;
+                        }
+                        let l = LINK * spacing[body[p] as usize];
+                        let mut d2 = 0.0;
+                        for k in 0..D {
+                            let d = x[q][k] - x[p][k];
+                            d2 += d * d;
+                        }
+                        if d2 > l * l {
+                            continue;
+                        }
+                        let (a, b) = (
+                            root(&mut self.parent, p as u32),
+                            root(&mut self.parent, q as u32),
+                        );
+                        if a != b {
+                            // the smaller index is the root: labels do not
+                            // depend on the order links are found in
+                            let (r, s) = if a < b { (a, b) } else { (b, a) };
+                            self.parent[s as usize] = r;
                         }
                     }
                 }
@@ -162,7 +199,8 @@ impl FragmentFinder {
         }
         // Fragments by root, first seen = smallest index (roots are minima).
         let mut slot = vec![NONE; n];
-        let mut list: Vec<(u32, Fragment, [f64; 3])> = Vec::new();
+        // per fragment: Σ m|v| and Σ m x
+        let mut list: Vec<(u32, Fragment<D>, f64, [f64; D])> = Vec::new();
         let mut label = vec![NONE; n];
         for p in 0..n {
             if !ok[p] {
@@ -178,25 +216,27 @@ impl FragmentFinder {
                         mass: 0.0,
                         volume: 0.0,
                         speed: 0.0,
-                        centroid: [0.0; 2],
+                        centroid: [0.0; D],
                     },
-                    [0.0; 3],
+                    0.0,
+                    [0.0; D],
                 ));
             }
             let k = slot[r] as usize;
             label[p] = k as u32;
-            let (_, f, acc) = &mut list[k];
+            let (_, f, mv, mx) = &mut list[k];
             f.particles += 1;
             f.mass += mass[p];
             f.volume += vol[p];
-            acc[0] += mass[p] * (v[p][0] * v[p][0] + v[p][1] * v[p][1]).sqrt();
-            acc[1] += mass[p] * x[p][0];
-            acc[2] += mass[p] * x[p][1];
+            *mv += mass[p] * crate::tensor::norm(v[p]);
+            for a in 0..D {
+                mx[a] += mass[p] * x[p][a];
+            }
         }
-        for (_, f, acc) in &mut list {
+        for (_, f, mv, mx) in &mut list {
             if f.mass > 0.0 {
-                f.speed = acc[0] / f.mass;
-                f.centroid = [acc[1] / f.mass, acc[2] / f.mass];
+                f.speed = *mv / f.mass;
+                f.centroid = mx.map(|s| s / f.mass);
             }
         }
         // Largest first; ties by smallest particle index.
@@ -225,9 +265,13 @@ impl FragmentFinder {
 /// The fragment table of a snapshot from its `fragment` labels and its
 /// `mass`, `volume` and `velocity` fields (what [`FragmentFinder::find`]
 /// returned, rebuilt from what a snapshot carries, so a remote client can
-/// write it too). None if the snapshot has no `fragment` field.
-pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
+/// write it too). None if the snapshot has no `fragment` field or is not
+/// of dimension `D`.
+pub fn from_snapshot<const D: usize>(snap: &super::Snapshot) -> Option<Vec<Fragment<D>>> {
     use super::FieldData;
+    if snap.dimension != D {
+        return None;
+    }
     let field = |name: &str| snap.field(name);
     let Some(FieldData::U32(label)) = field("fragment") else {
         return None;
@@ -237,8 +281,6 @@ pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
     else {
         return None;
     };
-    // 2D or 3D velocities (the speed is their length); the centroid is x, y
-    let d = snap.dimension;
     let count = label
         .iter()
         .filter(|&&l| l != NONE)
@@ -251,7 +293,7 @@ pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
             mass: 0.0,
             volume: 0.0,
             speed: 0.0,
-            centroid: [0.0; 2]
+            centroid: [0.0; D]
         };
         count
     ];
@@ -259,7 +301,7 @@ pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
         if l == NONE
             || p >= mass.len()
             || p >= vol.len()
-            || d * (p + 1) > vel.len()
+            || D * (p + 1) > vel.len()
             || p >= snap.positions.len()
         {
             continue;
@@ -269,18 +311,19 @@ pub fn from_snapshot(snap: &super::Snapshot) -> Option<Vec<Fragment>> {
         f.particles += 1;
         f.mass += m;
         f.volume += vol[p];
-        f.speed += m * vel[d * p..d * (p + 1)]
+        f.speed += m * vel[D * p..D * (p + 1)]
             .iter()
             .map(|v| v * v)
             .sum::<f64>()
             .sqrt();
-        f.centroid[0] += m * snap.positions[p][0];
-        f.centroid[1] += m * snap.positions[p][1];
+        for a in 0..D {
+            f.centroid[a] += m * snap.positions[p][a];
+        }
     }
     for f in &mut list {
         if f.mass > 0.0 {
             f.speed /= f.mass;
-            f.centroid = [f.centroid[0] / f.mass, f.centroid[1] / f.mass];
+            f.centroid = f.centroid.map(|c| c / f.mass);
         }
     }
     Some(list)
@@ -344,5 +387,43 @@ mod tests {
         );
         assert_eq!(f.list.len(), 3);
         assert_eq!(f.label, vec![0, 0, 1, 2]);
+    }
+    /// In 3D: a 5 × 3 × 3 lattice of spacing 1 cut by a damaged layer at
+    /// i = 2 is two fragments; particles that touch only across a cube's
+    /// corner (√3 spacings) do not link.
+    #[test]
+    fn a_damaged_layer_cuts_a_3d_lattice_and_corners_do_not_link() {
+        let mut x = Vec::new();
+        for k in 0..3 {
+            for j in 0..3 {
+                for i in 0..5 {
+                    x.push([i as f64, j as f64, k as f64]);
+                }
+            }
+        }
+        let n = x.len();
+        let v: Vec<[f64; 3]> = (0..n).map(|p| [0.0, 0.0, x[p][0]]).collect();
+        let ones = vec![1.0; n];
+        let f = FragmentFinder::default().find(&x, &v, &ones, &ones, &[1.0], &vec![0; n], |p| {
+            x[p][0] != 2.0
+        });
+        let sizes: Vec<u32> = f.list.iter().map(|f| f.particles).collect();
+        assert_eq!(sizes, vec![18, 18]);
+        assert_eq!(f.label[0], 0);
+        assert_eq!(f.label[4], 1);
+        assert_eq!(f.label[2], NONE);
+        assert!((f.list[1].speed - 3.5).abs() < 1e-12);
+        assert!((f.list[0].centroid[2] - 1.0).abs() < 1e-12);
+        let corners = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, 2.0, 1.0]];
+        let g = FragmentFinder::default().find(
+            &corners,
+            &[[0.0; 3]; 3],
+            &[1.0; 3],
+            &[1.0; 3],
+            &[1.0],
+            &[0; 3],
+            |_| true,
+        );
+        assert_eq!(g.label, vec![1, 0, 0]);
     }
 }

@@ -15,3 +15,8 @@ pub(crate) const MODELS: &[model::Build] = &[
     dfg::model::build,
     damage::model::build,
 ];
+
+/// The fracture models that run in 3D (issue 32), in the order of
+/// [`MODELS`]: continuum damage. The phase field and DFG are 2D still
+/// ([`crate::methods::runnable`] refuses them in a 3D scene).
+pub(crate) const MODELS_3D: &[model::Build<3, 6>] = &[damage::model::build::<3, 6>];

@@ -237,13 +237,16 @@ where
 }
 
 /// The fracture models of a `D`-dimensional run: [`crate::fracture::MODELS`]
-/// in 2D; none in 3D yet ([`crate::methods::runnable`] refuses a 3D scene
-/// that asks for one). The registry is typed for 2D, so a generic `D`
-/// reaches it by a type check at run time.
+/// in 2D, [`crate::fracture::MODELS_3D`] in 3D (damage;
+/// [`crate::methods::runnable`] refuses a 3D scene that asks for another).
+/// Each registry is typed for its dimension, so a generic `D` reaches them
+/// by a type check at run time.
 fn registry<const D: usize, const V: usize>() -> &'static [Build<D, V>] {
     let models: &'static [Build] = crate::fracture::MODELS;
+    let models_3d: &'static [Build<3, 6>] = crate::fracture::MODELS_3D;
     (&models as &dyn std::any::Any)
         .downcast_ref::<&'static [Build<D, V>]>()
+        .or_else(|| (&models_3d as &dyn std::any::Any).downcast_ref::<&'static [Build<D, V>]>())
         .copied()
         .unwrap_or(&[])
 }

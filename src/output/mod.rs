@@ -339,9 +339,15 @@ impl Observer for OutputWriter {
                 self.snapshots.push(image);
             }
         }
-        if let Some(list) = crate::diagnostics::fragments::from_snapshot(snap) {
-            let path = self.dir.join(format!("fragments_{:04}.csv", snap.index));
-            write_fragments_csv(&path, &list).map_err(|e| e.to_string())?;
+        let path = self.dir.join(format!("fragments_{:04}.csv", snap.index));
+        let written = match snap.dimension {
+            3 => crate::diagnostics::fragments::from_snapshot::<3>(snap)
+                .map(|list| write_fragments_csv(&path, &list)),
+            _ => crate::diagnostics::fragments::from_snapshot::<2>(snap)
+                .map(|list| write_fragments_csv(&path, &list)),
+        };
+        if let Some(w) = written {
+            w.map_err(|e| e.to_string())?;
             self.snapshots.push(path);
         }
         let name = format!("particles_{:04}.vtp", snap.index);
@@ -379,21 +385,26 @@ pub fn relative_energy_error(rows: &[SeriesRow]) -> Option<f64> {
 
 /// The fragments of one snapshot, largest first: one row per fragment
 /// (its number is the `fragment` label of its particles in the snapshot).
-pub fn write_fragments_csv(
+pub fn write_fragments_csv<const D: usize>(
     path: &Path,
-    list: &[crate::diagnostics::fragments::Fragment],
+    list: &[crate::diagnostics::fragments::Fragment<D>],
 ) -> Result<(), OutputError> {
     write_atomic(path, |w| {
-        writeln!(
-            w,
-            "fragment,particles,mass,volume,speed,centroid_x,centroid_y"
-        )?;
+        write!(w, "fragment,particles,mass,volume,speed")?;
+        for axis in ["x", "y", "z"].iter().take(D) {
+            write!(w, ",centroid_{axis}")?;
+        }
+        writeln!(w)?;
         for (k, f) in list.iter().enumerate() {
-            writeln!(
+            write!(
                 w,
-                "{k},{},{:?},{:?},{:?},{:?},{:?}",
-                f.particles, f.mass, f.volume, f.speed, f.centroid[0], f.centroid[1]
+                "{k},{},{:?},{:?},{:?}",
+                f.particles, f.mass, f.volume, f.speed
             )?;
+            for c in f.centroid {
+                write!(w, ",{c:?}")?;
+            }
+            writeln!(w)?;
         }
         Ok(())
     })

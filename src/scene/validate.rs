@@ -229,6 +229,7 @@ impl Scene {
                 spec,
                 file.analysis.plane,
                 file.grid.cell_size,
+                dim,
             ) {
                 by_name.insert(name.clone(), materials.len());
                 materials.push(m);
@@ -269,6 +270,7 @@ impl Scene {
                     spec,
                     file.analysis.plane,
                     file.grid.cell_size,
+                    dim,
                 )
                 .map(|m| {
                     materials.push(m);
@@ -828,6 +830,7 @@ fn resolve_material(
     m: &MaterialSpec,
     plane: PlaneKind,
     h: f64,
+    dim: usize,
 ) -> Option<ResolvedMaterial> {
     let before = c.errors.len();
     c.positive(&format!("{path}.density"), m.density);
@@ -850,6 +853,7 @@ fn resolve_material(
             m.model,
             m.youngs_modulus,
             h,
+            dim,
         )
     });
     if m.damage.is_some() && m.phase_field.is_some() {

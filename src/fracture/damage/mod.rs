@@ -14,11 +14,21 @@
 //!   seeding order (the same seed gives the same strengths).
 //! - Tensile-only degradation (eqs. 26–27): the positive principal stresses
 //!   of the elastic trial stress σᴱ are scaled by (1 − D), the compressive
-//!   ones kept, and σ rebuilt on the same eigenvectors.
+//!   ones kept, and σ rebuilt on the same eigenvectors. In 2D the in-plane
+//!   pair in closed form ([`principal`], [`degrade`]); in 3D all three by
+//!   Jacobi rotations ([`crate::tensor::sym_eigen3`], [`degrade_3d`]):
+//!   σ ← σ − D Σ_{σ_i > 0} σ_i n_i ⊗ n_i, the same law on three axes.
 //! - Domain scaling (section 2.6): a fully failed particle's volume is
-//!   capped so that its diagonal does not exceed the cell size (area h²/2);
-//!   our shape functions (B-splines, uGIMP) do not stretch particle
-//!   domains, so the volume is the only thing that would.
+//!   capped so that its diagonal does not exceed the cell size (area h²/2
+//!   in 2D, volume h³/(3√3) in 3D, [`failed_volume`]); our shape functions
+//!   (B-splines, uGIMP) do not stretch particle domains, so the volume is
+//!   the only thing that would.
+//!
+//! One code path for 2D and 3D (`D`, `V` as in [`crate::particles`]): the
+//! dimension enters through the principal stresses, the default l_ch (the
+//! cell diagonal, h√2 or h√3), the failed volume, and the particle volume
+//! of eq. 25 (spacing² × thickness in 2D, spacing³ in 3D, `vol0`). The 2D
+//! arithmetic is the one it was before 3D, to the bit.
 //!
 //! Energy: the stored energy of a particle is ½ σ:ε with the degraded σ
 //! (what the series' `strain_energy` sums). A damage increment at fixed
@@ -31,6 +41,7 @@ pub mod section;
 
 use crate::particles::Particles;
 use crate::scene::{DamageModel, ResolvedDamage};
+use crate::tensor::{resize, sym_eigen3, voigt};
 use rand_core::{RngCore, SeedableRng};
 use rayon::prelude::*;
 
@@ -43,7 +54,7 @@ const CHUNK: usize = 4096;
 #[derive(Debug, Clone, Default)]
 pub struct DamageLaw {
     pub models: Vec<Option<ResolvedDamage>>,
-    /// Volume cap of a failed particle, m³ (h²/2 · thickness).
+    /// Volume cap of a failed particle, m³ ([`failed_volume`]).
     pub failed_volume: f64,
 }
 
@@ -84,6 +95,95 @@ pub fn degrade(s: [f64; 3], d: f64) -> [f64; 3] {
     ]
 }
 
+/// The volume cap of a fully failed particle (Homel & Herbold 2017,
+/// section 2.6, domain scaling): a failed particle's domain may not grow
+/// beyond the one whose diagonal is the cell size h, so that it cannot
+/// span more than a cell and bridge the crack through the shape
+/// functions. In 2D that domain is the square of diagonal h, area h²/2
+/// (× the thickness t: m³). In 3D the diagonal of a cube is its space
+/// diagonal (the longest chord, the extent that must stay within a cell),
+/// so the cube of space diagonal h has side h/√3 and volume
+/// h³/(3√3) ≈ 0.192 h³. (A cube of face diagonal h, h³/(2√2), would still
+/// reach √(3/2) h across its corners.)
+pub fn failed_volume<const D: usize>(h: f64, thickness: f64) -> f64 {
+    if D == 2 {
+        0.5 * h * h * thickness
+    } else {
+        h * h * h / (3.0 * 3f64.sqrt())
+    }
+}
+
+/// The principal stresses of a stress in Voigt order as the damage update
+/// uses them: `values` largest first; in 3D with their unit directions
+/// (`vectors[i]` belongs to `values[i]`). In 2D `values` are the in-plane
+/// pair of [`principal`] (σ_zz is not part of the plane law; `values[2]` is
+/// 0) and `vectors` are unused: [`Principal::degrade`] calls [`degrade`],
+/// which works from the stress as it always has.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Principal {
+    pub values: [f64; 3],
+    pub vectors: [[f64; 3]; 3],
+}
+
+impl Principal {
+    /// The principal stresses of `s` (2D: xx, yy, xy; 3D: xx, yy, zz, yz,
+    /// xz, xy).
+    #[inline(always)]
+    pub fn of<const D: usize, const V: usize>(s: &[f64; V]) -> Principal {
+        if D == 2 {
+            let (a, b, _) = principal(resize(*s));
+            Principal {
+                values: [a, b, 0.0],
+                vectors: [[0.0; 3]; 3],
+            }
+        } else {
+            let (values, vectors) = sym_eigen3(resize(*s));
+            Principal { values, vectors }
+        }
+    }
+
+    /// The largest principal stress σ₁, Pa.
+    #[inline(always)]
+    pub fn max(&self) -> f64 {
+        self.values[0]
+    }
+
+    /// `s` (whose principal stresses these are) with its tensile principal
+    /// stresses scaled by (1 − d) (eqs. 26–27).
+    #[inline(always)]
+    pub fn degrade<const D: usize, const V: usize>(&self, s: &[f64; V], d: f64) -> [f64; V] {
+        if D == 2 {
+            resize(degrade(resize(*s), d))
+        } else {
+            resize(degrade_3d(&resize(*s), self, d))
+        }
+    }
+}
+
+/// Eqs. 26–27 in 3D: σ − d Σ_{σ_i > 0} σ_i n_i ⊗ n_i for the principal
+/// stresses `p` of `s`, i.e. the tensile principal stresses scaled by
+/// (1 − d) and the compressive ones kept, on the same directions. Written
+/// as a correction of σ so that an untouched part keeps its bits: no
+/// damage or no tension returns `s` itself.
+#[inline(always)]
+pub fn degrade_3d(s: &[f64; 6], p: &Principal, d: f64) -> [f64; 6] {
+    if d <= 0.0 || p.values[0] <= 0.0 {
+        return *s;
+    }
+    let mut out = *s;
+    for i in 0..3 {
+        let a = p.values[i];
+        if a <= 0.0 {
+            break; // largest first: the rest are compressive too
+        }
+        let n = p.vectors[i];
+        for (r, c) in [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)] {
+            out[voigt::<3>(r, c)] -= d * a * n[r] * n[c];
+        }
+    }
+    out
+}
+
 /// The damage after one step of the model `m` for the elastic trial stress
 /// with largest principal value `s1`, strength `sf` and step `dt`.
 #[inline(always)]
@@ -99,7 +199,10 @@ pub fn grow(m: &ResolvedDamage, d: f64, s1: f64, sf: f64, dt: f64) -> f64 {
 
 impl DamageLaw {
     /// Particle strengths (eq. 25 where a material asks for Weibull), drawn
-    /// in the order the particles are given (seeding order).
+    /// in the order the particles are given (seeding order). `vol0` is each
+    /// particle's initial volume V of eq. 25 (2D: spacing² × thickness; 3D:
+    /// spacing³), so a finer 3D lattice is stronger by 8^(1/m) per halving
+    /// of the spacing, against 4^(1/m) in 2D at fixed thickness.
     pub fn strengths(&self, material: &[u16], vol0: &[f64]) -> Vec<f64> {
         let mut rngs: Vec<Option<rand_pcg::Pcg64>> = self
             .models
@@ -132,7 +235,11 @@ impl DamageLaw {
     /// The damage stage: grows D from the elastic trial stress G2P left in
     /// `parts.stress`, degrades the stress (eqs. 23–27), caps failed
     /// volumes, and returns the energy released.
-    pub fn update(&self, parts: &mut Particles, dt: f64) -> DamageStep {
+    pub fn update<const D: usize, const V: usize>(
+        &self,
+        parts: &mut Particles<D, V>,
+        dt: f64,
+    ) -> DamageStep {
         let n = parts.len();
         let (material, strain, strength) = (&parts.material, &parts.strain, &parts.strength);
         let cap = self.failed_volume;
@@ -149,17 +256,23 @@ impl DamageLaw {
                         continue;
                     };
                     let se = stress[i];
-                    let (s1, _, _) = principal(se);
+                    let pr = Principal::of::<D, V>(&se);
                     let d_old = damage[i];
-                    let d = grow(m, d_old, s1, strength[p], dt);
-                    let s = degrade(se, d);
+                    let d = grow(m, d_old, pr.max(), strength[p], dt);
+                    let s = pr.degrade::<D, V>(&se, d);
                     if d > d_old {
-                        let s_old = degrade(se, d_old);
+                        let s_old = pr.degrade::<D, V>(&se, d_old);
                         let e = strain[p];
-                        let de = 0.5
-                            * ((s_old[0] - s[0]) * e[0]
-                                + (s_old[1] - s[1]) * e[1]
-                                + 2.0 * (s_old[2] - s[2]) * e[2]);
+                        // ½ Δσ:ε with tensor shear strains: the diagonal
+                        // terms, then twice the shear ones, in Voigt order
+                        let mut w = (s_old[0] - s[0]) * e[0];
+                        for k in 1..D {
+                            w += (s_old[k] - s[k]) * e[k];
+                        }
+                        for k in D..V {
+                            w += 2.0 * (s_old[k] - s[k]) * e[k];
+                        }
+                        let de = 0.5 * w;
                         released += vol[i] * de;
                         damage[i] = d;
                     }
@@ -295,5 +408,66 @@ mod tests {
             failed_volume: 1.0,
         };
         assert_ne!(a, other.strengths(&mat, &vec![1.0; 20_000]));
+    }
+    /// Eqs. 26–27 in 3D: principal stresses (3, 0.5, −1) on a skew frame,
+    /// D = 0.75 scales the two tensile ones and keeps the compressive one
+    /// and the directions; an in-plane stress degrades as the 2D law does;
+    /// compression is returned bit for bit.
+    #[test]
+    fn degradation_in_3d_scales_only_tensile_principal_stresses() {
+        let (a, b) = (0.4f64, 0.9f64);
+        let rz = [
+            [a.cos(), -a.sin(), 0.0],
+            [a.sin(), a.cos(), 0.0],
+            [0.0, 0.0, 1.0],
+        ];
+        let ry = [
+            [b.cos(), 0.0, b.sin()],
+            [0.0, 1.0, 0.0],
+            [-b.sin(), 0.0, b.cos()],
+        ];
+        // the frame's axes are the columns of rz·ry
+        let n: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|r| (0..3).map(|k| rz[r][k] * ry[k][i]).sum())
+        });
+        let build = |vals: [f64; 3]| -> [f64; 6] {
+            let c = |r: usize, s: usize| (0..3).map(|i| vals[i] * n[i][r] * n[i][s]).sum::<f64>();
+            [c(0, 0), c(1, 1), c(2, 2), c(1, 2), c(0, 2), c(0, 1)]
+        };
+        let s = build([3.0, 0.5, -1.0]);
+        let p = Principal::of::<3, 6>(&s);
+        assert!((p.max() - 3.0).abs() < 1e-12);
+        let g = p.degrade::<3, 6>(&s, 0.75);
+        let want = build([0.75, 0.125, -1.0]);
+        for k in 0..6 {
+            assert!((g[k] - want[k]).abs() < 1e-12, "{g:?} vs {want:?}");
+        }
+        // the 2D law on an in-plane stress (σ_zz = σ_yz = σ_xz = 0)
+        let plane = [2.0, -0.5, 0.7];
+        let g3 = Principal::of::<3, 6>(&[plane[0], plane[1], 0.0, 0.0, 0.0, plane[2]])
+            .degrade::<3, 6>(&[plane[0], plane[1], 0.0, 0.0, 0.0, plane[2]], 0.6);
+        let g2 = Principal::of::<2, 3>(&plane).degrade::<2, 3>(&plane, 0.6);
+        assert_eq!(g2, degrade(plane, 0.6));
+        for (x, y) in [(g3[0], g2[0]), (g3[1], g2[1]), (g3[5], g2[2])] {
+            assert!((x - y).abs() < 1e-12, "{g3:?} vs {g2:?}");
+        }
+        assert!(g3[2].abs() < 1e-12 && g3[3].abs() < 1e-12 && g3[4].abs() < 1e-12);
+        // compression untouched, full damage removes all tension
+        let c = build([-0.5, -1.0, -2.0]);
+        assert_eq!(Principal::of::<3, 6>(&c).degrade::<3, 6>(&c, 1.0), c);
+        let t = build([2.0, 1.0, 0.5]);
+        let f = Principal::of::<3, 6>(&t).degrade::<3, 6>(&t, 1.0);
+        assert!(f.iter().all(|v| v.abs() < 1e-12), "{f:?}");
+    }
+
+    /// The failed volume is the domain whose diagonal is the cell size:
+    /// the square of diagonal h in 2D (× thickness), the cube of space
+    /// diagonal h in 3D.
+    #[test]
+    fn the_failed_volume_has_the_cell_size_as_its_diagonal() {
+        let (h, t) = (0.002, 0.01);
+        assert_eq!(failed_volume::<2>(h, t), 0.5 * h * h * t);
+        let side = failed_volume::<3>(h, t).cbrt();
+        assert!((side * 3f64.sqrt() - h).abs() < 1e-15, "{side}");
     }
 }

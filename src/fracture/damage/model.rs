@@ -1,6 +1,12 @@
 //! The damage stage (Homel & Herbold 2017, section 2.7) as the step runs it: the
 //! per-material laws of [`crate::fracture::damage`], the energy they have
 //! released, and the crack tips of the bodies that track one.
+//!
+//! One model for 2D and 3D (`FractureModel<D, V>`; the state itself has no
+//! dimension). In 3D there are no initial cracks and no crack tips:
+//! `cracks` are 2D polylines and the tip tracker measures in the plane, so
+//! [`crate::methods::runnable`] refuses `cracks` and `crack_origin` in a 3D
+//! scene; fragments are found in 3D as in 2D.
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::fragments::{FragmentFinder, Fragments, NONE};
@@ -12,7 +18,9 @@ use crate::fracture::model::{
 };
 use crate::particles::Particles;
 use crate::scene::{Scene, Stage};
+use crate::tensor::norm;
 use rayon::prelude::*;
+use std::any::Any;
 
 /// Damage above this counts as cracked for the crack tip.
 const TIP_D: f64 = 0.9;
@@ -54,8 +62,10 @@ struct TrackedCrack {
 }
 
 /// The damage stage for a scene whose plan has it, with the initial
-/// cracks placed.
-pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>> {
+/// cracks placed (2D).
+pub(crate) fn build<const D: usize, const V: usize>(
+    at: &mut SetupContext<'_, D, V>,
+) -> Option<Box<dyn FractureModel<D, V>>> {
     let mut state = DamageState::new(at.scene, at.parts)?;
     state.place_cracks(at.scene, at.parts);
     Some(Box::new(state))
@@ -65,7 +75,10 @@ impl DamageState {
     /// The laws of the scene's materials, or `None` without damage. Fills
     /// `parts.damage` and `parts.strength` (drawn in seeding order, that
     /// of `parts.id`, whatever order the particles are stored in).
-    pub(crate) fn new(scene: &Scene, parts: &mut Particles) -> Option<DamageState> {
+    pub(crate) fn new<const D: usize, const V: usize>(
+        scene: &Scene,
+        parts: &mut Particles<D, V>,
+    ) -> Option<DamageState> {
         // the plan decides: a named damage material no body uses adds nothing
         if !scene.plan.has(crate::scene::Stage::Damage) {
             return None;
@@ -78,7 +91,10 @@ impl DamageState {
         let h = scene.file.grid.cell_size;
         let law = DamageLaw {
             models,
-            failed_volume: 0.5 * h * h * scene.file.analysis.thickness,
+            failed_volume: crate::fracture::damage::failed_volume::<D>(
+                h,
+                scene.file.analysis.thickness,
+            ),
         };
         parts.damage = vec![0.0; parts.len()];
         let mut seeded: Vec<usize> = (0..parts.len()).collect();
@@ -106,8 +122,25 @@ impl DamageState {
     /// 0.55 particle spacings of a body's crack polylines) and starts the
     /// crack-tip trackers of bodies with a crack origin (default: the first
     /// crack point; see [`DamageState::crack_tips`]). Call with the
-    /// particles in their final order.
-    pub(crate) fn place_cracks(&mut self, scene: &Scene, parts: &mut Particles) {
+    /// particles in their final order. 2D only: a 3D scene has neither
+    /// (`methods::runnable` refuses them; a caller that sets up a 3D scene
+    /// that has them without asking it is stopped here).
+    pub(crate) fn place_cracks<const D: usize, const V: usize>(
+        &mut self,
+        scene: &Scene,
+        parts: &mut Particles<D, V>,
+    ) {
+        let Some(x2) = (&parts.x as &dyn Any).downcast_ref::<Vec<[f64; 2]>>() else {
+            assert!(
+                scene
+                    .file
+                    .bodies
+                    .iter()
+                    .all(|b| b.cracks.is_empty() && b.crack_origin.is_none()),
+                "initial cracks and crack origins are 2D (methods::runnable refuses them in 3D)"
+            );
+            return;
+        };
         for (b, spec) in scene.file.bodies.iter().enumerate() {
             if scene
                 .materials
@@ -119,7 +152,7 @@ impl DamageState {
             let spacing = scene.particle_spacing(b);
             let mut particles = Vec::new();
             for p in (0..parts.len()).filter(|&p| parts.body[p] as usize == b) {
-                if crate::geometry::on_cracks(parts.x[p], &spec.cracks, spacing) {
+                if crate::geometry::on_cracks(x2[p], &spec.cracks, spacing) {
                     parts.damage[p] = 1.0;
                 } else {
                     particles.push(p as u32);
@@ -132,7 +165,7 @@ impl DamageState {
                 let mut member = vec![false; parts.len()];
                 particles.iter().for_each(|&p| member[p as usize] = true);
                 let r2 = self.seed_radius * self.seed_radius;
-                let x = &parts.x;
+                let x = &x2;
                 let roots: Vec<u32> = particles
                     .iter()
                     .copied()
@@ -173,7 +206,11 @@ impl DamageState {
         Ok(())
     }
 
-    pub(crate) fn update(&mut self, parts: &mut Particles, dt: f64) -> DamageStep {
+    pub(crate) fn update<const D: usize, const V: usize>(
+        &mut self,
+        parts: &mut Particles<D, V>,
+        dt: f64,
+    ) -> DamageStep {
         let s = self.law.update(parts, dt);
         self.dissipated += s.dissipated;
         s
@@ -186,7 +223,10 @@ impl DamageState {
 
     /// The fragments of undamaged material of the damage-model materials
     /// ([`crate::diagnostics::fragments`]).
-    pub(crate) fn fragments(&mut self, parts: &Particles) -> Fragments {
+    pub(crate) fn fragments<const D: usize, const V: usize>(
+        &mut self,
+        parts: &Particles<D, V>,
+    ) -> Fragments<D> {
         let (models, limit) = (&self.law.models, self.fragment_damage);
         self.finder.find(
             &parts.x,
@@ -201,13 +241,15 @@ impl DamageState {
 
     /// Mass-weighted mean speed of the particles of damage-model materials
     /// (the paper's "average material velocity magnitude", Fig. 18), m/s.
-    pub(crate) fn mean_speed(&self, parts: &Particles) -> f64 {
+    pub(crate) fn mean_speed<const D: usize, const V: usize>(
+        &self,
+        parts: &Particles<D, V>,
+    ) -> f64 {
         let (mut m, mut mv) = (0.0, 0.0);
         for p in 0..parts.len() {
             if self.law.models[parts.material[p] as usize].is_some() {
                 m += parts.mass[p];
-                mv += parts.mass[p]
-                    * (parts.v[p][0] * parts.v[p][0] + parts.v[p][1] * parts.v[p][1]).sqrt();
+                mv += parts.mass[p] * norm(parts.v[p]);
             }
         }
         if m > 0.0 {
@@ -223,8 +265,16 @@ impl DamageState {
     /// that started within two cells of the crack origin (material points,
     /// so the crack's root is found however far the body has moved): the
     /// crack that grows from the origin, not damage elsewhere (at an impact
-    /// face, say). Its tip is its particle farthest from the origin.
-    pub(crate) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
+    /// face, say). Its tip is its particle farthest from the origin. In 3D
+    /// no crack is tracked ([`DamageState::place_cracks`]): none.
+    pub(crate) fn crack_tips<const D: usize, const V: usize>(
+        &mut self,
+        parts: &Particles<D, V>,
+        time: f64,
+    ) -> Vec<CrackTip> {
+        let Some(x2) = (&parts.x as &dyn Any).downcast_ref::<Vec<[f64; 2]>>() else {
+            return Vec::new();
+        };
         let (finder, spacing) = (&mut self.finder, &self.spacing);
         self.tips
             .iter_mut()
@@ -247,7 +297,7 @@ impl DamageState {
                 seeds.sort_unstable();
                 seeds.dedup();
                 t.tracker.measure(
-                    &parts.x,
+                    x2,
                     &t.particles,
                     |p| seeds.binary_search(&broken.label[p]).is_ok(),
                     time,
@@ -257,7 +307,7 @@ impl DamageState {
     }
 }
 
-impl FractureModel for DamageState {
+impl<const D: usize, const V: usize> FractureModel<D, V> for DamageState {
     fn name(&self) -> &'static str {
         "damage"
     }
@@ -266,7 +316,7 @@ impl FractureModel for DamageState {
         &[Stage::Damage]
     }
 
-    fn run(&mut self, stage: Stage, ctx: StepContext<'_>) -> Result<(), String> {
+    fn run(&mut self, stage: Stage, ctx: StepContext<'_, D, V>) -> Result<(), String> {
         if stage == Stage::Damage {
             self.update(ctx.parts, ctx.dt);
         }
@@ -278,7 +328,7 @@ impl FractureModel for DamageState {
     /// components of intact material), `mean_speed` (mass-weighted mean |v|
     /// of the damage-model materials), and the crack tips of bodies with a
     /// crack origin. The core `fracture_energy` is the energy dissipated.
-    fn series(&mut self, at: &RowContext<'_>, out: &mut SeriesOut) {
+    fn series(&mut self, at: &RowContext<'_, D, V>, out: &mut SeriesOut) {
         let tracked = self.tracked();
         let (values, tips) = if out.declaring() {
             ([0.0; 4], vec![CrackTip::UNKNOWN; tracked.len()])
@@ -326,12 +376,12 @@ impl FractureModel for DamageState {
         encode(&self.saved())
     }
 
-    fn restore(&mut self, state: &[u8], _at: RestoreContext<'_>) -> Result<(), String> {
+    fn restore(&mut self, state: &[u8], _at: RestoreContext<'_, D, V>) -> Result<(), String> {
         self.restore_saved(decode(state)?)
     }
 
     /// `fragment`: each particle's fragment label.
-    fn snapshot(&mut self, at: &RowContext<'_>, fields: &mut Vec<Field>) {
+    fn snapshot(&mut self, at: &RowContext<'_, D, V>, fields: &mut Vec<Field>) {
         fields.push(Field {
             name: "fragment".into(),
             components: 1,

@@ -32,7 +32,7 @@ pub struct DamageSpec {
     #[serde(default)]
     pub crack_speed: Option<f64>,
     /// Characteristic length l_ch, m; default the cell diagonal (as in the
-    /// paper).
+    /// paper): h√2 in 2D, h√3 in 3D.
     #[serde(default)]
     pub char_length: Option<f64>,
     /// Size-dependent random strength (eq. 25).
@@ -59,7 +59,7 @@ pub struct ResolvedDamage {
     pub model: DamageModel,
     /// σ̄_f, Pa.
     pub strength: f64,
-    /// l_ch, m (given, or the cell diagonal).
+    /// l_ch, m (given, or the cell diagonal: h√2 in 2D, h√3 in 3D).
     pub char_length: f64,
     /// Rankine: the scaled softening modulus H_s = H̄ l/(1 − H̄ l) of eq. 23,
     /// H̄ = σ_f²/(2 E G_f). Zero for time to failure.
@@ -70,7 +70,14 @@ pub struct ResolvedDamage {
 }
 
 /// Checks a material's damage table (`q` is its field path) and derives
-/// its constants; `h` is the cell size (the default l_ch is its diagonal).
+/// its constants; `h` is the cell size and `dim` the scene's dimension:
+/// the default l_ch is the cell's diagonal, h√2 in 2D (the paper's choice,
+/// Homel & Herbold 2017 section 2.7) and h√3 in 3D: a cell's extent across
+/// a crack of any orientation is at most its diagonal, the space diagonal
+/// in 3D, so a band one cell wide is at most that wide. A crack along the
+/// cells' faces opens a narrower band (about h with GIMP in one velocity
+/// field, `docs/verification.md` "Damage in 3D"), where the default
+/// dissipates less than G_f per area; `char_length` sets the band width.
 pub(crate) fn resolve(
     c: &mut Checker,
     q: &str,
@@ -78,6 +85,7 @@ pub(crate) fn resolve(
     model: MaterialModel,
     youngs_modulus: f64,
     h: f64,
+    dim: usize,
 ) -> Option<ResolvedDamage> {
     let before = c.errors.len();
     c.positive(&format!("{q}.strength"), d.strength);
@@ -86,6 +94,7 @@ pub(crate) fn resolve(
             c.positive(&format!("{q}.char_length"), l);
             l
         }
+        None if dim == 3 => h * 3f64.sqrt(),
         None => h * std::f64::consts::SQRT_2,
     };
     if model != MaterialModel::LinearElastic {
