@@ -1,6 +1,8 @@
 //! Verification of the explicit MPM core against theory (issue 2).
 //! Each test compares with an analytic value, not with a stored output.
 
+mod common;
+
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;
 use cleave::scene::{Scene, Stage};
@@ -207,16 +209,8 @@ fn block_slides_with_coulomb_friction() {
         }
         samples.push((sim.time(), px / m));
     }
-    // Least-squares slope of the block's velocity after the first 20 ms of
-    // settling.
-    let fit: Vec<_> = samples.iter().filter(|s| s.0 > 0.02).collect();
-    let n = fit.len() as f64;
-    let (st, sv) = fit.iter().fold((0.0, 0.0), |a, s| (a.0 + s.0, a.1 + s.1));
-    let (mt, mv) = (st / n, sv / n);
-    let (num, den) = fit.iter().fold((0.0, 0.0), |a, s| {
-        (a.0 + (s.0 - mt) * (s.1 - mv), a.1 + (s.0 - mt).powi(2))
-    });
-    let a = num / den;
+    // the slope of the block's velocity after the first 20 ms of settling
+    let a = common::slope_after(&samples, 0.02);
     println!(
         "sliding block: a = {a:.4} m/s^2 vs g(sin t - mu cos t) = {expected:.4} m/s^2 ({:+.2} %)",
         100.0 * (a / expected - 1.0)

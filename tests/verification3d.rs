@@ -2,6 +2,8 @@
 //! has three axes, run through `Simulation<3, 6>` as `cleave run` runs
 //! them. Each test compares with an analytic value.
 
+mod common;
+
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;
 use cleave::scene::{Format, Scene};
@@ -254,16 +256,8 @@ snapshots = 0
         }
         samples.push((sim.time(), px / m));
     }
-    // least-squares slope after 20 ms of settling
-    let fit: Vec<_> = samples.iter().filter(|s| s.0 > 0.02).collect();
-    let n = fit.len() as f64;
-    let (mt, mv) = fit
-        .iter()
-        .fold((0.0, 0.0), |a, s| (a.0 + s.0 / n, a.1 + s.1 / n));
-    let (num, den) = fit.iter().fold((0.0, 0.0), |a, s| {
-        (a.0 + (s.0 - mt) * (s.1 - mv), a.1 + (s.0 - mt).powi(2))
-    });
-    let a = num / den;
+    // the slope of the block's velocity after 20 ms of settling
+    let a = common::slope_after(&samples, 0.02);
     println!(
         "3D sliding block: a = {a:.4} m/s² vs g(sin θ − μ cos θ) = {expected:.4} m/s² ({:+.2} %)",
         100.0 * (a / expected - 1.0)
