@@ -347,11 +347,23 @@ fn a_checkpoint_resumes_only_with_the_method_that_wrote_it() {
 }
 
 /// A 3D run (`Simulation<3, 6>` through the method registry) resumes bit
-/// for bit: the series and the particles of a run checkpointed at step 40,
-/// lost 20 steps later and resumed are the straight run's.
+/// for bit: the series and the particles of a run checkpointed, lost some
+/// steps later and resumed are the straight run's. Two elastic spheres, and
+/// the notched bar while its damage grows (the damage model's saved state:
+/// the energy released so far, the particles' damage and strengths).
 #[test]
 fn a_resumed_3d_run_repeats_the_straight_one_bit_for_bit() {
-    let text = scene_text("two_spheres_3d.toml", &[("end = 3.0", "end = 0.9")]);
+    resumes_3d(
+        scene_text("two_spheres_3d.toml", &[("end = 3.0", "end = 0.9")]),
+        40,
+        20,
+    );
+    let bar = scene_text("notched_bar_3d.toml", &[("end = 2.4e-3", "end = 1.0e-3")]);
+    assert!(bar.contains("damage"));
+    resumes_3d(bar, 1500, 200);
+}
+
+fn resumes_3d(text: String, at: u64, lost: u64) {
     let scene = Scene::from_text(&text, None).unwrap();
     assert_eq!(scene.dimension(), 3);
     let tmp = tempfile::tempdir().unwrap();
@@ -375,14 +387,14 @@ fn a_resumed_3d_run_repeats_the_straight_one_bit_for_bit() {
 
     let mut obs = Interrupted {
         writer: OutputWriter::create(&b).unwrap(),
-        at: 40,
-        lost: 20,
+        at,
+        lost,
     };
     let mut sim = cleave::methods::build(&scene).unwrap();
     assert!(sim.run(&mut obs).unwrap().cancelled);
     obs.writer.finish().unwrap();
     let mut cp = OutputWriter::load_checkpoint(&b).unwrap();
-    assert_eq!(cp.step(), 40);
+    assert_eq!(cp.step(), at);
     let state = std::mem::take(&mut cp.observer);
     let mut sim = cleave::methods::resume(&scene, cp).unwrap();
     let mut w = OutputWriter::resume(&b, &state).unwrap();
