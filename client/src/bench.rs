@@ -302,6 +302,14 @@ fn peak_rss() -> usize {
         .map_or(0, |kb| kb * 1024)
 }
 
+/// `/proc/loadavg`'s first three fields, or `unknown`.
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(", "))
+        .unwrap_or_else(|| "unknown".into())
+}
+
 fn cpu_name() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
@@ -341,6 +349,10 @@ pub fn run_3d(
         }
         None => None,
     };
+    // The load average before and after goes into the doc: on a shared
+    // machine the 2-thread speed-up says as much about the other jobs as
+    // about the code.
+    let load_before = load_average();
     let result = (|| -> anyhow::Result<String> {
         let mut table = String::new();
         let _ = write!(
@@ -425,6 +437,7 @@ pub fn run_3d(
         let _ = std::fs::remove_file(s);
     }
     let table = result?;
+    let load_after = load_average();
     let command = format!(
         "cargo run --release -p cleave-client -- bench --dim 3 --steps {steps} --largest {largest}{}",
         python.map_or(String::new(), |p| format!(" --taichi {}", p.display()))
@@ -454,6 +467,9 @@ pub fn run_3d(
          out. *Peak RSS* is the process's high-water mark (`VmHWM`) after the row, so it includes every earlier \
          (smaller) run and the binary itself; it is a cross-check, not a per-size figure.\n\n\
          {taichi_text}{table}\n\
+         Load average (1, 5, 15 min) before the run: {load_before}; after: {load_after}. A load above the \
+         CPU count means other jobs shared the cores, and the 2-thread rows (of both codes) then measure \
+         the machine as much as the code.\n\n\
          Target (issue 32): at least Taichi's 3D CPU backend per thread on the same problem in the same run \
          (Taichi 1.7.4 measured 2.1 M particle-steps/s on one thread of a 16-core Xeon, 7.4 M on 16 threads).\n",
         machine = cpu_name(),

@@ -201,7 +201,8 @@ where
     /// Heap bytes of the step's big arrays: the particle arrays, and the
     /// grid side (nodal fields, the tile bins and the MUSL scratch of
     /// positions), each as capacity × element size. Small per-material
-    /// and per-model state is left out. `cleave bench` divides these by
+    /// and per-model state, and the contact fields (absent without
+    /// contact, as in the bench), are left out. `cleave bench` divides these by
     /// the particle count.
     pub fn heap_bytes(&self) -> HeapBytes {
         let x_next = self.x_next.capacity() * std::mem::size_of::<[f64; D]>();
