@@ -13,6 +13,13 @@ Prints one line `rate <particle-steps per second>` after `--warmup` steps,
 timing `--steps` steps between two `ti.sync()`s.
 
     python taichi_mpm3d.py --cells 32 --threads 1 --steps 20 --dt 1.3e-4
+
+`cleave bench --dim 3 --taichi PYTHON` runs it (embedded in the binary)
+itself. A Python for it (Taichi 1.7.4 has wheels for CPython 3.7-3.11):
+
+    python3.11 -m venv /tmp/taichi-venv
+    /tmp/taichi-venv/bin/pip install taichi==1.7.4
+    cargo run --release -p cleave-client -- bench --dim 3 --taichi /tmp/taichi-venv/bin/python
 """
 import argparse
 import time
