@@ -72,4 +72,30 @@ impl<const D: usize, const V: usize> Particles<D, V> {
     pub fn is_empty(&self) -> bool {
         self.x.is_empty()
     }
+
+    /// Bytes the arrays hold on the heap (capacity × element size, so
+    /// growth slack counts): what `cleave bench` reports per particle.
+    pub fn heap_bytes(&self) -> usize {
+        fn b<T>(v: &Vec<T>) -> usize {
+            v.capacity() * std::mem::size_of::<T>()
+        }
+        b(&self.id)
+            + b(&self.body)
+            + b(&self.material)
+            + b(&self.group)
+            + b(&self.x)
+            + b(&self.v)
+            + b(&self.mass)
+            + b(&self.vol)
+            + b(&self.vol0)
+            + b(&self.stress)
+            + b(&self.strain)
+            + b(&self.def_grad)
+            + b(&self.affine)
+            + b(&self.half_size)
+            + b(&self.phase)
+            + b(&self.history)
+            + b(&self.damage)
+            + b(&self.strength)
+    }
 }

@@ -83,18 +83,30 @@ enum Command {
     },
     /// Measure particle-steps per second of the explicit step (1 and 2 threads).
     Bench {
-        /// Markdown file for the table.
-        #[arg(long, default_value = "docs/performance.md")]
-        out: PathBuf,
+        /// Dimension of the benchmark block: 2 (linear elastic, FLIP and
+        /// APIC) or 3 (neo-Hookean, APIC, 8 particles per cell).
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
+        dim: u8,
+        /// Markdown file for the table [default: docs/performance.md in
+        /// 2D, docs/performance-3d.md in 3D].
+        #[arg(long)]
+        out: Option<PathBuf>,
         /// Steps timed per configuration.
         #[arg(long, default_value_t = 20)]
         steps: usize,
-        /// Largest block edge in cells (128: 65 k particles, 256: 262 k, 512: 1 M).
-        #[arg(long, default_value_t = 512)]
-        largest: usize,
-        /// Particle updates to measure, comma-separated: flip, pic, apic.
-        #[arg(long, default_value = "flip,apic")]
-        transfer: String,
+        /// Largest block edge in cells [default: 512 in 2D (128: 65 k
+        /// particles, 256: 262 k, 512: 1 M); 50 in 3D (16: 32 k, 32: 262 k,
+        /// 50: 1 M)]. In 3D, a value below 16 runs that one size.
+        #[arg(long)]
+        largest: Option<usize>,
+        /// Particle updates to measure, comma-separated: flip, pic, apic
+        /// [default: flip,apic]. 3D measures APIC only.
+        #[arg(long)]
+        transfer: Option<String>,
+        /// Python with Taichi 1.7 installed: run docs/scripts/taichi_mpm3d.py
+        /// on the same 3D problem, interleaved with cleave (3D only).
+        #[arg(long)]
+        taichi: Option<PathBuf>,
     },
     /// Measure the overhead of running through a server (in this process)
     /// and the FetchFields throughput.
@@ -562,17 +574,51 @@ fn local_main(command: Command) -> ExitCode {
             }
         }
         Command::Bench {
+            dim,
             out,
             steps,
             largest,
             transfer,
-        } => match bench::run(&out, steps, largest, &transfer) {
+            taichi,
+        } => match bench_dims(dim, out, steps, largest, transfer, taichi) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");
                 ExitCode::from(EXIT_FAILED)
             }
         },
+    }
+}
+
+/// `cleave bench` in 2D or 3D, with each dimension's defaults.
+fn bench_dims(
+    dim: u8,
+    out: Option<PathBuf>,
+    steps: usize,
+    largest: Option<usize>,
+    transfer: Option<String>,
+    taichi: Option<PathBuf>,
+) -> anyhow::Result<()> {
+    anyhow::ensure!(steps > 0, "--steps must be at least 1");
+    if dim == 3 {
+        // The 3D problem is the issue's: APIC only, so a transfer list
+        // other than `apic` would silently measure something else.
+        if let Some(t) = transfer.as_deref() {
+            anyhow::ensure!(
+                t.trim() == "apic",
+                "--dim 3 measures APIC only (issue 32's problem); drop --transfer {t}"
+            );
+        }
+        let out = out.unwrap_or_else(|| PathBuf::from("docs/performance-3d.md"));
+        bench::run_3d(&out, steps, largest.unwrap_or(50), taichi.as_deref())
+    } else {
+        anyhow::ensure!(
+            taichi.is_none(),
+            "--taichi compares the 3D problem; add --dim 3"
+        );
+        let out = out.unwrap_or_else(|| PathBuf::from("docs/performance.md"));
+        let transfer = transfer.unwrap_or_else(|| "flip,apic".into());
+        bench::run(&out, steps, largest.unwrap_or(512), &transfer)
     }
 }
 

@@ -1089,3 +1089,59 @@ fn plot_says_what_it_wrote() {
     assert!(text.contains("no crack.png: "), "{text}");
     assert!(plots.join("energies.png").metadata().unwrap().len() > 1000);
 }
+
+/// `cleave bench --dim 3` on a tiny block (4³ cells × 8 = 512 particles,
+/// below the real sizes, which `--largest` under 16 selects) writes the
+/// table with the bytes-per-particle column; a transfer other than APIC
+/// and a dimension other than 2 or 3 are refused.
+#[test]
+fn bench_3d_writes_the_table_with_bytes_per_particle() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("perf3d.md");
+    let o = cleave()
+        .args([
+            "bench",
+            "--dim",
+            "3",
+            "--largest",
+            "4",
+            "--steps",
+            "2",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc = std::fs::read_to_string(&out).unwrap();
+    assert!(doc.contains("bytes / particle"), "{doc}");
+    assert!(doc.contains("bench --dim 3 --steps 2 --largest 4"), "{doc}");
+    for threads in [1, 2] {
+        let row = doc
+            .lines()
+            .find(|l| l.starts_with(&format!("| 512 | {threads} |")))
+            .unwrap_or_else(|| panic!("no 512-particle row for {threads} threads: {doc}"));
+        // the bytes column: "total (particles + grid)", all positive
+        let bytes = row.split('|').nth(9).unwrap().trim();
+        let total: f64 = bytes.split(' ').next().unwrap().parse().unwrap();
+        assert!(total > 200.0, "{row}");
+    }
+    let o = cleave()
+        .args([
+            "bench",
+            "--dim",
+            "3",
+            "--transfer",
+            "flip",
+            "--largest",
+            "4",
+            "--out",
+        ])
+        .arg(dir.path().join("no.md"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("APIC only"), "{}", stderr(&o));
+    let o = cleave().args(["bench", "--dim", "4"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

@@ -192,7 +192,22 @@ pub struct GridFields<const D: usize = 2> {
     pub mass_grad: Vec<[f64; D]>,
 }
 
+/// Heap bytes of a vector (capacity × element size).
+fn vec_bytes<T>(v: &Vec<T>) -> usize {
+    v.capacity() * std::mem::size_of::<T>()
+}
+
 impl<const D: usize> GridFields<D> {
+    /// Bytes the nodal arrays hold on the heap (capacity × element size).
+    pub fn heap_bytes(&self) -> usize {
+        vec_bytes(&self.mass)
+            + vec_bytes(&self.momentum)
+            + vec_bytes(&self.force)
+            + vec_bytes(&self.vel_old)
+            + vec_bytes(&self.vel)
+            + vec_bytes(&self.mass_grad)
+    }
+
     /// Prepares the arrays for a scatter into `nodes` node slots plus
     /// `slots − nodes` extra field slots: zeroes the node ranges the last
     /// scatter wrote (`written`; every other node is still zero) and the
@@ -342,6 +357,18 @@ pub struct Bins {
 }
 
 impl Bins {
+    /// Bytes the bins hold on the heap (capacity × element size).
+    pub fn heap_bytes(&self) -> usize {
+        vec_bytes(&self.tile_of)
+            + vec_bytes(&self.order)
+            + vec_bytes(&self.start)
+            + vec_bytes(&self.colours)
+            + self.colours.iter().map(vec_bytes).sum::<usize>()
+            + vec_bytes(&self.active)
+            + vec_bytes(&self.key)
+            + vec_bytes(&self.cursor)
+    }
+
     /// The bins of particles at `x` for a kernel of `support` nodes.
     pub fn new<const D: usize>(geom: &GridGeom<D>, x: &[[f64; D]], support: usize) -> Bins {
         let mut bins = Bins {

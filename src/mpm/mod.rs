@@ -109,6 +109,15 @@ where
     }
 }
 
+/// Heap bytes held by a simulation, from [`Simulation::heap_bytes`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct HeapBytes {
+    /// The particle arrays.
+    pub particles: usize,
+    /// The nodal fields, the tile bins and per-step scratch.
+    pub grid: usize,
+}
+
 /// A simulation in progress: the particles, the grid, and the clock, in
 /// `D` = 2 or 3 dimensions (`V`: the Voigt length, 3 or 6; see
 /// [`crate::tensor`]).
@@ -187,6 +196,21 @@ where
 
     pub fn particles(&self) -> &Particles<D, V> {
         &self.parts
+    }
+
+    /// Heap bytes of the step's big arrays: the particle arrays, and the
+    /// grid side (nodal fields, the tile bins and the MUSL scratch of
+    /// positions), each as capacity × element size. Small per-material
+    /// and per-model state, and the contact fields (absent without
+    /// contact, as in the bench), are left out. `cleave bench` divides these by
+    /// the particle count.
+    pub fn heap_bytes(&self) -> HeapBytes {
+        let x_next = self.x_next.capacity() * std::mem::size_of::<[f64; D]>();
+        let written = self.written.capacity() * std::mem::size_of::<std::ops::Range<usize>>();
+        HeapBytes {
+            particles: self.parts.heap_bytes(),
+            grid: self.grid.heap_bytes() + self.bins.heap_bytes() + x_next + written,
+        }
     }
 
     pub fn time(&self) -> f64 {
