@@ -56,29 +56,46 @@ struct Measured {
     per_step: f64,
     /// Seconds per step in P2G, grid update, G2P.
     stages: [f64; 3],
+    /// Mean Δt of the timed steps (the CFL's), s; the 3D bench's Taichi
+    /// run takes this one.
+    dt: f64,
+    /// Heap bytes of the particle arrays and of the grid side, after the
+    /// timed steps (so any growth counts).
+    bytes: cleave::mpm::HeapBytes,
+    particles: usize,
 }
 
-/// Particle-steps per second over `steps` steps (after 3 warm-up steps).
-fn measure(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measured> {
+/// Particle-steps per second over `steps` steps (after 3 warm-up steps)
+/// of the `D`-dimensional simulation of `scene`.
+fn measure<const D: usize, const V: usize>(
+    scene: &Scene,
+    threads: usize,
+    steps: usize,
+) -> anyhow::Result<Measured>
+where
+    cleave::particles::Particles<D, V>: cleave::mpm::Saved,
+{
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .context("thread pool")?;
     pool.install(|| {
-        let mut sim = Simulation::new(scene);
+        let mut sim = Simulation::<D, V>::build(scene);
         for _ in 0..3 {
             sim.step()?;
         }
         let before = sim.stage_times().clone();
+        let mut dt = 0.0;
         let t0 = Instant::now();
         for _ in 0..steps {
-            sim.step()?;
+            dt += sim.step()?;
         }
         let secs = t0.elapsed().as_secs_f64();
         let after = sim.stage_times();
         let per = |a: f64, b: f64| (a - b) / steps as f64;
+        let particles = sim.particles().len();
         Ok(Measured {
-            rate: sim.particles().len() as f64 * steps as f64 / secs,
+            rate: particles as f64 * steps as f64 / secs,
             per_step: secs / steps as f64,
             stages: [
                 per(after.get(Stage::P2g), before.get(Stage::P2g)),
@@ -88,6 +105,9 @@ fn measure(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measur
                     before.sum(|s| matches!(s, Stage::G2p | Stage::Rebin)),
                 ),
             ],
+            dt: dt / steps as f64,
+            bytes: sim.heap_bytes(),
+            particles,
         })
     })
 }
@@ -110,7 +130,7 @@ pub fn run(out: &Path, steps: usize, largest: usize, transfers: &str) -> anyhow:
             let n = sc.total_particles();
             let mut base = 0.0;
             for threads in [1usize, 2] {
-                let m = measure(&sc, threads, steps)?;
+                let m = measure::<2, 3>(&sc, threads, steps)?;
                 if threads == 1 {
                     base = m.rate;
                 }
@@ -194,58 +214,6 @@ snapshots = 0
         pos = 1.0 + m,
     );
     Scene::from_text(&text, None).map_err(|e| anyhow::anyhow!("3D benchmark scene: {e}"))
-}
-
-/// One 3D configuration's result.
-struct Measured3d {
-    m: Measured,
-    /// Mean Δt of the timed steps (the CFL's), s; Taichi takes this one.
-    dt: f64,
-    /// Heap bytes of the particle arrays and of the grid side.
-    bytes: cleave::mpm::HeapBytes,
-    particles: usize,
-}
-
-/// Like [`measure`] for the 3D simulation, also returning the Δt and the
-/// heap bytes (taken after the timed steps, so any growth counts).
-fn measure_3d(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measured3d> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .context("thread pool")?;
-    pool.install(|| {
-        let mut sim = Simulation::<3, 6>::build(scene);
-        for _ in 0..3 {
-            sim.step()?;
-        }
-        let before = sim.stage_times().clone();
-        let mut dt = 0.0;
-        let t0 = Instant::now();
-        for _ in 0..steps {
-            dt += sim.step()?;
-        }
-        let secs = t0.elapsed().as_secs_f64();
-        let after = sim.stage_times();
-        let per = |a: f64, b: f64| (a - b) / steps as f64;
-        let particles = sim.particles().len();
-        Ok(Measured3d {
-            m: Measured {
-                rate: particles as f64 * steps as f64 / secs,
-                per_step: secs / steps as f64,
-                stages: [
-                    per(after.get(Stage::P2g), before.get(Stage::P2g)),
-                    per(after.get(Stage::GridUpdate), before.get(Stage::GridUpdate)),
-                    per(
-                        after.sum(|s| matches!(s, Stage::G2p | Stage::Rebin)),
-                        before.sum(|s| matches!(s, Stage::G2p | Stage::Rebin)),
-                    ),
-                ],
-            },
-            dt: dt / steps as f64,
-            bytes: sim.heap_bytes(),
-            particles,
-        })
-    })
 }
 
 /// The Taichi script, embedded so the bench runs it from any directory.
@@ -384,15 +352,15 @@ pub fn run_3d(
             let mut base = 0.0;
             let mut dt = None;
             for threads in [1usize, 2] {
-                let r = measure_3d(&sc, threads, steps)?;
+                let r = measure::<3, 6>(&sc, threads, steps)?;
                 let n = r.particles;
                 if threads == 1 {
-                    base = r.m.rate;
+                    base = r.rate;
                 }
                 // Taichi takes the Δt of cleave's one-thread run, so both
                 // codes step the same block with the same step.
                 let dt = *dt.get_or_insert(r.dt);
-                let speedup = r.m.rate / base;
+                let speedup = r.rate / base;
                 let bpp = (r.bytes.particles + r.bytes.grid) as f64 / n as f64;
                 let (pb, gb) = (
                     r.bytes.particles as f64 / n as f64,
@@ -412,21 +380,21 @@ pub fn run_3d(
                 };
                 println!(
                     "{n:>10} {threads:>8} {:>10.2} {:>12.2} {speedup:>9.2} {bpp:>10.0} {:>12}",
-                    1e3 * r.m.per_step,
-                    r.m.rate / 1e6,
+                    1e3 * r.per_step,
+                    r.rate / 1e6,
                     ti.map_or("-".into(), |t| format!("{:.2}", t / 1e6))
                 );
                 let _ = write!(
                     table,
                     "| {n} | {threads} | {:.2} | {:.2} | {speedup:.2} | {:.2} | {:.2} | {:.2} | {bpp:.0} ({pb:.0} + {gb:.0}) | {rss:.0} |",
-                    1e3 * r.m.per_step,
-                    r.m.rate / 1e6,
-                    1e3 * r.m.stages[0],
-                    1e3 * r.m.stages[1],
-                    1e3 * r.m.stages[2],
+                    1e3 * r.per_step,
+                    r.rate / 1e6,
+                    1e3 * r.stages[0],
+                    1e3 * r.stages[1],
+                    1e3 * r.stages[2],
                 );
                 if let Some(t) = ti {
-                    let _ = write!(table, " {:.2} | {:.2} |", t / 1e6, r.m.rate / t);
+                    let _ = write!(table, " {:.2} | {:.2} |", t / 1e6, r.rate / t);
                 }
                 let _ = writeln!(table);
             }
