@@ -2,6 +2,8 @@
 //! the Rankine law's dissipation against G_f × the crack's area, and the
 //! thread count not changing a damaged run.
 
+mod common;
+
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;
 use cleave::scene::{Format, Scene, Stage};
@@ -82,11 +84,7 @@ fn a_damaged_3d_run_does_not_depend_on_the_thread_count() {
         );
     let s = scene(&text);
     let go = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        common::on_threads(threads, || {
             let mut sim = Sim3::build(&s);
             let mut rec = Recorder::default();
             sim.run(&mut rec).expect("the bar breaks");

@@ -2,6 +2,8 @@
 //! seed 000). Each test compares two runs the paper compares, or a run
 //! with an analytic value.
 
+mod common;
+
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;
 use cleave::scene::{Scene, Stage};
@@ -169,11 +171,7 @@ fn the_same_seed_gives_the_same_weibull_run_on_any_thread_count_and_no_dfg_runs_
     let (sa, ra) = run(&a);
     // the same on one thread (the DFG stages' reductions and scatters do
     // not depend on the thread count)
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
-    let (sb, rb) = pool.install(|| run(&a));
+    let (sb, rb) = common::on_threads(1, || run(&a));
     assert_eq!(sa.particles().strength, sb.particles().strength);
     assert_eq!(sa.particles().damage, sb.particles().damage);
     // (bit patterns: the first crack speed is NaN)
@@ -382,11 +380,7 @@ fn fragment_files(scene: &Scene) -> (tempfile::TempDir, Vec<Vec<u8>>) {
 fn the_same_seed_gives_byte_identical_fragments() {
     let scene = parse(MINI_BRAZILIAN);
     let (_a, fa) = fragment_files(&scene);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
-    let (_b, fb) = pool.install(|| fragment_files(&scene));
+    let (_b, fb) = common::on_threads(1, || fragment_files(&scene));
     assert_eq!(
         fa, fb,
         "fragment tables differ between runs with the same seed"

@@ -298,11 +298,7 @@ snapshots = 0
 "#,
     );
     let go = |threads: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        pool.install(|| {
+        common::on_threads(threads, || {
             let mut sim = Sim3::build(&s);
             let mut rec = Recorder::default();
             let summary = sim.run(&mut rec).expect("the sphere lands");

@@ -1,5 +1,7 @@
 //! Helpers shared by the integration tests (each test file that needs
-//! them declares `mod common;`).
+//! them declares `mod common;`). Each test file compiles this module
+//! and uses only some of it, hence the allowance.
+#![allow(dead_code)]
 
 /// The least-squares slope of `(t, v)` samples taken after `after`: the
 /// acceleration of a body whose velocity was sampled over time.
@@ -12,4 +14,14 @@ pub fn slope_after(samples: &[(f64, f64)], after: f64) -> f64 {
         (a.0 + (s.0 - mt) * (s.1 - mv), a.1 + (s.0 - mt).powi(2))
     });
     num / den
+}
+
+/// `f` run on a pool of `threads` threads: what the tests that compare one
+/// and two threads run their simulation in.
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool")
+        .install(f)
 }
