@@ -120,6 +120,19 @@ snapshots = 1000
     .to_string()
 }
 
+/// `cleave run --quiet SCENE --out OUT`, embedded (no server); it must
+/// succeed.
+fn run_embedded(scene: &Path, out: &Path) {
+    let o = Command::new(cleave_bin())
+        .args(["run", "--quiet"])
+        .arg(scene)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 fn same_files(a: &Path, b: &Path) {
     let mut names: Vec<_> = std::fs::read_dir(a)
         .unwrap()
@@ -203,14 +216,7 @@ fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
     let server = Server::start(&dir.path().join("data"), &[]);
     let scene = scenes().join("sliding_block.toml");
     let local = dir.path().join("local");
-    let o = Command::new(cleave_bin())
-        .args(["run", "--quiet"])
-        .arg(&scene)
-        .arg("--out")
-        .arg(&local)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    run_embedded(&scene, &local);
     // submit, watch to completion, fetch
     let o = server.cli(&["submit", scene.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -278,14 +284,7 @@ async fn a_3d_job_fetches_what_an_embedded_run_writes() {
     let server = Server::start(&dir.path().join("data"), &[]);
     let scene = scenes().join("two_spheres_3d.toml");
     let local = dir.path().join("local");
-    let o = Command::new(cleave_bin())
-        .args(["run", "--quiet"])
-        .arg(&scene)
-        .arg("--out")
-        .arg(&local)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    run_embedded(&scene, &local);
     let mut c = server.client().await;
     let v = c
         .validate_scene(proto::ValidateSceneRequest {
@@ -1067,14 +1066,7 @@ async fn a_job_resumes_from_its_checkpoint_after_a_kill_and_a_shutdown_with_the_
     let scene = dir.path().join("spin.toml");
     std::fs::write(&scene, &text).unwrap();
     let local = dir.path().join("local");
-    let o = Command::new(cleave_bin())
-        .args(["run", "--quiet"])
-        .arg(&scene)
-        .arg("--out")
-        .arg(&local)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", stderr(&o));
+    run_embedded(&scene, &local);
 
     let flags = ["--checkpoint-every", "0.2"];
     let mut server = Server::start(&data, &flags);
