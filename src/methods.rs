@@ -5,7 +5,7 @@
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::run::{Method, MethodEntry, Resumed};
-use crate::scene::{MaterialRef, Scene, SceneError};
+use crate::scene::{phase_field_gamma, MaterialRef, Scene, SceneError};
 
 /// Every method, the first whose `runs` accepts a scene runs it.
 pub const METHODS: &[MethodEntry] = &[crate::mpm::METHOD];
@@ -23,8 +23,9 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 /// grid MPM's explicit core (issue 32: the grid, the transfers, the
 /// materials, contact and the walls are generic over the dimension), and
 /// continuum damage (`materials.NAME.damage`: Rankine, time to failure,
-/// Weibull strengths, fragments); what is still 2D is refused here,
-/// naming the key: the phase field, DFG partitioning, initial cracks and
+/// Weibull strengths, fragments) and the 2nd-order phase field (solved on
+/// the 3D stencil, every solver method); what is still 2D is refused here,
+/// naming the key: the 4th-order phase field, DFG partitioning, initial cracks and
 /// crack origins (2D polylines and an in-plane tip tracker). Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
 /// writing or queueing anything.
@@ -36,7 +37,7 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
     let not_yet = |path: String, what: &str| {
         Err(SceneError::single(
             &path,
-            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; and continuum damage)"),
+            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; continuum damage and the 2nd-order phase field)"),
         ))
     };
     // a fracture model, named at its body's material
@@ -46,8 +47,19 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
             MaterialRef::Name(n) => format!("materials.{n}"),
             MaterialRef::Inline(_) => format!("bodies[{b}].material"),
         };
-        if m.phase_field().is_some() {
-            return not_yet(format!("{key}.phase_field"), "a phase field");
+        if let Some(pf) = m.phase_field() {
+            if !phase_field_gamma(pf).is_zero() {
+                return not_yet(
+                    format!("{key}.phase_field.gamma"),
+                    "the 4th-order (anisotropic) phase field",
+                );
+            }
+            if pf.angle != 0.0 {
+                return not_yet(
+                    format!("{key}.phase_field.angle"),
+                    "a rotated (4th-order) phase field",
+                );
+            }
         }
     }
     if file.dfg.is_some() {

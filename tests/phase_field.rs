@@ -136,12 +136,12 @@ fn straight_crack(gamma: Gamma, theta_deg: f64) -> (f64, f64) {
         .zip(&history)
         .filter(|(_, &hh)| hh > 0.0)
         .map(|(p, _)| {
-            cleave::fracture::phase_field::system::field_at::<QuadraticBspline>(&geom, &c, *p).0
+            cleave::fracture::phase_field::system::field_at::<QuadraticBspline, 2>(&geom, &c, *p).0
         })
         .fold(0.0f64, f64::max);
     println!("  max c on the crack line: {on_line:.4}");
     let window = 12.0 * l0;
-    let energy = fracture_energy::<QuadraticBspline>(&geom, &c, &parts, &params, |p| {
+    let energy = fracture_energy::<QuadraticBspline, 2>(&geom, &c, &parts, &params, |p| {
         (p[0] * tangent[0] + p[1] * tangent[1]).abs() < 0.5 * window
     });
     (energy / window, surface_energy(&gamma, gc_bar, t))
@@ -214,10 +214,11 @@ fn an_undamaged_body_stays_at_c_one_up_to_its_edges() {
         let worst = x
             .iter()
             .map(|&p| {
-                (cleave::fracture::phase_field::system::field_at::<K>(&geom, &c, p).0 - 1.0).abs()
+                (cleave::fracture::phase_field::system::field_at::<K, 2>(&geom, &c, p).0 - 1.0)
+                    .abs()
             })
             .fold(0.0f64, f64::max);
-        let energy = fracture_energy::<K>(&geom, &c, &parts, &params, |_| true);
+        let energy = fracture_energy::<K, 2>(&geom, &c, &parts, &params, |_| true);
         assert!(worst < 1e-8, "{name}: |c − 1| up to {worst}");
         assert!(energy < 1e-12, "{name}: Ψ_f = {energy}");
     }
@@ -894,7 +895,7 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
             // by the pivot floor, takes almost no weight there)
             let at = |c: &[f64]| {
                 x.iter()
-                    .map(|&p| cleave::fracture::phase_field::system::value_at::<K>(&geom, c, p))
+                    .map(|&p| cleave::fracture::phase_field::system::value_at::<K, 2>(&geom, c, p))
                     .collect::<Vec<_>>()
             };
             let worst = at(&c)

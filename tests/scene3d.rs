@@ -1,7 +1,8 @@
 //! 3D scenes (issue 32, the scene side): a scene whose `grid.max` has
 //! three components describes a 3D problem; it validates with errors that
 //! name their field, seeds its bodies, and runs the explicit core,
-//! continuum damage and snapshots; what is still 2D (the phase field, DFG,
+//! continuum damage, the 2nd-order phase field and snapshots; what is still
+//! 2D (the 4th-order phase field, DFG,
 //! initial cracks and crack origins) is refused naming its key. 2D scenes
 //! serialise as before.
 
@@ -411,8 +412,8 @@ fn bad_3d_shapes_name_their_field() {
 }
 
 /// A 3D scene runs the explicit core (and writes its snapshots), but what
-/// is still 2D is refused, naming its key: here a phase field. A server's
-/// submit refuses it alike.
+/// is still 2D is refused, naming its key: here a 4th-order phase field
+/// (the 2nd-order one runs in 3D). A server's submit refuses it alike.
 #[test]
 fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue() {
     let scene = Scene::from_text(BLOCK, Some(Format::Toml)).unwrap();
@@ -422,14 +423,17 @@ fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue(
     let quiet = BLOCK.to_string();
     let phase_field = BLOCK.replace(
         "poissons_ratio = 0.3 }",
-        "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.1 } }",
+        "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.1, gamma = [1.0, 1.0, 0.0, 2.0] } }",
     );
     let scene = Scene::from_text(&phase_field, Some(Format::Toml))
         .expect("a 3D phase-field scene validates");
     match cleave::methods::build(&scene) {
-        Ok(_) => panic!("a 3D phase field was built"),
+        Ok(_) => panic!("a 3D 4th-order phase field was built"),
         Err(e) => {
-            assert_eq!(e.errors[0].path, "bodies[0].material.phase_field", "{e}");
+            assert_eq!(
+                e.errors[0].path, "bodies[0].material.phase_field.gamma",
+                "{e}"
+            );
             assert!(e.errors[0].reason.contains("not run yet"), "{e}");
         }
     }
@@ -478,7 +482,10 @@ fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue(
     .unwrap();
     match jobs.submit(&phase_field, Some(Format::Toml), "block") {
         Err(JobError::Invalid(e)) => {
-            assert_eq!(e.errors[0].path, "bodies[0].material.phase_field", "{e}");
+            assert_eq!(
+                e.errors[0].path, "bodies[0].material.phase_field.gamma",
+                "{e}"
+            );
         }
         other => panic!("expected a refusal naming the phase field, got {other:?}"),
     }

@@ -156,7 +156,7 @@ fn bad_input_exits_2_and_names_the_field() {
 
 /// A 3D scene validates (exit 0, its particles and its three cell counts
 /// printed) and runs (`series.csv` with the 3D columns, 3D VTK files);
-/// with a phase field (still 2D) `run` refuses it as it refuses an invalid
+/// with a 4th-order phase field (still 2D) `run` refuses it as it refuses an invalid
 /// scene (exit 2), naming the key, and writes nothing; so does a study.
 #[test]
 fn a_3d_scene_validates_and_runs_and_what_is_still_2d_is_refused() {
@@ -192,14 +192,14 @@ velocity = [0.5, 0.0, -0.25]
     let expected = 4.0 / 3.0 * std::f64::consts::PI * 0.3f64.powi(3) / 0.05f64.powi(3);
     assert!((n - expected).abs() < 0.03 * expected, "{n} vs {expected}");
 
-    // a phase field is still 2D: refused by run and study, naming the key,
-    // before anything is written
+    // a 4th-order phase field is still 2D: refused by run and study,
+    // naming the key, before anything is written
     let cracking = write(
         dir.path(),
         "cracking.toml",
         text.replace(
             "poissons_ratio = 0.3 }",
-            "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.2 } }",
+            "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.2, gamma = [1.0, 1.0, 0.0, 2.0] } }",
         )
         .as_bytes(),
     );
@@ -213,7 +213,7 @@ velocity = [0.5, 0.0, -0.25]
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("bodies[0].material.phase_field")
+        stderr(&out).contains("bodies[0].material.phase_field.gamma")
             && stderr(&out).contains("not run yet"),
         "{}",
         stderr(&out)
@@ -229,7 +229,7 @@ velocity = [0.5, 0.0, -0.25]
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("bodies[0].material.phase_field"),
+        stderr(&out).contains("bodies[0].material.phase_field.gamma"),
         "{}",
         stderr(&out)
     );

@@ -11,12 +11,16 @@ pub mod phase_field;
 /// gets each model whose [`model::Build`] returns one. Adding a model: its
 /// folder, and one line here.
 pub(crate) const MODELS: &[model::Build] = &[
-    phase_field::model::build,
+    phase_field::model::build::<2, 3>,
     dfg::model::build,
     damage::model::build,
 ];
 
 /// The fracture models that run in 3D (issue 32), in the order of
-/// [`MODELS`]: continuum damage. The phase field and DFG are 2D still
-/// ([`crate::methods::runnable`] refuses them in a 3D scene).
-pub(crate) const MODELS_3D: &[model::Build<3, 6>] = &[damage::model::build::<3, 6>];
+/// [`MODELS`]: the 2nd-order phase field and continuum damage. DFG and
+/// the 4th-order phase field are 2D still ([`crate::methods::runnable`]
+/// refuses them in a 3D scene).
+pub(crate) const MODELS_3D: &[model::Build<3, 6>] = &[
+    phase_field::model::build::<3, 6>,
+    damage::model::build::<3, 6>,
+];

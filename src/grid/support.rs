@@ -85,6 +85,23 @@ impl SupportNode<2> {
     }
 }
 
+impl<const D: usize> SupportNode<D> {
+    /// The Hessian in Voigt order, in the first `D(D+1)/2` of six entries
+    /// (the rest zero): 2D `[N,xx, N,yy, N,xy]`, 3D `[N,xx, N,yy, N,zz,
+    /// N,yz, N,xz, N,xy]` (the engine's Voigt order, [`crate::tensor`]).
+    /// One width for both dimensions, so the phase-field assembly has one
+    /// code path.
+    #[inline(always)]
+    pub fn hess_voigt6(&self) -> [f64; 6] {
+        let h = &self.hess;
+        if D == 2 {
+            [h[0][0], h[1][1], h[0][1], 0.0, 0.0, 0.0]
+        } else {
+            [h[0][0], h[1][1], h[2][2], h[1][2], h[0][2], h[0][1]]
+        }
+    }
+}
+
 /// The support of a particle for kernel `K` in `D` dimensions (2 or 3):
 /// its 1D evaluations along each axis and what turns them into nodes.
 /// With `HESS`, the kernel's second derivatives too ([`Kernel::eval2`]).

@@ -277,6 +277,37 @@ pub fn miehe_split(lambda: f64, mu: f64, e: [f64; 3], ezz: f64) -> (f64, [f64; 3
     )
 }
 
+/// Miehe's spectral split in 3D (Miehe et al. 2010, as Kakouris & Triantafyllou use it,
+/// eqs. 14–16, with all three principal strains of the full strain):
+/// ψ⁺ = λ/2 ⟨tr ε⟩₊² + μ Σ_a ⟨ε_a⟩₊², σ± = λ⟨tr ε⟩± I + 2μ Σ_a ⟨ε_a⟩± n_a⊗n_a.
+/// `e` is the strain in Voigt order (xx, yy, zz, yz, xz, xy; tensor shear
+/// components); returns (ψ⁺, σ⁺, σ⁻) in the same order. The principal
+/// axes are [`crate::tensor::sym_eigen3`]'s (exact for a diagonal strain).
+pub fn miehe_split_3d(lambda: f64, mu: f64, e: [f64; 6]) -> (f64, [f64; 6], [f64; 6]) {
+    let (ev, n) = crate::tensor::sym_eigen3(e);
+    let tr = e[0] + e[1] + e[2];
+    let pos = |x: f64| x.max(0.0);
+    let neg = |x: f64| x.min(0.0);
+    let psi = 0.5 * lambda * pos(tr).powi(2)
+        + mu * (pos(ev[0]).powi(2) + pos(ev[1]).powi(2) + pos(ev[2]).powi(2));
+    // Σ_a s_a n_a⊗n_a in Voigt order; n[a] is the unit vector n_a
+    let proj = |s: [f64; 3]| {
+        let at = |i: usize, j: usize| {
+            s[0] * n[0][i] * n[0][j] + s[1] * n[1][i] * n[1][j] + s[2] * n[2][i] * n[2][j]
+        };
+        [at(0, 0), at(1, 1), at(2, 2), at(1, 2), at(0, 2), at(0, 1)]
+    };
+    let m2 = 2.0 * mu;
+    let sp = proj([m2 * pos(ev[0]), m2 * pos(ev[1]), m2 * pos(ev[2])]);
+    let sn = proj([m2 * neg(ev[0]), m2 * neg(ev[1]), m2 * neg(ev[2])]);
+    let (lp, ln) = (lambda * pos(tr), lambda * neg(tr));
+    (
+        psi,
+        [sp[0] + lp, sp[1] + lp, sp[2] + lp, sp[3], sp[4], sp[5]],
+        [sn[0] + ln, sn[1] + ln, sn[2] + ln, sn[3], sn[4], sn[5]],
+    )
+}
+
 #[cfg(test)]
 mod tests {
     #[test]
@@ -458,5 +489,55 @@ mod tests {
             lin.hooke_3d([e2[0], e2[1], 0.0, 0.0, 0.0, e2[2]]),
         );
         assert_eq!([h2[0], h2[1], h2[2]], [h3[0], h3[1], h3[5]]);
+    }
+
+    /// The 3D split sums to Hooke's law, ψ⁺ = ½ σ⁺ : ε, pure compression
+    /// has no tensile energy, and a plane strain state splits as the 2D
+    /// split does.
+    #[test]
+    fn miehe_split_3d_sums_to_hooke_and_agrees_with_plane_strain() {
+        let (lambda, mu) = (1.2e9, 0.8e9);
+        let m = Elastic {
+            lambda,
+            mu,
+            ..steel(MaterialModel::LinearElastic, PlaneKind::PlaneStrain)
+        };
+        let dot = |s: [f64; 6], e: [f64; 6]| {
+            s[0] * e[0]
+                + s[1] * e[1]
+                + s[2] * e[2]
+                + 2.0 * (s[3] * e[3] + s[4] * e[4] + s[5] * e[5])
+        };
+        for e in [
+            [1e-3, -2e-4, 4e-4, 1e-4, -3e-4, 3e-4],
+            [-1e-3, -5e-4, -2e-4, 1e-4, 0.0, 2e-4],
+            [2e-3, 2e-3, 2e-3, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, 5e-4, 0.0, 0.0],
+        ] {
+            let (psi, sp, sn) = super::miehe_split_3d(lambda, mu, e);
+            let hooke = m.hooke_3d(e);
+            for k in 0..6 {
+                assert!((sp[k] + sn[k] - hooke[k]).abs() < 1e-9 * 1e7, "{e:?}: {k}");
+            }
+            let total = 0.5 * dot(hooke, e);
+            assert!(psi >= 0.0 && psi <= total + 1e-9, "{e:?}: {psi} of {total}");
+            let half = 0.5 * dot(sp, e);
+            assert!(
+                (psi - half).abs() < 1e-9 * total.max(1.0),
+                "{e:?}: {psi} vs {half}"
+            );
+        }
+        let (psi, sp, _) = super::miehe_split_3d(lambda, mu, [-1e-3, -1e-3, -2e-4, 0.0, 0.0, 0.0]);
+        assert_eq!(psi, 0.0);
+        assert_eq!(sp, [0.0; 6]);
+        // plane strain: ε_zz = ε_yz = ε_xz = 0
+        let e2 = [1e-3, -2e-4, 3e-4];
+        let (p2, sp2, sn2) = super::miehe_split(lambda, mu, e2, 0.0);
+        let (p3, sp3, sn3) =
+            super::miehe_split_3d(lambda, mu, [e2[0], e2[1], 0.0, 0.0, 0.0, e2[2]]);
+        assert!((p2 - p3).abs() < 1e-12 * p2);
+        for (a, b) in [(0, 0), (1, 1), (2, 5)] {
+            assert!((sp2[a] - sp3[b]).abs() < 1e-9 * 1e7 && (sn2[a] - sn3[b]).abs() < 1e-9 * 1e7);
+        }
     }
 }

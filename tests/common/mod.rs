@@ -25,3 +25,47 @@ pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .expect("a thread pool")
         .install(f)
 }
+
+/// A small 3D impact: a stiff sphere at 60 m/s on a free beam, both with a
+/// 2nd-order phase field, solved directly (so that a resumed run repeats
+/// the straight one bit for bit, `tests/checkpoint.rs`); `tests/phase_field3d.rs`
+/// runs it on 1 and 2 threads.
+pub const PF_IMPACT_3D: &str = r#"
+[grid]
+cell_size = 1.0e-3
+min = [0.0, 0.0, 0.0]
+max = [0.016, 0.024, 0.008]
+shape_function = "quadratic_bspline"
+[time]
+end = 1.2e-5
+cfl = 0.4
+[contact]
+friction = 0.65
+[materials.beam]
+model = "linear_elastic"
+density = 8000.0
+youngs_modulus = 1.9e11
+poissons_ratio = 0.3
+phase_field = { gc = 20000.0, l0 = 2.0e-3 }
+[materials.sphere]
+model = "linear_elastic"
+density = 8000.0
+youngs_modulus = 1.9e11
+poissons_ratio = 0.3
+phase_field = { gc = 2.0e6, l0 = 2.0e-3 }
+[[bodies]]
+name = "beam"
+shape = { type = "box", min = [0.008, 0.002, 0.002], max = [0.012, 0.022, 0.006] }
+material = "beam"
+contact_group = 1
+[[bodies]]
+name = "sphere"
+shape = { type = "sphere", center = [0.0045, 0.012, 0.004], radius = 0.0025 }
+material = "sphere"
+velocity = [60.0, 0.0, 0.0]
+[output]
+series_rows = 13
+snapshots = 0
+[phase_field_solver]
+method = "direct"
+"#;

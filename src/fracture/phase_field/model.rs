@@ -32,12 +32,13 @@ use crate::fracture::phase_field::system::{
 };
 use crate::grid::shape::{by_kernel, Kernel};
 use crate::grid::{Bins, GridGeom, SyncPtr};
-use crate::material::{miehe_split, Elastic};
+use crate::material::{miehe_split, miehe_split_3d, Elastic};
 use crate::particles::Particles;
 use crate::scene::{
     phase_field_gamma, CrackProfile, CrackSpec, PhaseFieldMethod, PlaneKind, PlaneStressSplit,
     Scene, Stage,
 };
+use crate::tensor::resize;
 use rayon::prelude::*;
 
 /// B of a `line` crack: the history on it is B·Ḡc/(4l₀), which drives c to
@@ -75,14 +76,14 @@ fn initial_history(
         .fold(0.0, f64::max)
 }
 
-/// One body's phase field.
-struct Body {
+/// One body's phase field on a `D`-dimensional grid.
+struct Body<const D: usize> {
     /// The body's index in the scene.
     body: u16,
     /// Indices of the body's particles.
     particles: Vec<u32>,
     params: PhaseFieldParams,
-    system: PhaseFieldSystem,
+    system: PhaseFieldSystem<D>,
     /// Nodal c of the last solve (all grid nodes).
     c: Vec<f64>,
     /// The crack-tip diagnostic, if tracked.
@@ -131,9 +132,11 @@ pub(crate) struct RowStats {
     pub residual: f64,
 }
 
-/// The phase fields of a simulation.
-pub struct PhaseFields {
-    bodies: Vec<Body>,
+/// The phase fields of a simulation in `D` dimensions (2 or 3; in 3D the
+/// 2nd-order model, no initial cracks and no crack tip:
+/// [`crate::methods::runnable`] refuses the rest).
+pub struct PhaseFields<const D: usize = 2> {
+    bodies: Vec<Body<D>>,
     method: SolveMethod,
     max_staggers: u32,
     stagger_tolerance: f64,
@@ -167,7 +170,11 @@ pub(crate) struct PhaseState {
 }
 
 /// One body's particles as the phase-field system reads them.
-fn of_body<'a>(parts: &'a Particles, body: u16, bins: Option<&'a Bins>) -> FieldParticles<'a> {
+fn of_body<'a, const D: usize, const V: usize>(
+    parts: &'a Particles<D, V>,
+    body: u16,
+    bins: Option<&'a Bins>,
+) -> FieldParticles<'a, D> {
     FieldParticles {
         x: &parts.x,
         vol: &parts.vol,
@@ -178,15 +185,20 @@ fn of_body<'a>(parts: &'a Particles, body: u16, bins: Option<&'a Bins>) -> Field
 }
 
 /// The phase fields of a scene's phase-field bodies, if it has any.
-pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>> {
-    PhaseFields::new(at.scene, at.parts).map(|m| Box::new(m) as Box<dyn FractureModel>)
+pub(crate) fn build<const D: usize, const V: usize>(
+    at: &mut SetupContext<'_, D, V>,
+) -> Option<Box<dyn FractureModel<D, V>>> {
+    PhaseFields::<D>::new(at.scene, at.parts).map(|m| Box::new(m) as Box<dyn FractureModel<D, V>>)
 }
 
-impl PhaseFields {
+impl<const D: usize> PhaseFields<D> {
     /// Builds the phase fields of the scene's phase-field bodies, sets up the
-    /// particles' c (1) and history (with the initial cracks). None if no
-    /// body has a phase field.
-    pub(crate) fn new(scene: &Scene, parts: &mut Particles) -> Option<PhaseFields> {
+    /// particles' c (1) and history (with the initial cracks, 2D). None if
+    /// no body has a phase field.
+    pub(crate) fn new<const V: usize>(
+        scene: &Scene,
+        parts: &mut Particles<D, V>,
+    ) -> Option<PhaseFields<D>> {
         let mut bodies = Vec::new();
         for (b, spec) in scene.file.bodies.iter().enumerate() {
             let mat = &scene.materials[scene.body_material[b]];
@@ -220,7 +232,9 @@ impl PhaseFields {
                 let spacing = scene.particle_spacing(b);
                 for &p in &particles {
                     let p = p as usize;
-                    parts.history[p] = initial_history(parts.x[p], &cracks, &params, spacing);
+                    // (no cracks in 3D: runnable refuses them)
+                    let x = crate::tensor::resize::<D, 2>(parts.x[p]);
+                    parts.history[p] = initial_history(x, &cracks, &params, spacing);
                 }
                 Body {
                     body: b as u16,
@@ -309,20 +323,20 @@ impl PhaseFields {
     /// the previous step already did so for the same positions and history.
     /// With `record` (the step ends on a series row or a snapshot), also
     /// measures Ψ_f ([`Self::fracture_energies`]).
-    pub(crate) fn solve<K: Kernel>(
+    pub(crate) fn solve<K: Kernel, const V: usize>(
         &mut self,
-        geom: &GridGeom,
+        geom: &GridGeom<D>,
         bins: &Bins,
-        parts: &mut Particles,
+        parts: &mut Particles<D, V>,
         record: bool,
     ) -> Result<(), PhaseFieldError> {
         self.staggers = 1;
         self.recorded = false;
         if !std::mem::take(&mut self.current) {
-            self.solve_all::<K>(geom, bins, parts)?;
+            self.solve_all::<K, V>(geom, bins, parts)?;
         }
         if record {
-            self.record::<K>(geom, parts);
+            self.record::<K, V>(geom, parts);
         }
         Ok(())
     }
@@ -336,7 +350,7 @@ impl PhaseFields {
     /// of the few such particles added 12 % to the beam's Ψ_f for one row
     /// (`scenes/p3_sphere_beam_iii.toml` at the paper's resolution: 0.210 → 0.235 → 0.210 J over
     /// three rows 0.5 µs apart, before this).
-    fn record<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles) {
+    fn record<K: Kernel, const V: usize>(&mut self, geom: &GridGeom<D>, parts: &Particles<D, V>) {
         self.energy.resize(parts.len(), 0.0);
         self.body_energy.resize(self.bodies.len(), 0.0);
         for (b, body) in self.bodies.iter().enumerate() {
@@ -351,7 +365,8 @@ impl PhaseFields {
             let (c, xs, vol) = (&body.c, &parts.x, &parts.vol);
             body.particles.par_iter().for_each(|&p| {
                 let p = p as usize;
-                let v = vol[p] * system::fracture_energy_density::<K>(geom, c, &body.params, xs[p]);
+                let v =
+                    vol[p] * system::fracture_energy_density::<K, D>(geom, c, &body.params, xs[p]);
                 // SAFETY: each particle index appears once in the body's list.
                 unsafe { *energy.at(p) = v };
             });
@@ -365,11 +380,11 @@ impl PhaseFields {
         self.recorded = true;
     }
 
-    fn solve_all<K: Kernel>(
+    fn solve_all<K: Kernel, const V: usize>(
         &mut self,
-        geom: &GridGeom,
+        geom: &GridGeom<D>,
         bins: &Bins,
-        parts: &mut Particles,
+        parts: &mut Particles<D, V>,
     ) -> Result<(), PhaseFieldError> {
         for body in &mut self.bodies {
             let fp = of_body(parts, body.body, Some(bins));
@@ -379,7 +394,7 @@ impl PhaseFields {
             let phase = SyncPtr::new(&mut parts.phase);
             let (c, xs) = (&body.c, &parts.x);
             body.particles.par_iter().for_each(|&p| {
-                let v = system::value_at::<K>(geom, c, xs[p as usize]);
+                let v = system::value_at::<K, D>(geom, c, xs[p as usize]);
                 // SAFETY: each particle index appears once in the body's list.
                 unsafe { *phase.at(p as usize) = v.clamp(0.0, 1.0) };
             });
@@ -391,11 +406,11 @@ impl PhaseFields {
     /// docs); `bins` must hold the particles' present tiles. With a row
     /// due (`measure`), the residual is measured even when one iteration is
     /// allowed; with `record`, a new solve measures Ψ_f again.
-    pub(crate) fn stagger<K: Kernel>(
+    pub(crate) fn stagger<K: Kernel, const V: usize>(
         &mut self,
-        geom: &GridGeom,
+        geom: &GridGeom<D>,
         bins: &Bins,
-        parts: &mut Particles,
+        parts: &mut Particles<D, V>,
         mats: &[Elastic],
         measure: bool,
         record: bool,
@@ -403,13 +418,13 @@ impl PhaseFields {
         let mut residual = f64::NAN;
         if self.max_staggers > 1 || measure {
             loop {
-                residual = self.history_residual::<K>(geom, bins, parts);
+                residual = self.history_residual::<K, V>(geom, bins, parts);
                 if residual <= self.stagger_tolerance || self.staggers >= self.max_staggers {
                     break;
                 }
-                self.solve_all::<K>(geom, bins, parts)?;
+                self.solve_all::<K, V>(geom, bins, parts)?;
                 if record {
-                    self.record::<K>(geom, parts);
+                    self.record::<K, V>(geom, parts);
                 }
                 self.degrade(parts, mats);
                 self.staggers += 1;
@@ -424,11 +439,11 @@ impl PhaseFields {
     }
 
     /// max over bodies of ‖ΔK c‖/‖F‖ for the last history update.
-    fn history_residual<K: Kernel>(
+    fn history_residual<K: Kernel, const V: usize>(
         &mut self,
-        geom: &GridGeom,
+        geom: &GridGeom<D>,
         bins: &Bins,
-        parts: &Particles,
+        parts: &Particles<D, V>,
     ) -> f64 {
         let mut r: f64 = 0.0;
         for body in &mut self.bodies {
@@ -441,7 +456,11 @@ impl PhaseFields {
     /// History update and stress degradation after the particles' strains
     /// were updated (linear elastic, small strain). Also records each
     /// particle's history increment for the stagger residual.
-    pub(crate) fn degrade(&mut self, parts: &mut Particles, mats: &[Elastic]) {
+    pub(crate) fn degrade<const V: usize>(
+        &mut self,
+        parts: &mut Particles<D, V>,
+        mats: &[Elastic],
+    ) {
         let history = SyncPtr::new(&mut parts.history);
         let stress = SyncPtr::new(&mut parts.stress);
         let dh = SyncPtr::new(&mut self.dh);
@@ -454,12 +473,18 @@ impl PhaseFields {
             body.particles.par_iter().for_each(|&p| {
                 let p = p as usize;
                 let m = &mats[material[p] as usize];
-                let e = strain[p];
-                let (psi, sp, sn) = match m.plane {
-                    PlaneKind::PlaneStrain => miehe_split(m.lambda, m.mu, e, 0.0),
-                    // c12 of plane stress is λ* = 2λμ/(λ + 2μ)
-                    PlaneKind::PlaneStress if in_plane => miehe_split(m.c12, m.mu, e, 0.0),
-                    PlaneKind::PlaneStress => miehe_split(m.lambda, m.mu, e, m.strain_zz(e)),
+                let (psi, sp, sn): (f64, [f64; V], [f64; V]) = if D == 2 {
+                    let e = resize(strain[p]);
+                    let (psi, sp, sn) = match m.plane {
+                        PlaneKind::PlaneStrain => miehe_split(m.lambda, m.mu, e, 0.0),
+                        // c12 of plane stress is λ* = 2λμ/(λ + 2μ)
+                        PlaneKind::PlaneStress if in_plane => miehe_split(m.c12, m.mu, e, 0.0),
+                        PlaneKind::PlaneStress => miehe_split(m.lambda, m.mu, e, m.strain_zz(e)),
+                    };
+                    (psi, resize(sp), resize(sn))
+                } else {
+                    let (psi, sp, sn) = miehe_split_3d(m.lambda, m.mu, resize(strain[p]));
+                    (psi, resize(sp), resize(sn))
                 };
                 let c = phase[p];
                 let g = (1.0 - k_f) * c * c + k_f;
@@ -474,7 +499,7 @@ impl PhaseFields {
                     if psi > *h {
                         *h = psi;
                     }
-                    *stress.at(p) = [g * sp[0] + sn[0], g * sp[1] + sn[1], g * sp[2] + sn[2]];
+                    *stress.at(p) = std::array::from_fn(|k| g * sp[k] + sn[k]);
                 }
             });
         }
@@ -485,13 +510,13 @@ impl PhaseFields {
     /// solved for when the present step was asked to ([`Self::record`]),
     /// otherwise recorded now, at the present positions (the t = 0 row, or
     /// a caller's own row between output steps).
-    pub(crate) fn fracture_energies<K: Kernel>(
+    pub(crate) fn fracture_energies<K: Kernel, const V: usize>(
         &mut self,
-        geom: &GridGeom,
-        parts: &Particles,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
     ) -> Vec<f64> {
         if !self.recorded {
-            self.record::<K>(geom, parts);
+            self.record::<K, V>(geom, parts);
         }
         self.body_energy.clone()
     }
@@ -502,13 +527,13 @@ impl PhaseFields {
     /// [`Self::fracture_energies`]: V_p times it, summed over a body's
     /// particles, is the body's Ψ_f, and over a region, the energy
     /// dissipated there.
-    pub(crate) fn fracture_energy_densities<K: Kernel>(
+    pub(crate) fn fracture_energy_densities<K: Kernel, const V: usize>(
         &mut self,
-        geom: &GridGeom,
-        parts: &Particles,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
     ) -> Vec<f64> {
         if !self.recorded {
-            self.record::<K>(geom, parts);
+            self.record::<K, V>(geom, parts);
         }
         // per the present volume, so that V_p times it still sums to Ψ_f
         self.energy
@@ -533,7 +558,15 @@ impl PhaseFields {
 
     /// The crack tips of the tracked bodies at `time`; the speeds are
     /// measured from the previous call.
-    pub(crate) fn crack_tips(&mut self, parts: &Particles, time: f64) -> Vec<CrackTip> {
+    /// In 3D no tip is tracked (runnable refuses `crack_origin`): none.
+    pub(crate) fn crack_tips<const V: usize>(
+        &mut self,
+        parts: &Particles<D, V>,
+        time: f64,
+    ) -> Vec<CrackTip> {
+        let Some(x2) = (&parts.x as &dyn std::any::Any).downcast_ref::<Vec<[f64; 2]>>() else {
+            return Vec::new();
+        };
         let mut tips = Vec::new();
         for body in &mut self.bodies {
             let Some(tracker) = body.tip.as_mut() else {
@@ -542,7 +575,7 @@ impl PhaseFields {
             tips.push(if body.c.is_empty() {
                 CrackTip::UNKNOWN // before the first solve c is not known yet
             } else {
-                tracker.measure(&parts.x, &body.particles, |p| parts.phase[p] < TIP_C, time)
+                tracker.measure(x2, &body.particles, |p| parts.phase[p] < TIP_C, time)
             });
         }
         tips
@@ -634,7 +667,7 @@ impl PhaseFields {
     }
 }
 
-impl FractureModel for PhaseFields {
+impl<const D: usize, const V: usize> FractureModel<D, V> for PhaseFields<D> {
     fn name(&self) -> &'static str {
         "phase_field"
     }
@@ -654,7 +687,7 @@ impl FractureModel for PhaseFields {
         ]
     }
 
-    fn run(&mut self, stage: Stage, ctx: StepContext<'_>) -> Result<(), String> {
+    fn run(&mut self, stage: Stage, ctx: StepContext<'_, D, V>) -> Result<(), String> {
         let StepContext {
             geom,
             bins,
@@ -667,14 +700,14 @@ impl FractureModel for PhaseFields {
         } = ctx;
         let r = match stage {
             Stage::PhaseFieldSolve => {
-                by_kernel!(kernel, K => self.solve::<K>(geom, bins, parts, output_due))
+                by_kernel!(kernel, K => self.solve::<K, V>(geom, bins, parts, output_due))
             }
             Stage::PhaseFieldHistory => {
                 self.degrade(parts, mats);
                 Ok(())
             }
             Stage::PhaseFieldStagger => by_kernel!(kernel, K => {
-                self.stagger::<K>(geom, bins, parts, mats, row_due, output_due)
+                self.stagger::<K, V>(geom, bins, parts, mats, row_due, output_due)
             }),
             _ => Ok(()),
         };
@@ -694,7 +727,7 @@ impl FractureModel for PhaseFields {
     /// (`crack_tip_x`, `crack_tip_y`, `crack_length`, `crack_speed`,
     /// suffixed `_b<i>` with two or more). The core `fracture_energy` is
     /// Σ Ψ_f.
-    fn series(&mut self, at: &RowContext<'_>, out: &mut SeriesOut) {
+    fn series(&mut self, at: &RowContext<'_, D, V>, out: &mut SeriesOut) {
         let (all, tracked) = self.bodies();
         let (energies, s, tips) = if out.declaring() {
             (
@@ -704,7 +737,7 @@ impl FractureModel for PhaseFields {
             )
         } else {
             let energies =
-                by_kernel!(at.kernel, K => self.fracture_energies::<K>(at.geom, at.parts));
+                by_kernel!(at.kernel, K => self.fracture_energies::<K, V>(at.geom, at.parts));
             // (an empty f64 sum is −0.0)
             out.set_fracture_energy(energies.iter().fold(0.0, |a, b| a + b));
             let s = self.row_stats();
@@ -745,18 +778,18 @@ impl FractureModel for PhaseFields {
         encode(&self.state())
     }
 
-    fn restore(&mut self, state: &[u8], at: RestoreContext<'_>) -> Result<(), String> {
+    fn restore(&mut self, state: &[u8], at: RestoreContext<'_, D, V>) -> Result<(), String> {
         self.restore_state(decode(state)?, at.geom.node_count())
     }
 
     /// `fracture_energy_density`: Ḡc·Z per particle, J/m³
     /// ([`PhaseFields::fracture_energy_densities`]).
-    fn snapshot(&mut self, at: &RowContext<'_>, fields: &mut Vec<Field>) {
+    fn snapshot(&mut self, at: &RowContext<'_, D, V>, fields: &mut Vec<Field>) {
         fields.push(Field {
             name: "fracture_energy_density".into(),
             components: 1,
             data: FieldData::F64(by_kernel!(at.kernel, K => {
-                self.fracture_energy_densities::<K>(at.geom, at.parts)
+                self.fracture_energy_densities::<K, V>(at.geom, at.parts)
             })),
         });
     }
@@ -840,12 +873,12 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
         let scene = Scene::from_text(text, None).unwrap();
         let mut sim = crate::mpm::Simulation::new(&scene);
         let pf = crate::fracture::model::find_mut::<PhaseFields, 2, 3>(&mut sim.models).unwrap();
-        pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, true)
+        pf.solve::<K, 3>(&sim.geom, &sim.bins, &mut sim.parts, true)
             .unwrap();
         let c = pf.bodies[0].c.clone();
         let at = |parts: &Particles| {
             let fp = of_body(parts, 0, None);
-            system::fracture_energy::<K>(&sim.geom, &c, &fp, &pf.bodies[0].params, |_| true)
+            system::fracture_energy::<K, 2>(&sim.geom, &c, &fp, &pf.bodies[0].params, |_| true)
         };
         let solved = at(&sim.parts);
         // the crack holds √2·Ḡc per unit length, about: 4 mm · 1 m · √2 J/m²
@@ -879,10 +912,10 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
         );
         let pf = crate::fracture::model::find_mut::<PhaseFields, 2, 3>(&mut sim.models).unwrap();
         assert_eq!(
-            pf.fracture_energies::<K>(&sim.geom, &sim.parts),
+            pf.fracture_energies::<K, 3>(&sim.geom, &sim.parts),
             vec![solved]
         );
-        let densities = pf.fracture_energy_densities::<K>(&sim.geom, &sim.parts);
+        let densities = pf.fracture_energy_densities::<K, 3>(&sim.geom, &sim.parts);
         let sum: f64 = (0..sim.parts.len())
             .map(|p| sim.parts.vol[p] * densities[p])
             .sum();
@@ -890,10 +923,10 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
         // the next step starts without the record
         let pf = crate::fracture::model::find_mut::<PhaseFields, 2, 3>(&mut sim.models).unwrap();
         pf.current = true;
-        pf.solve::<K>(&sim.geom, &sim.bins, &mut sim.parts, false)
+        pf.solve::<K, 3>(&sim.geom, &sim.bins, &mut sim.parts, false)
             .unwrap();
         assert_eq!(
-            pf.fracture_energies::<K>(&sim.geom, &sim.parts),
+            pf.fracture_energies::<K, 3>(&sim.geom, &sim.parts),
             vec![moved]
         );
     }

@@ -394,12 +394,13 @@ pub struct Multigrid {
 
 impl Multigrid {
     /// Builds the hierarchy for the system whose unknowns are the grid
-    /// nodes `dofs` (ascending; node = i + j·nodes[0]) and whose matrix is
-    /// the lower triangle `col_ptr`/`row_idx`/`values` (compressed columns),
-    /// with the kernel's two-scale `mask` ([`Kernel::REFINE`]).
-    pub fn build(
+    /// nodes `dofs` (ascending; node = i + nodes[0]·(j + nodes[1]·k)) of a
+    /// `D`-dimensional grid and whose matrix is the lower triangle
+    /// `col_ptr`/`row_idx`/`values` (compressed columns), with the kernel's
+    /// two-scale `mask` ([`Kernel::REFINE`]).
+    pub fn build<const D: usize>(
         mask: &[f64],
-        nodes: [usize; 2],
+        nodes: [usize; D],
         dofs: &[u32],
         col_ptr: &[usize],
         row_idx: &[usize],
@@ -458,9 +459,16 @@ impl Multigrid {
         let mut levels = Vec::new();
         let mut a = fine;
         let mut dims = nodes;
-        let mut at: Vec<[u32; 2]> = dofs
+        let mut at: Vec<[u32; D]> = dofs
             .iter()
-            .map(|&d| [d % nodes[0] as u32, d / nodes[0] as u32])
+            .map(|&d| {
+                let mut rest = d as usize;
+                std::array::from_fn(|k| {
+                    let c = rest % nodes[k];
+                    rest /= nodes[k];
+                    c as u32
+                })
+            })
             .collect();
         loop {
             let rows = a.rows();
@@ -560,37 +568,68 @@ impl Multigrid {
 
 /// The prolongation from the coarse grid to the unknowns at grid positions
 /// `at` (on a grid of `dims` nodes), with the two-scale `mask` along each
-/// axis: fine node i takes coarse node I with weight mask[i + m − 1 − 2I].
-/// Coarse nodes that carry less than a quarter of a full column (the fine
-/// nodes under them mostly outside the body) are left out; they would only
-/// add near-dependent columns. Returns P, the coarse unknowns' positions
-/// and the coarse grid's size, or None if no coarse node is kept.
-fn prolongation(
+/// axis: fine node i takes coarse node I with weight mask[i + m − 1 − 2I],
+/// and the tensor product of the axes' weights, multiplied from x on (the
+/// coarse nodes visited with x fastest). Coarse nodes that carry less than
+/// a quarter of a full column (the fine nodes under them mostly outside the
+/// body) are left out; they would only add near-dependent columns. Returns
+/// P, the coarse unknowns' positions and the coarse grid's size, or None
+/// if no coarse node is kept.
+fn prolongation<const D: usize>(
     mask: &[f64],
-    dims: [usize; 2],
-    at: &[[u32; 2]],
-) -> Option<(Csr, Vec<[u32; 2]>, [usize; 2])> {
+    dims: [usize; D],
+    at: &[[u32; D]],
+) -> Option<(Csr, Vec<[u32; D]>, [usize; D])> {
     let m = mask.len();
-    let cdims = [(dims[0] + m - 2) / 2 + 1, (dims[1] + m - 2) / 2 + 1];
+    let cdims: [usize; D] = std::array::from_fn(|k| (dims[k] + m - 2) / 2 + 1);
+    // the coarse parents of fine index i along one axis: at most
+    // MAX_PARENTS, (coarse index, weight)
+    const MAX_PARENTS: usize = 4;
     let parents = |i: u32| {
         let i = i as usize;
-        (i.div_ceil(2)..=(i + m - 1) / 2).map(move |c| (c, mask[i + m - 1 - 2 * c]))
-    };
-    let full: f64 = mask.iter().sum::<f64>().powi(2);
-    let mut weight = vec![0.0; cdims[0] * cdims[1]];
-    for &[ix, iy] in at {
-        for (cy, wy) in parents(iy) {
-            for (cx, wx) in parents(ix) {
-                weight[cx + cy * cdims[0]] += wx * wy;
-            }
+        let mut out = [(0usize, 0.0); MAX_PARENTS];
+        let mut n = 0;
+        for c in i.div_ceil(2)..=(i + m - 1) / 2 {
+            out[n] = (c, mask[i + m - 1 - 2 * c]);
+            n += 1;
         }
+        (out, n)
+    };
+    // every (coarse node, weight) of the tensor product for fine position
+    // `p`, the last axis outermost
+    let each = |p: &[u32; D], f: &mut dyn FnMut(usize, f64)| {
+        let axes: [([(usize, f64); MAX_PARENTS], usize); D] =
+            std::array::from_fn(|k| parents(p[k]));
+        let total: usize = axes.iter().map(|a| a.1).product();
+        for t in 0..total {
+            let (mut rest, mut node, mut stride) = (t, 0, 1);
+            let mut w = 1.0;
+            for (k, (list, n)) in axes.iter().enumerate() {
+                let (c, wk) = list[rest % n];
+                rest /= n;
+                node += c * stride;
+                stride *= cdims[k];
+                w = if k == 0 { wk } else { w * wk };
+            }
+            f(node, w);
+        }
+    };
+    let full: f64 = mask.iter().sum::<f64>().powi(D as i32);
+    let mut weight = vec![0.0; cdims.iter().product()];
+    for p in at {
+        each(p, &mut |node, w| weight[node] += w);
     }
     let mut index = vec![u32::MAX; weight.len()];
     let mut coarse_at = Vec::new();
     for (k, &w) in weight.iter().enumerate() {
         if w >= 0.25 * full {
             index[k] = coarse_at.len() as u32;
-            coarse_at.push([(k % cdims[0]) as u32, (k / cdims[0]) as u32]);
+            let mut rest = k;
+            coarse_at.push(std::array::from_fn(|a| {
+                let c = rest % cdims[a];
+                rest /= cdims[a];
+                c as u32
+            }));
         }
     }
     if coarse_at.is_empty() {
@@ -602,16 +641,14 @@ fn prolongation(
         col: Vec::new(),
         val: Vec::new(),
     };
-    for &[ix, iy] in at {
-        for (cy, wy) in parents(iy) {
-            for (cx, wx) in parents(ix) {
-                let c = index[cx + cy * cdims[0]];
-                if c != u32::MAX {
-                    p.col.push(c);
-                    p.val.push(wx * wy);
-                }
+    for q in at {
+        each(q, &mut |node, w| {
+            let c = index[node];
+            if c != u32::MAX {
+                p.col.push(c);
+                p.val.push(w);
             }
-        }
+        });
         p.ptr.push(p.col.len());
     }
     Some((p, coarse_at, cdims))

@@ -132,24 +132,25 @@ pub enum SolveMethod {
     },
 }
 
-/// The particles of one discrete field, as the assembly reads them.
+/// The particles of one discrete field, as the assembly reads them, in 2D
+/// or 3D (`D`).
 #[derive(Debug, Clone, Copy)]
-pub struct FieldParticles<'a> {
-    pub x: &'a [[f64; 2]],
+pub struct FieldParticles<'a, const D: usize = 2> {
+    pub x: &'a [[f64; D]],
     /// Volumes (area × thickness), m³.
     pub vol: &'a [f64],
     /// History field H = max ψ⁺, J/m³.
     pub history: &'a [f64],
     /// Only the particles p with `body.0[p] == body.1` (None: all).
     pub body: Option<(&'a [u16], u16)>,
-    /// Visit the particles tile by tile in four colours, in parallel (the
+    /// Visit the particles tile by tile in 2^D colours, in parallel (the
     /// simulation's bins); None: serially in index order.
     pub bins: Option<&'a Bins>,
 }
 
-impl<'a> FieldParticles<'a> {
+impl<'a, const D: usize> FieldParticles<'a, D> {
     /// All of the given particles, visited serially.
-    pub fn all(x: &'a [[f64; 2]], vol: &'a [f64], history: &'a [f64]) -> Self {
+    pub fn all(x: &'a [[f64; D]], vol: &'a [f64], history: &'a [f64]) -> Self {
         FieldParticles {
             x,
             vol,
@@ -165,44 +166,60 @@ impl<'a> FieldParticles<'a> {
     }
 }
 
+/// Entries of a Hessian in Voigt order: 3 in 2D, 6 in 3D (the arrays hold
+/// six, [`crate::grid::SupportNode::hess_voigt6`]).
+const fn voigt_len(d: usize) -> usize {
+    d * (d + 1) / 2
+}
+
+/// The largest support in `D` dimensions: the length of the per-particle
+/// tables of the assembly (`S`).
+const S2: usize = MAX_SUPPORT * MAX_SUPPORT;
+const S3: usize = MAX_SUPPORT * MAX_SUPPORT * MAX_SUPPORT;
+
 /// Shape-function values, gradients and Hessians of one particle's support,
-/// by local index (the assembly pairs every two nodes of it).
-struct SupportTable {
+/// by local index (the assembly pairs every two nodes of it); `S` entries,
+/// at least the kernel's support in `D` dimensions.
+struct SupportTable<const D: usize, const S: usize> {
     n: usize,
-    node: [usize; MAX_SUPPORT * MAX_SUPPORT],
-    w: [f64; MAX_SUPPORT * MAX_SUPPORT],
-    g: [[f64; 2]; MAX_SUPPORT * MAX_SUPPORT],
-    /// [N,xx, N,yy, N,xy]
-    hess: [[f64; 3]; MAX_SUPPORT * MAX_SUPPORT],
+    node: [usize; S],
+    w: [f64; S],
+    g: [[f64; D]; S],
+    /// The Hessians in Voigt order ([`crate::grid::SupportNode::hess_voigt6`]).
+    hess: [[f64; 6]; S],
 }
 
 /// The support of a particle at `x`; with `HESS`, the Hessians too (the
 /// 2nd-order system needs none, and they are left zero).
-fn support<K: Kernel, const HESS: bool>(geom: &GridGeom, x: [f64; 2]) -> SupportTable {
+fn support<K: Kernel, const D: usize, const S: usize, const HESS: bool>(
+    geom: &GridGeom<D>,
+    x: [f64; D],
+) -> SupportTable<D, S> {
     let mut s = SupportTable {
-        n: K::N * K::N,
-        node: [0; MAX_SUPPORT * MAX_SUPPORT],
-        w: [0.0; MAX_SUPPORT * MAX_SUPPORT],
-        g: [[0.0; 2]; MAX_SUPPORT * MAX_SUPPORT],
-        hess: [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT],
+        n: Support::<K, D>::LEN,
+        node: [0; S],
+        w: [0.0; S],
+        g: [[0.0; D]; S],
+        hess: [[0.0; 6]; S],
     };
-    Support::<K, 2, HESS>::eval(geom, x, 0.0).for_each(|n| {
+    Support::<K, D, HESS>::eval(geom, x, 0.0).for_each(|n| {
         s.node[n.a] = n.node;
         s.w[n.a] = n.w;
         s.g[n.a] = n.grad;
         if HESS {
-            s.hess[n.a] = n.hess_voigt();
+            s.hess[n.a] = n.hess_voigt6();
         }
     });
     s
 }
 
 /// What one particle's contribution to K and F needs.
-struct Accumulate<'a> {
-    geom: &'a GridGeom,
-    parts: &'a FieldParticles<'a>,
+struct Accumulate<'a, const D: usize> {
+    geom: &'a GridGeom<D>,
+    parts: &'a FieldParticles<'a, D>,
     params: &'a PhaseFieldParams,
-    m: [[f64; 3]; 3],
+    /// γ in Voigt form, in the first `voigt_len(D)` rows and columns.
+    m: [[f64; 6]; 6],
     fourth: bool,
     dof_of: &'a [u32],
     nbr: &'a [u32],
@@ -211,7 +228,7 @@ struct Accumulate<'a> {
 }
 
 // SAFETY: the raw pointers are written only under the colouring rule.
-unsafe impl Sync for Accumulate<'_> {}
+unsafe impl<const D: usize> Sync for Accumulate<'_, D> {}
 
 /// One cell's block of K (lower triangle, `k[a·S + b]` for b ≤ a) and F:
 /// the terms of the consecutive particles whose support starts at `base`,
@@ -219,27 +236,25 @@ unsafe impl Sync for Accumulate<'_> {}
 /// the seeding lattice, so runs of a cell's particles are the rule; the
 /// scattered additions into K, the assembly's bottleneck, drop by the
 /// run length.
-struct CellBlock {
+struct CellBlock<const S: usize> {
     /// First node of the support, or usize::MAX when the block is empty;
-    /// support node i + j·N is `base + i + j·nodes[0]`.
+    /// support node a is `base + Support::local_offset(a)`.
     base: usize,
-    k: [f64; MAX_SUPPORT * MAX_SUPPORT * MAX_SUPPORT * MAX_SUPPORT],
-    f: [f64; MAX_SUPPORT * MAX_SUPPORT],
+    k: [[f64; S]; S],
+    f: [f64; S],
 }
 
-impl CellBlock {
-    const S: usize = MAX_SUPPORT * MAX_SUPPORT;
-
+impl<const S: usize> CellBlock<S> {
     fn new() -> Self {
         CellBlock {
             base: usize::MAX,
-            k: [0.0; Self::S * Self::S],
-            f: [0.0; Self::S],
+            k: [[0.0; S]; S],
+            f: [0.0; S],
         }
     }
 }
 
-impl Accumulate<'_> {
+impl<const D: usize> Accumulate<'_, D> {
     /// Adds particle q's terms of eq. 57 to the block of its cell, after
     /// adding the block to the system if it holds another cell.
     ///
@@ -247,13 +262,13 @@ impl Accumulate<'_> {
     /// No other task writes the entries of the support nodes of q or of
     /// the block's cell concurrently.
     #[inline]
-    unsafe fn particle<K: Kernel>(&self, q: usize, blk: &mut CellBlock) {
+    unsafe fn particle<K: Kernel, const S: usize>(&self, q: usize, blk: &mut CellBlock<S>) {
         // SAFETY: passed on from the caller.
         unsafe {
             if self.fourth {
-                self.particle_of::<K, true>(q, blk)
+                self.particle_of::<K, S, true>(q, blk)
             } else {
-                self.particle_of::<K, false>(q, blk)
+                self.particle_of::<K, S, false>(q, blk)
             }
         }
     }
@@ -264,7 +279,11 @@ impl Accumulate<'_> {
     /// # Safety
     /// As [`Accumulate::particle`].
     #[inline(always)]
-    unsafe fn particle_of<K: Kernel, const FOURTH: bool>(&self, q: usize, blk: &mut CellBlock) {
+    unsafe fn particle_of<K: Kernel, const S: usize, const FOURTH: bool>(
+        &self,
+        q: usize,
+        blk: &mut CellBlock<S>,
+    ) {
         let parts = self.parts;
         if !parts.member(q) {
             return;
@@ -273,32 +292,37 @@ impl Accumulate<'_> {
         let v = parts.vol[q];
         let reaction = v * (4.0 * p.l0 * (1.0 - p.k_f) * parts.history[q] / p.gc_bar + 1.0);
         let (c2, c4) = (4.0 * p.l0 * p.l0, 4.0 * p.l0.powi(4));
-        let s = support::<K, FOURTH>(self.geom, parts.x[q]);
+        let s = support::<K, D, S, FOURTH>(self.geom, parts.x[q]);
         if blk.base != s.node[0] {
             // SAFETY: the caller's colouring covers the block's cell.
-            unsafe { self.flush::<K>(blk) };
+            unsafe { self.flush::<K, S>(blk) };
             blk.base = s.node[0];
         }
-        let mut mh = [[0.0; 3]; MAX_SUPPORT * MAX_SUPPORT];
+        let nv = voigt_len(D);
+        let mut mh = [[0.0; 6]; S];
         if FOURTH {
             for a in 0..s.n {
-                for r in 0..3 {
-                    mh[a][r] = (0..3).map(|t| self.m[r][t] * s.hess[a][t]).sum();
+                for r in 0..nv {
+                    mh[a][r] = (0..nv).map(|t| self.m[r][t] * s.hess[a][t]).sum();
                 }
             }
         }
         for a in 0..s.n {
             blk.f[a] += v * s.w[a];
-            let row = &mut blk.k[a * CellBlock::S..a * CellBlock::S + a + 1];
+            let row = &mut blk.k[a][..a + 1];
             for (b, kab) in row.iter_mut().enumerate() {
-                let mut t = reaction * s.w[a] * s.w[b]
-                    + v * c2 * (s.g[a][0] * s.g[b][0] + s.g[a][1] * s.g[b][1]);
+                // ∇N_a·∇N_b summed from the first axis on, as in 2D
+                let mut gg = s.g[a][0] * s.g[b][0];
+                for d in 1..D {
+                    gg += s.g[a][d] * s.g[b][d];
+                }
+                let mut t = reaction * s.w[a] * s.w[b] + v * c2 * gg;
                 if FOURTH {
-                    t += v
-                        * c4
-                        * (s.hess[b][0] * mh[a][0]
-                            + s.hess[b][1] * mh[a][1]
-                            + s.hess[b][2] * mh[a][2]);
+                    let mut hmh = s.hess[b][0] * mh[a][0];
+                    for r in 1..nv {
+                        hmh += s.hess[b][r] * mh[a][r];
+                    }
+                    t += v * c4 * hmh;
                 }
                 *kab += t;
             }
@@ -309,17 +333,34 @@ impl Accumulate<'_> {
     ///
     /// # Safety
     /// No other task writes the entries of the block's nodes concurrently.
-    unsafe fn flush<K: Kernel>(&self, blk: &mut CellBlock) {
+    unsafe fn flush<K: Kernel, const S: usize>(&self, blk: &mut CellBlock<S>) {
         if blk.base == usize::MAX {
             return;
         }
-        let n = K::N * K::N;
-        let w = K::N as isize - 1;
-        let side = (2 * w + 1) as usize;
-        let nx = self.geom.nodes[0];
-        let mut dof = [u32::MAX; MAX_SUPPORT * MAX_SUPPORT];
+        let n = Support::<K, D>::LEN;
+        let (w, side, cube) = stencil::<K, D>();
+        let mut dof = [u32::MAX; S];
         for (a, d) in dof[..n].iter_mut().enumerate() {
-            *d = self.dof_of[blk.base + a % K::N + (a / K::N) * nx];
+            *d = self.dof_of[blk.base + Support::<K, D>::local_offset(self.geom, a)];
+        }
+        // The stencil offset of local node b from local node a is the
+        // per-axis difference of their local positions, shifted by w, in
+        // base `side`: code(a) + centre − code(b), with code the local
+        // position in base `side`.
+        let mut code = [0usize; S];
+        let mut centre = 0;
+        let mut place = 1;
+        for _ in 0..D {
+            centre += w as usize * place;
+            place *= side;
+        }
+        for (a, k) in code[..n].iter_mut().enumerate() {
+            let (mut rest, mut place) = (a, 1usize);
+            for _ in 0..D {
+                *k += (rest % K::N) * place;
+                rest /= K::N;
+                place *= side;
+            }
         }
         for a in 0..n {
             let da = dof[a];
@@ -328,46 +369,64 @@ impl Accumulate<'_> {
             }
             // SAFETY: the caller's colouring.
             unsafe { *self.rhs.at(da as usize) += blk.f[a] };
-            let (ia, ja) = ((a % K::N) as isize, (a / K::N) as isize);
+            let ka = code[a] + centre;
             // The lower triangle (row ≥ col): dofs are numbered in node
-            // order and a support's local index k = i + j·N runs in node
-            // order too (a row of the support is shorter than a grid row),
-            // so db ≤ da exactly for b ≤ a.
+            // order and a support's local index i + N·(j + N·k) runs in
+            // node order too (a row of the support is shorter than a grid
+            // row), so db ≤ da exactly for b ≤ a.
             for b in 0..=a {
                 let db = dof[b];
                 if db == u32::MAX {
                     continue;
                 }
-                let (ib, jb) = ((b % K::N) as isize, (b / K::N) as isize);
-                let k = ((ja - jb + w) as usize) * side + (ia - ib + w) as usize;
-                let pos = self.nbr[db as usize * side * side + k] as usize;
+                // per axis la − lb + w ≥ 0, so the difference of the
+                // codes never borrows between places
+                let k = ka - code[b];
+                let pos = self.nbr[db as usize * cube + k] as usize;
                 // SAFETY: the caller's colouring.
-                unsafe { *self.values.at(pos) += blk.k[a * CellBlock::S + b] };
+                unsafe { *self.values.at(pos) += blk.k[a][b] };
             }
         }
         for a in 0..n {
             blk.f[a] = 0.0;
-            blk.k[a * CellBlock::S..a * CellBlock::S + a + 1].fill(0.0);
+            blk.k[a][..a + 1].fill(0.0);
         }
         blk.base = usize::MAX;
     }
 }
 
-/// The assembled system and the factorization kept between solves.
-pub struct PhaseFieldSystem {
+/// The coupling stencil of kernel `K` in `D` dimensions: nodes of one
+/// support lie within `w = N − 1` nodes of each other along every axis, so
+/// node b's neighbours are the `side = 2w + 1` offsets per axis, `cube =
+/// side^D` in all; offset index Σ (d_i + w)·side^i, x first.
+fn stencil<K: Kernel, const D: usize>() -> (isize, usize, usize) {
+    let w = K::N as isize - 1;
+    let side = (2 * w + 1) as usize;
+    (w, side, side.pow(D as u32))
+}
+
+/// Sentinels of [`PhaseFieldSystem`]'s footprint keys: a particle outside
+/// the field, and one not yet seen.
+const KEY_NONE: u128 = u128::MAX;
+const KEY_FRESH: u128 = u128::MAX - 1;
+
+/// The assembled system and the factorization kept between solves; `D`
+/// is the grid's dimension.
+pub struct PhaseFieldSystem<const D: usize = 2> {
     /// Active nodes (ascending); the unknowns, in this order.
     dofs: Vec<u32>,
     /// Dof of every grid node, or u32::MAX.
     dof_of: Vec<u32>,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
-    /// For column dof c and stencil offset k (see `offset_index`), the
+    /// For column dof c and stencil offset k (see [`stencil`]), the
     /// position of the entry in `values`, or u32::MAX: O(1) assembly.
     nbr: Vec<u32>,
-    /// Per particle: base node and mask of positive-weight support nodes
-    /// at the last assembly (u64::MAX for non-members); the node set is
-    /// rebuilt only when one changes.
-    keys: Vec<u64>,
+    /// Per particle: base node (high 64 bits) and mask of positive-weight
+    /// support nodes (low 64: a 3D cubic support has 64) at the last
+    /// assembly ([`KEY_NONE`] for non-members); the node set is rebuilt
+    /// only when one changes.
+    keys: Vec<u128>,
     values: Vec<f64>,
     /// Position in `values` of each dof's diagonal entry.
     diag: Vec<u32>,
@@ -427,20 +486,20 @@ pub struct PhaseFieldSystem {
     /// The kernel's two-scale mask and the grid's nodes per axis, for the
     /// multigrid's levels.
     refine: &'static [f64],
-    grid_nodes: [usize; 2],
+    grid_nodes: [usize; D],
     /// Nodal scratch of [`PhaseFieldSystem::history_residual`] (all grid
     /// nodes, zero between calls).
     scratch: Vec<f64>,
     pub stats: SolveStats,
 }
 
-impl Default for PhaseFieldSystem {
+impl<const D: usize> Default for PhaseFieldSystem<D> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl PhaseFieldSystem {
+impl<const D: usize> PhaseFieldSystem<D> {
     pub fn new() -> Self {
         PhaseFieldSystem {
             dofs: Vec::new(),
@@ -472,7 +531,7 @@ impl PhaseFieldSystem {
             multigrid_poor: 0,
             multigrid_declined: false,
             refine: &[],
-            grid_nodes: [0; 2],
+            grid_nodes: [0; D],
             scratch: Vec::new(),
             stats: SolveStats::default(),
         }
@@ -503,15 +562,15 @@ impl PhaseFieldSystem {
     /// system, and c drops near a body's edge with no history at all.
     fn update_keys<K: Kernel>(
         &mut self,
-        geom: &GridGeom,
-        parts: &FieldParticles,
+        geom: &GridGeom<D>,
+        parts: &FieldParticles<D>,
         fourth: bool,
     ) -> bool {
         let n = parts.x.len();
         let fresh = self.keys.len() != n || self.dof_of.len() != geom.node_count();
         if fresh {
             self.keys.clear();
-            self.keys.resize(n, u64::MAX - 1);
+            self.keys.resize(n, KEY_FRESH);
         }
         const CHUNK: usize = 4096;
         let keys = SyncPtr::new(&mut self.keys);
@@ -523,9 +582,9 @@ impl PhaseFieldSystem {
                     let key = if parts.member(p) {
                         let mut mask = 0u64;
                         let node0 = if fourth {
-                            let s = Support::<K, 2, true>::with_hessian(geom, parts.x[p], 0.0);
+                            let s = Support::<K, D, true>::with_hessian(geom, parts.x[p], 0.0);
                             s.for_each(|n| {
-                                if n.w > 0.0 || n.hess_voigt().iter().any(|&h| h != 0.0) {
+                                if n.w > 0.0 || n.hess.iter().flatten().any(|&h| h != 0.0) {
                                     mask |= 1 << n.a;
                                 }
                             });
@@ -533,7 +592,7 @@ impl PhaseFieldSystem {
                         } else {
                             // the weights alone: no second derivatives on
                             // the 2nd-order path
-                            let s = Support::<K>::new(geom, parts.x[p], 0.0);
+                            let s = Support::<K, D>::new(geom, parts.x[p], 0.0);
                             s.for_each(|n| {
                                 if n.w > 0.0 {
                                     mask |= 1 << n.a;
@@ -541,9 +600,9 @@ impl PhaseFieldSystem {
                             });
                             s.first_node()
                         };
-                        ((node0 as u64) << 16) | mask
+                        ((node0 as u128) << 64) | mask as u128
                     } else {
-                        u64::MAX
+                        KEY_NONE
                     };
                     // SAFETY: particle p belongs to this chunk only.
                     let slot = unsafe { keys.at(p) };
@@ -562,17 +621,17 @@ impl PhaseFieldSystem {
     /// positive weight (the GIMP window and the knots of B-splines include
     /// nodes at exactly zero weight, whose rows would be singular), and
     /// rebuilds the sparsity pattern and the position table.
-    fn set_active<K: Kernel>(&mut self, geom: &GridGeom) {
+    fn set_active<K: Kernel>(&mut self, geom: &GridGeom<D>) {
         let nodes = geom.node_count();
         let mut active = vec![false; nodes];
         for &key in &self.keys {
-            if key >= u64::MAX - 1 {
+            if key >= KEY_FRESH {
                 continue;
             }
-            let base = (key >> 16) as usize;
-            for a in 0..Support::<K>::LEN {
+            let base = (key >> 64) as usize;
+            for a in 0..Support::<K, D>::LEN {
                 if key & (1 << a) != 0 {
-                    active[base + Support::<K>::local_offset(geom, a)] = true;
+                    active[base + Support::<K, D>::local_offset(geom, a)] = true;
                 }
             }
         }
@@ -587,34 +646,38 @@ impl PhaseFieldSystem {
         }
         self.dofs = dofs;
         // Lower triangle: node b couples with node a ≥ b when both lie in
-        // one support, i.e. within K::N − 1 nodes along each axis.
-        let w = K::N as isize - 1;
-        let side = (2 * w + 1) as usize;
-        let [nx, ny] = [geom.nodes[0] as isize, geom.nodes[1] as isize];
+        // one support, i.e. within K::N − 1 nodes along each axis. The
+        // offsets run x fastest, so the rows of a column come in ascending
+        // node (and dof) order.
+        let (w, side, cube) = stencil::<K, D>();
         self.col_ptr.clear();
         self.row_idx.clear();
         self.diag.clear();
         self.nbr.clear();
-        self.nbr.resize(self.dofs.len() * side * side, u32::MAX);
+        self.nbr.resize(self.dofs.len() * cube, u32::MAX);
         self.col_ptr.push(0);
         for (col, &node) in self.dofs.iter().enumerate() {
-            let (ix, iy) = (node as isize % nx, node as isize / nx);
-            for dy in -w..=w {
-                for dx in -w..=w {
-                    let (x, y) = (ix + dx, iy + dy);
-                    if x < 0 || y < 0 || x >= nx || y >= ny {
-                        continue;
+            let at = geom.node_coords(node as usize);
+            'offsets: for k in 0..cube {
+                let (mut rest, mut other) = (k, 0isize);
+                let mut stride = 1isize;
+                for d in 0..D {
+                    let c = at[d] as isize + (rest % side) as isize - w;
+                    rest /= side;
+                    if c < 0 || c >= geom.nodes[d] as isize {
+                        continue 'offsets;
                     }
-                    let other = (x + y * nx) as usize;
-                    let d = self.dof_of[other];
-                    if d != u32::MAX && other >= node as usize {
-                        if other == node as usize {
-                            self.diag.push(self.row_idx.len() as u32);
-                        }
-                        let k = ((dy + w) as usize) * side + (dx + w) as usize;
-                        self.nbr[col * side * side + k] = self.row_idx.len() as u32;
-                        self.row_idx.push(d as usize);
+                    other += c * stride;
+                    stride *= geom.nodes[d] as isize;
+                }
+                let other = other as usize;
+                let d = self.dof_of[other];
+                if d != u32::MAX && other >= node as usize {
+                    if other == node as usize {
+                        self.diag.push(self.row_idx.len() as u32);
                     }
+                    self.nbr[col * cube + k] = self.row_idx.len() as u32;
+                    self.row_idx.push(d as usize);
                 }
             }
             self.col_ptr.push(self.row_idx.len());
@@ -627,12 +690,30 @@ impl PhaseFieldSystem {
     }
 
     /// Assembles K and F (eq. 57) from the particles.
+    ///
+    /// In 3D the anisotropy tensor must be zero (the 4th-order model is 2D
+    /// still; [`crate::methods::runnable`] refuses it).
     pub fn assemble<K: Kernel>(
         &mut self,
-        geom: &GridGeom,
-        parts: &FieldParticles,
+        geom: &GridGeom<D>,
+        parts: &FieldParticles<D>,
         p: &PhaseFieldParams,
     ) {
+        if D == 2 {
+            self.assemble_in::<K, S2>(geom, parts, p)
+        } else {
+            self.assemble_in::<K, S3>(geom, parts, p)
+        }
+    }
+
+    /// [`Self::assemble`] with per-particle tables of `S` ≥ N^D entries.
+    fn assemble_in<K: Kernel, const S: usize>(
+        &mut self,
+        geom: &GridGeom<D>,
+        parts: &FieldParticles<D>,
+        p: &PhaseFieldParams,
+    ) {
+        assert!(Support::<K, D>::LEN <= S);
         let t0 = Instant::now();
         self.refine = K::REFINE;
         self.grid_nodes = geom.nodes;
@@ -643,12 +724,18 @@ impl PhaseFieldSystem {
         self.values.resize(self.row_idx.len(), 0.0);
         self.rhs.clear();
         self.rhs.resize(self.dofs.len(), 0.0);
+        let mut m = [[0.0; 6]; 6];
+        if D == 2 {
+            for (row, g) in m.iter_mut().zip(p.gamma.voigt()) {
+                row[..3].copy_from_slice(&g);
+            }
+        }
         let ctx = Accumulate {
             geom,
             parts,
             params: p,
-            m: p.gamma.voigt(),
-            fourth: !p.gamma.is_zero(),
+            m,
+            fourth: D == 2 && !p.gamma.is_zero(),
             dof_of: &self.dof_of,
             nbr: &self.nbr,
             values: SyncPtr::new(&mut self.values),
@@ -658,27 +745,27 @@ impl PhaseFieldSystem {
             Some(bins) => {
                 for colour in &bins.colours {
                     colour.par_iter().for_each(|&tile| {
-                        let mut blk = CellBlock::new();
+                        let mut blk = CellBlock::<S>::new();
                         for &q in bins.particles_of(tile) {
                             // SAFETY: particles of same-colour tiles share no
                             // node, hence no matrix entry, and the block
                             // holds one of the tile's cells; colours run in
                             // turn.
-                            unsafe { ctx.particle::<K>(q as usize, &mut blk) };
+                            unsafe { ctx.particle::<K, S>(q as usize, &mut blk) };
                         }
                         // SAFETY: as above.
-                        unsafe { ctx.flush::<K>(&mut blk) };
+                        unsafe { ctx.flush::<K, S>(&mut blk) };
                     });
                 }
             }
             None => {
-                let mut blk = CellBlock::new();
+                let mut blk = CellBlock::<S>::new();
                 for q in 0..parts.x.len() {
                     // SAFETY: serial.
-                    unsafe { ctx.particle::<K>(q, &mut blk) };
+                    unsafe { ctx.particle::<K, S>(q, &mut blk) };
                 }
                 // SAFETY: serial.
-                unsafe { ctx.flush::<K>(&mut blk) };
+                unsafe { ctx.flush::<K, S>(&mut blk) };
             }
         }
         // A node at the fringe of the particles' supports sees only tiny
@@ -709,8 +796,8 @@ impl PhaseFieldSystem {
     /// bins, serially otherwise.
     pub fn history_residual<K: Kernel>(
         &mut self,
-        geom: &GridGeom,
-        parts: &FieldParticles,
+        geom: &GridGeom<D>,
+        parts: &FieldParticles<D>,
         w: &[f64],
     ) -> f64 {
         let norm_f = self
@@ -728,7 +815,7 @@ impl PhaseFieldSystem {
             if w[q] == 0.0 || !parts.member(q) {
                 return;
             }
-            Support::<K>::new(geom, parts.x[q], 0.0).for_each(|n| {
+            Support::<K, D>::new(geom, parts.x[q], 0.0).for_each(|n| {
                 // SAFETY: the caller's colouring (or a serial loop).
                 unsafe { *r.at(n.node) += w[q] * n.w };
             });
@@ -1310,22 +1397,29 @@ fn numeric_llt(
 /// c at a point from nodal values (what the particles take after a solve;
 /// the same value as [`field_at`]'s, without the derivatives).
 #[inline]
-pub fn value_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> f64 {
+pub fn value_at<K: Kernel, const D: usize>(geom: &GridGeom<D>, c: &[f64], x: [f64; D]) -> f64 {
     let mut v = 0.0;
-    Support::<K>::new(geom, x, 0.0).for_each(|n| v += n.w * c[n.node]);
+    Support::<K, D>::new(geom, x, 0.0).for_each(|n| v += n.w * c[n.node]);
     v
 }
 
-/// c, ∇c and ∇²c = [c,11, c,22, c,12] at a point from nodal values.
-pub fn field_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> (f64, [f64; 2], [f64; 3]) {
-    let (mut v, mut g, mut h) = (0.0, [0.0; 2], [0.0; 3]);
-    Support::<K, 2, true>::with_hessian(geom, x, 0.0).for_each(|n| {
+/// c, ∇c and ∇²c in Voigt order (2D `[c,11, c,22, c,12]`, 3D `[c,11,
+/// c,22, c,33, c,23, c,13, c,12]`, in the first of six entries) at a point
+/// from nodal values.
+pub fn field_at<K: Kernel, const D: usize>(
+    geom: &GridGeom<D>,
+    c: &[f64],
+    x: [f64; D],
+) -> (f64, [f64; D], [f64; 6]) {
+    let (mut v, mut g, mut h) = (0.0, [0.0; D], [0.0; 6]);
+    Support::<K, D, true>::with_hessian(geom, x, 0.0).for_each(|n| {
         let ci = c[n.node];
         v += n.w * ci;
-        g[0] += n.grad[0] * ci;
-        g[1] += n.grad[1] * ci;
-        let nh = n.hess_voigt();
-        for r in 0..3 {
+        for d in 0..D {
+            g[d] += n.grad[d] * ci;
+        }
+        let nh = n.hess_voigt6();
+        for r in 0..voigt_len(D) {
             h[r] += nh[r] * ci;
         }
     });
@@ -1333,37 +1427,51 @@ pub fn field_at<K: Kernel>(geom: &GridGeom, c: &[f64], x: [f64; 2]) -> (f64, [f6
 }
 
 /// The crack density Z of eq. 4 at a point:
-/// (c−1)²/(4l₀) + l₀|∇c|² + l₀³ (∇²c)ᵀ M (∇²c).
-pub fn crack_density(p: &PhaseFieldParams, c: f64, g: [f64; 2], h: [f64; 3]) -> f64 {
-    let m = p.gamma.voigt();
-    let quad: f64 = (0..3)
-        .map(|i| (0..3).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>())
-        .sum();
-    (c - 1.0).powi(2) / (4.0 * p.l0) + p.l0 * (g[0] * g[0] + g[1] * g[1]) + p.l0.powi(3) * quad
+/// (c−1)²/(4l₀) + l₀|∇c|² + l₀³ (∇²c)ᵀ M (∇²c), with ∇²c as
+/// [`field_at`] gives it (the 4th-order term is 2D only).
+pub fn crack_density<const D: usize>(
+    p: &PhaseFieldParams,
+    c: f64,
+    g: [f64; D],
+    h: [f64; 6],
+) -> f64 {
+    let quad: f64 = if D == 2 {
+        let m = p.gamma.voigt();
+        (0..3)
+            .map(|i| (0..3).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>())
+            .sum()
+    } else {
+        0.0
+    };
+    let mut g2 = g[0] * g[0];
+    for d in 1..D {
+        g2 += g[d] * g[d];
+    }
+    (c - 1.0).powi(2) / (4.0 * p.l0) + p.l0 * g2 + p.l0.powi(3) * quad
 }
 
 /// The fracture energy density Ḡc·Z (eq. 4) of the nodal field `c` at
 /// `x`, J/m³: the integrand of Ψ_f.
-pub fn fracture_energy_density<K: Kernel>(
-    geom: &GridGeom,
+pub fn fracture_energy_density<K: Kernel, const D: usize>(
+    geom: &GridGeom<D>,
     c: &[f64],
     p: &PhaseFieldParams,
-    x: [f64; 2],
+    x: [f64; D],
 ) -> f64 {
-    let (cv, g, h) = field_at::<K>(geom, c, x);
+    let (cv, g, h) = field_at::<K, D>(geom, c, x);
     p.gc_bar * crack_density(p, cv, g, h)
 }
 
 /// Ψ_f = Σ_p V_p Ḡc Z_p over the particles for which `keep` holds, J.
-pub fn fracture_energy<K: Kernel>(
-    geom: &GridGeom,
+pub fn fracture_energy<K: Kernel, const D: usize>(
+    geom: &GridGeom<D>,
     c: &[f64],
-    parts: &FieldParticles,
+    parts: &FieldParticles<D>,
     p: &PhaseFieldParams,
-    keep: impl Fn([f64; 2]) -> bool,
+    keep: impl Fn([f64; D]) -> bool,
 ) -> f64 {
     (0..parts.x.len())
         .filter(|&q| parts.member(q) && keep(parts.x[q]))
-        .map(|q| parts.vol[q] * fracture_energy_density::<K>(geom, c, p, parts.x[q]))
+        .map(|q| parts.vol[q] * fracture_energy_density::<K, D>(geom, c, p, parts.x[q]))
         .fold(0.0, |a, b| a + b) // (an empty f64 sum is −0.0)
 }
