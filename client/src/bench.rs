@@ -112,7 +112,13 @@ where
     })
 }
 
-pub fn run(out: &Path, steps: usize, largest: usize, transfers: &str) -> anyhow::Result<()> {
+pub fn run(
+    out: &Path,
+    steps: usize,
+    largest: usize,
+    transfers: &str,
+    thread_counts: &[usize],
+) -> anyhow::Result<()> {
     let sizes: Vec<usize> = [128usize, 256, 512]
         .into_iter()
         .filter(|&c| c <= largest)
@@ -129,9 +135,9 @@ pub fn run(out: &Path, steps: usize, largest: usize, transfers: &str) -> anyhow:
             let sc = scene(cells, transfer)?;
             let n = sc.total_particles();
             let mut base = 0.0;
-            for threads in [1usize, 2] {
+            for (i, &threads) in thread_counts.iter().enumerate() {
                 let m = measure::<2, 3>(&sc, threads, steps)?;
-                if threads == 1 {
+                if i == 0 {
                     base = m.rate;
                 }
                 let speedup = m.rate / base;
@@ -155,10 +161,10 @@ pub fn run(out: &Path, steps: usize, largest: usize, transfers: &str) -> anyhow:
     let machine = cpu_name();
     let doc = format!(
         "# Performance of the explicit step\n\n\
-         Measured by `cargo run --release -p cleave-client -- bench --steps {steps} --transfer {transfers}` on {machine} \
+         Measured by `cargo run --release -p cleave-client -- bench --steps {steps} --transfer {transfers}{threads_arg}` on {machine} \
          ({} logical CPUs). A 2D linear-elastic block (plane strain), quadratic B-splines, 2 × 2 particles per cell, \
          USL, CFL 0.5; the block spins and stretches so particles cross cells. Each row is the mean over {steps} steps \
-         after 3 warm-up steps; 1 and 2 threads run back to back in the same process, so their ratio is meaningful \
+         after 3 warm-up steps; {thread_list} threads run back to back in the same process, so their ratio is meaningful \
          even on a noisy machine. G2P includes the particle update (strain, stress, guards) and the tile \
          re-binning.\n\n{table}\n\
          Target (issue 2): at least 16 M particle-steps/s with 2 threads at 1 M particles in f64; Taichi's CPU \
@@ -167,7 +173,9 @@ pub fn run(out: &Path, steps: usize, largest: usize, transfers: &str) -> anyhow:
          the particles are stored tile by tile, so each tile reads a contiguous range of every particle array. \
          Storing them in seeding order instead (rows across the whole body) cost 40 % at 1 M particles \
          (P2G 58 ms instead of 29 ms on one thread; `cleave bench` at commit fe9ff49, before the sort).\n",
-        std::thread::available_parallelism().map_or(0, |n| n.get())
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
+        threads_arg = threads_arg(thread_counts),
+        thread_list = thread_list(thread_counts),
     );
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -289,6 +297,26 @@ fn cpu_name() -> String {
         .unwrap_or_else(|| "unknown CPU".into())
 }
 
+/// The thread counts as the docs say them: "1 and 2", "1, 2 and 4".
+fn thread_list(counts: &[usize]) -> String {
+    let words: Vec<String> = counts.iter().map(|t| t.to_string()).collect();
+    match words.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        _ => words.join(""),
+    }
+}
+
+/// `--threads LIST` for the command line a doc quotes, empty for the
+/// default 1 and 2.
+fn threads_arg(counts: &[usize]) -> String {
+    if counts == [1, 2] {
+        String::new()
+    } else {
+        let list: Vec<String> = counts.iter().map(|t| t.to_string()).collect();
+        format!(" --threads {}", list.join(","))
+    }
+}
+
 /// `cleave bench --dim 3`: the 3D block at 16³, 32³ and 50³ cells (32 k,
 /// 262 k, 1 M particles) up to `largest` (a `largest` below 16 runs that one
 /// size, for tests), 1 and 2 threads, with bytes per particle and, given a
@@ -298,6 +326,7 @@ pub fn run_3d(
     steps: usize,
     largest: usize,
     python: Option<&Path>,
+    thread_counts: &[usize],
 ) -> anyhow::Result<()> {
     anyhow::ensure!(largest >= 1, "--largest must be at least 1");
     let mut sizes: Vec<usize> = [16usize, 32, 50]
@@ -351,10 +380,10 @@ pub fn run_3d(
             let sc = scene_3d(cells)?;
             let mut base = 0.0;
             let mut dt = None;
-            for threads in [1usize, 2] {
+            for (i, &threads) in thread_counts.iter().enumerate() {
                 let r = measure::<3, 6>(&sc, threads, steps)?;
                 let n = r.particles;
-                if threads == 1 {
+                if i == 0 {
                     base = r.rate;
                 }
                 // Taichi takes the Δt of cleave's one-thread run, so both
@@ -407,7 +436,8 @@ pub fn run_3d(
     let table = result?;
     let load_after = load_average();
     let command = format!(
-        "cargo run --release -p cleave-client -- bench --dim 3 --steps {steps} --largest {largest}{}",
+        "cargo run --release -p cleave-client -- bench --dim 3 --steps {steps} --largest {largest}{}{}",
+        threads_arg(thread_counts),
         python.map_or(String::new(), |p| format!(" --taichi {}", p.display()))
     );
     let taichi_text = if python.is_some() {
@@ -426,7 +456,8 @@ pub fn run_3d(
          Measured by `{command}` on {machine} ({cpus} logical CPUs). A 3D neo-Hookean block (issue 32's speed \
          problem), quadratic B-splines, 2 × 2 × 2 particles per cell, APIC (fixed: `--transfer` does not apply \
          in 3D), USL, CFL 0.5; the block spins and stretches so particles cross cells. Each row is the mean over \
-         {steps} steps after 3 warm-up steps; 1 and 2 threads run back to back in the same process. G2P includes \
+         {steps} steps after 3 warm-up steps; {thread_list} threads run back to back in the same process; the \
+         speed-up is against the first. G2P includes \
          the particle update (F, stress, guards) and the tile re-binning.\n\n\
          **Bytes per particle** are counted, not sampled: the capacities × element sizes of every particle array \
          (`Particles`, struct of arrays) plus the grid side (nodal mass, momentum, force and velocities, the tile \
@@ -442,6 +473,7 @@ pub fn run_3d(
          (Taichi 1.7.4 measured 2.1 M particle-steps/s on one thread of a 16-core Xeon, 7.4 M on 16 threads).\n",
         machine = cpu_name(),
         cpus = std::thread::available_parallelism().map_or(0, |n| n.get()),
+        thread_list = thread_list(thread_counts),
     );
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

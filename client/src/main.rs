@@ -81,7 +81,8 @@ enum Command {
         #[arg(long)]
         resume: bool,
     },
-    /// Measure particle-steps per second of the explicit step (1 and 2 threads).
+    /// Measure particle-steps per second of the explicit step (1 and 2
+    /// threads, or `--threads`).
     Bench {
         /// Dimension of the benchmark block: 2 (linear elastic, FLIP and
         /// APIC) or 3 (neo-Hookean, APIC, 8 particles per cell).
@@ -107,6 +108,10 @@ enum Command {
         /// on the same 3D problem, interleaved with cleave (3D only).
         #[arg(long)]
         taichi: Option<PathBuf>,
+        /// Thread counts to measure, comma-separated, each run back to
+        /// back in the same process (the speed-up is against the first).
+        #[arg(long, default_value = "1,2")]
+        threads: String,
     },
     /// Measure the overhead of running through a server (in this process)
     /// and the FetchFields throughput.
@@ -580,7 +585,8 @@ fn local_main(command: Command) -> ExitCode {
             largest,
             transfer,
             taichi,
-        } => match bench_dims(dim, out, steps, largest, transfer, taichi) {
+            threads,
+        } => match bench_dims(dim, out, steps, largest, transfer, taichi, &threads) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");
@@ -598,8 +604,18 @@ fn bench_dims(
     largest: Option<usize>,
     transfer: Option<String>,
     taichi: Option<PathBuf>,
+    threads: &str,
 ) -> anyhow::Result<()> {
     anyhow::ensure!(steps > 0, "--steps must be at least 1");
+    let threads = threads
+        .split(',')
+        .map(|t| match t.trim().parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => Err(anyhow::anyhow!(
+                "--threads: {t:?} is not a thread count (give counts ≥ 1, comma-separated)"
+            )),
+        })
+        .collect::<anyhow::Result<Vec<usize>>>()?;
     if dim == 3 {
         // The 3D problem is the issue's: APIC only, so a transfer list
         // other than `apic` would silently measure something else.
@@ -610,7 +626,13 @@ fn bench_dims(
             );
         }
         let out = out.unwrap_or_else(|| PathBuf::from("docs/performance-3d.md"));
-        bench::run_3d(&out, steps, largest.unwrap_or(50), taichi.as_deref())
+        bench::run_3d(
+            &out,
+            steps,
+            largest.unwrap_or(50),
+            taichi.as_deref(),
+            &threads,
+        )
     } else {
         anyhow::ensure!(
             taichi.is_none(),
@@ -618,7 +640,7 @@ fn bench_dims(
         );
         let out = out.unwrap_or_else(|| PathBuf::from("docs/performance.md"));
         let transfer = transfer.unwrap_or_else(|| "flip,apic".into());
-        bench::run(&out, steps, largest.unwrap_or(512), &transfer)
+        bench::run(&out, steps, largest.unwrap_or(512), &transfer, &threads)
     }
 }
 
