@@ -1092,8 +1092,9 @@ fn plot_says_what_it_wrote() {
 
 /// `cleave bench --dim 3` on a tiny block (4³ cells × 8 = 512 particles,
 /// below the real sizes, which `--largest` under 16 selects) writes the
-/// table with the bytes-per-particle column; a transfer other than APIC
-/// and a dimension other than 2 or 3 are refused.
+/// table with the bytes-per-particle column; `--threads` measures the
+/// counts given, in that order; a transfer other than APIC, a thread
+/// count of 0 and a dimension other than 2 or 3 are refused.
 #[test]
 fn bench_3d_writes_the_table_with_bytes_per_particle() {
     let dir = tempfile::tempdir().unwrap();
@@ -1144,4 +1145,28 @@ fn bench_3d_writes_the_table_with_bytes_per_particle() {
     assert!(stderr(&o).contains("APIC only"), "{}", stderr(&o));
     let o = cleave().args(["bench", "--dim", "4"]).output().unwrap();
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    // other thread counts, in the order given, quoted in the command line
+    let three = dir.path().join("three.md");
+    let o = cleave()
+        .args(["bench", "--dim", "3", "--largest", "4", "--steps", "1"])
+        .args(["--threads", "2,1,3", "--out"])
+        .arg(&three)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc = std::fs::read_to_string(&three).unwrap();
+    assert!(
+        doc.contains("--threads 2,1,3") && doc.contains("2, 1 and 3 threads"),
+        "{doc}"
+    );
+    let rows: Vec<&str> = doc.lines().filter(|l| l.starts_with("| 512 |")).collect();
+    assert_eq!(rows.len(), 3, "{doc}");
+    assert!(rows[0].starts_with("| 512 | 2 |") && rows[2].starts_with("| 512 | 3 |"));
+    let o = cleave()
+        .args(["bench", "--dim", "3", "--threads", "1,0", "--out"])
+        .arg(dir.path().join("no.md"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
 }
