@@ -5,7 +5,7 @@
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::run::{Method, MethodEntry, Resumed};
-use crate::scene::{phase_field_gamma, MaterialRef, Scene, SceneError};
+use crate::scene::{MaterialRef, Scene, SceneError};
 
 /// Every method, the first whose `runs` accepts a scene runs it.
 pub const METHODS: &[MethodEntry] = &[crate::mpm::METHOD];
@@ -23,10 +23,12 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 /// grid MPM's explicit core (issue 32: the grid, the transfers, the
 /// materials, contact and the walls are generic over the dimension), and
 /// continuum damage (`materials.NAME.damage`: Rankine, time to failure,
-/// Weibull strengths, fragments) and the 2nd-order phase field (solved on
-/// the 3D stencil, every solver method); what is still 2D is refused here,
-/// naming the key: the 4th-order phase field, DFG partitioning, initial cracks and
-/// crack origins (2D polylines and an in-plane tip tracker). Asked before a run is set up, so
+/// Weibull strengths, fragments) and the phase field (2nd order, and 4th
+/// order with the 6 × 6 γ; solved on the 3D stencil, every solver method);
+/// what is still 2D is refused here, naming the key: a phase field's
+/// material `angle` (an in-plane turn of the 2D tensor; in 3D γ is given in
+/// the scene's axes), DFG partitioning, initial cracks and crack origins
+/// (2D polylines and an in-plane tip tracker). Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
 /// writing or queueing anything.
 pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
@@ -37,7 +39,7 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
     let not_yet = |path: String, what: &str| {
         Err(SceneError::single(
             &path,
-            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; continuum damage and the 2nd-order phase field)"),
+            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; continuum damage and the phase field)"),
         ))
     };
     // a fracture model, named at its body's material
@@ -48,16 +50,10 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
             MaterialRef::Inline(_) => format!("bodies[{b}].material"),
         };
         if let Some(pf) = m.phase_field() {
-            if !phase_field_gamma(pf).is_zero() {
-                return not_yet(
-                    format!("{key}.phase_field.gamma"),
-                    "the 4th-order (anisotropic) phase field",
-                );
-            }
             if pf.angle != 0.0 {
                 return not_yet(
                     format!("{key}.phase_field.angle"),
-                    "a rotated (4th-order) phase field",
+                    "a material angle (an in-plane turn of the 2D anisotropy tensor; give gamma in the scene's axes)",
                 );
             }
         }

@@ -56,6 +56,7 @@ fn check_spd<K: Kernel>(gamma: Gamma) {
         l0: 0.4,
         k_f: 1e-3,
         gamma: gamma.rotated(0.4),
+        gamma3: Default::default(),
     };
     let mut sys = PhaseFieldSystem::new();
     sys.assemble::<K>(&geom, &FieldParticles::all(&x, &vol, &history), &params);
@@ -114,6 +115,7 @@ fn straight_crack(gamma: Gamma, theta_deg: f64) -> (f64, f64) {
         l0,
         k_f: 0.0,
         gamma,
+        gamma3: Default::default(),
     };
     // Borden's initial crack: H = B Ḡc / (4 l0) on the crack band, B = 1e6
     let big = 1e6 * gc_bar / (4.0 * l0);
@@ -206,6 +208,7 @@ fn an_undamaged_body_stays_at_c_one_up_to_its_edges() {
             l0,
             k_f: 0.0,
             gamma,
+            gamma3: Default::default(),
         };
         let parts = FieldParticles::all(&x, &vol, &history);
         let mut sys = PhaseFieldSystem::new();
@@ -421,6 +424,7 @@ fn two_pcg_solves(refactor_after: usize) -> (Vec<f64>, SolveStats, SolveStats) {
         l0: 0.5,
         k_f: 0.0,
         gamma: Gamma::default(),
+        gamma3: Default::default(),
     };
     let band = |tip: f64| -> Vec<f64> {
         x.iter()
@@ -864,6 +868,7 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
             l0: 0.25,
             k_f: 0.0,
             gamma: gamma.rotated(0.3),
+            gamma3: Default::default(),
         };
         let band = |tip: f64| -> Vec<f64> {
             x.iter()
@@ -954,6 +959,7 @@ fn a_new_node_set_starts_from_the_kept_c_and_a_poor_multigrid_hands_over() {
         l0: 0.25,
         k_f: 0.0,
         gamma: Gamma::default(),
+        gamma3: Default::default(),
     };
     let body = |top: f64| -> (Vec<[f64; 2]>, Vec<f64>, Vec<f64>) {
         let keep: Vec<usize> = (0..x0.len())

@@ -5,7 +5,7 @@
 
 mod common;
 
-use cleave::fracture::phase_field::anisotropy::Gamma;
+use cleave::fracture::phase_field::anisotropy::{surface_energy_3d, Gamma, Gamma3};
 use cleave::fracture::phase_field::system::{
     fracture_energy, value_at, FieldParticles, PhaseFieldParams, PhaseFieldSystem, SolveMethod,
 };
@@ -47,6 +47,7 @@ fn params() -> PhaseFieldParams {
         l0: L0,
         k_f: 0.0,
         gamma: Gamma::default(),
+        gamma3: Default::default(),
     }
 }
 
@@ -86,6 +87,74 @@ fn crack(n: [f64; 3], centre: [f64; 3], half: [f64; 3], h: f64, per_dir: usize) 
     }
 }
 
+/// What [`planar`] measures.
+struct Planar {
+    unknowns: usize,
+    /// Ψ_f per unit area over the window.
+    per_area: f64,
+    /// The imposed band's volume per unit area, m.
+    band: f64,
+    /// The largest c on the band's particles.
+    on_plane: f64,
+}
+
+/// A planar crack with unit normal `n` through a particle layer of a block
+/// of half-sizes `half` (h = l₀/4, 2 × 2 × 2 particles per cell), solved
+/// directly; Ψ_f per area over a square window of half-side `window` of the
+/// plane.
+fn planar(p: &PhaseFieldParams, n: [f64; 3], half: [f64; 3], window: f64) -> Planar {
+    let h = L0 / 4.0;
+    let per_dir = 2;
+    let s = h / per_dir as f64;
+    // the plane passes through the centre of a particle layer
+    let centre = [0.0, 0.0, s / 2.0];
+    let c = crack(n, centre, half.map(|v| v * L0), h, per_dir);
+    let mut sys = PhaseFieldSystem::new();
+    let parts = FieldParticles::all(&c.x, &c.vol, &c.history);
+    sys.assemble::<QuadraticBspline>(&c.geom, &parts, p);
+    let nodal = sys.solve(c.geom.node_count()).expect("solve");
+    // two in-plane unit axes
+    let e = if n[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let dot: f64 = (0..3).map(|k| e[k] * n[k]).sum();
+    let t1 = [e[0] - dot * n[0], e[1] - dot * n[1], e[2] - dot * n[2]];
+    let len = cleave::tensor::norm(t1);
+    let t1 = t1.map(|v| v / len);
+    let t2 = [
+        n[1] * t1[2] - n[2] * t1[1],
+        n[2] * t1[0] - n[0] * t1[2],
+        n[0] * t1[1] - n[1] * t1[0],
+    ];
+    let along = |q: [f64; 3], u: [f64; 3]| (0..3).map(|k| (q[k] - centre[k]) * u[k]).sum::<f64>();
+    let in_window = |q: [f64; 3]| along(q, t1).abs() < window && along(q, t2).abs() < window;
+    let area = 4.0 * window * window;
+    let per_area =
+        fracture_energy::<QuadraticBspline, 3>(&c.geom, &nodal, &parts, p, in_window) / area;
+    let band: f64 = (0..c.x.len())
+        .filter(|&q| c.history[q] > 0.0 && in_window(c.x[q]))
+        .map(|q| c.vol[q])
+        .sum();
+    let on_plane = (0..c.x.len())
+        .filter(|&q| c.history[q] > 0.0)
+        .map(|q| value_at::<QuadraticBspline, 3>(&c.geom, &nodal, c.x[q]))
+        .fold(0.0f64, f64::max);
+    Planar {
+        unknowns: sys.len(),
+        per_area,
+        band: band / area,
+        on_plane,
+    }
+}
+
+/// The normal 30° from z, turned 40° about it.
+fn inclined() -> [f64; 3] {
+    let (a, b) = (30f64.to_radians(), 40f64.to_radians());
+    [a.sin() * b.cos(), a.sin() * b.sin(), a.cos()]
+}
+
 /// A planar crack through a 3D block at h = l₀/4, 2 × 2 × 2 particles per
 /// cell (spacing s = h/2), imposed as Borden's history on the particles
 /// within 0.55 s of the plane:
@@ -104,68 +173,65 @@ fn crack(n: [f64; 3], centre: [f64; 3], half: [f64; 3], h: f64, per_dir: usize) 
 /// block's faces.
 #[test]
 fn a_planar_crack_through_a_3d_block_holds_gc_per_unit_area() {
-    let h = L0 / 4.0;
-    let per_dir = 2;
-    let s = h / per_dir as f64;
-    let (a, b) = (30f64.to_radians(), 40f64.to_radians());
-    let inclined = [a.sin() * b.cos(), a.sin() * b.sin(), a.cos()];
-    // the planes pass through the centre of a particle layer
-    let centre = [0.0, 0.0, s / 2.0];
-    for (name, n, half, window, tolerance) in [
-        ("normal z", [0.0, 0.0, 1.0], [2.0, 2.0, 6.0], 1.0, 0.02),
-        ("inclined", inclined, [3.5, 3.5, 5.0], 1.0, 0.03),
+    let s = L0 / 8.0;
+    for (name, n, half, tolerance) in [
+        ("normal z", [0.0, 0.0, 1.0], [2.0, 2.0, 6.0], 0.02),
+        ("inclined", inclined(), [3.5, 3.5, 5.0], 0.03),
     ] {
-        let c = crack(n, centre, half.map(|v| v * L0), h, per_dir);
-        let mut sys = PhaseFieldSystem::new();
-        let parts = FieldParticles::all(&c.x, &c.vol, &c.history);
-        sys.assemble::<QuadraticBspline>(&c.geom, &parts, &params());
-        let nodal = sys.solve(c.geom.node_count()).expect("solve");
-        // two in-plane unit axes
-        let e = if n[0].abs() < 0.9 {
-            [1.0, 0.0, 0.0]
-        } else {
-            [0.0, 1.0, 0.0]
-        };
-        let dot: f64 = (0..3).map(|k| e[k] * n[k]).sum();
-        let t1 = [e[0] - dot * n[0], e[1] - dot * n[1], e[2] - dot * n[2]];
-        let len = cleave::tensor::norm(t1);
-        let t1 = t1.map(|v| v / len);
-        let t2 = [
-            n[1] * t1[2] - n[2] * t1[1],
-            n[2] * t1[0] - n[0] * t1[2],
-            n[0] * t1[1] - n[1] * t1[0],
-        ];
-        let along =
-            |p: [f64; 3], u: [f64; 3]| (0..3).map(|k| (p[k] - centre[k]) * u[k]).sum::<f64>();
-        let in_window = |p: [f64; 3]| along(p, t1).abs() < window && along(p, t2).abs() < window;
-        let area = 4.0 * window * window;
-        let per_area =
-            fracture_energy::<QuadraticBspline, 3>(&c.geom, &nodal, &parts, &params(), in_window)
-                / area;
-        let band: f64 = (0..c.x.len())
-            .filter(|&p| c.history[p] > 0.0 && in_window(c.x[p]))
-            .map(|p| c.vol[p])
-            .sum();
-        let w = band / area;
-        let on_plane = (0..c.x.len())
-            .filter(|&p| c.history[p] > 0.0)
-            .map(|p| value_at::<QuadraticBspline, 3>(&c.geom, &nodal, c.x[p]))
-            .fold(0.0f64, f64::max);
+        let r = planar(&params(), n, half, 1.0);
         let reference = if name == "normal z" {
             GC
         } else {
-            GC * (1.0 + w / (4.0 * L0))
+            GC * (1.0 + r.band / (4.0 * L0))
         };
         println!(
-            "{name}: {} unknowns; band {:.3} s wide; Ψ_f per area {per_area:.4} against {reference:.4} ({:+.2} %); max c on the plane {on_plane:.4}",
-            sys.len(),
-            w / s,
-            100.0 * (per_area / reference - 1.0)
+            "{name}: {} unknowns; band {:.3} s wide; Ψ_f per area {:.4} against {reference:.4} ({:+.2} %); max c on the plane {:.4}",
+            r.unknowns,
+            r.band / s,
+            r.per_area,
+            100.0 * (r.per_area / reference - 1.0),
+            r.on_plane
         );
-        assert!(on_plane < 0.05, "{name}: c on the crack plane {on_plane}");
         assert!(
-            (per_area / reference - 1.0).abs() < tolerance,
-            "{name}: Ψ_f per area {per_area} against {reference}"
+            r.on_plane < 0.05,
+            "{name}: c on the crack plane {}",
+            r.on_plane
+        );
+        assert!(
+            (r.per_area / reference - 1.0).abs() < tolerance,
+            "{name}: Ψ_f per area {} against {reference}",
+            r.per_area
+        );
+    }
+}
+
+/// The 4th-order model in 3D (the 6 × 6 γ): Ψ_f per area of a planar
+/// crack against eq. 8's Gc(n) = Ḡc·G(a(n)) of the 1D profile along n
+/// ([`surface_energy_3d`]), for γ with a(n) = 1 + 3 n_z⁴ (orthotropic, 9
+/// numbers): a plane normal to z (a = 4) and the inclined one (a = 2.69).
+#[test]
+fn a_4th_order_planar_crack_in_3d_holds_gc_of_its_normal() {
+    let gamma3 = Gamma3::from_list(&[1.0, 1.0, 4.0, 0.0, 0.0, 0.0, 2.0, 2.0, 2.0]).unwrap();
+    let p = PhaseFieldParams { gamma3, ..params() };
+    for (name, n, half) in [
+        ("normal z", [0.0, 0.0, 1.0], [2.0, 2.0, 8.0]),
+        ("inclined", inclined(), [4.0, 4.0, 6.0]),
+    ] {
+        let r = planar(&p, n, half, 1.0);
+        let want = surface_energy_3d(&gamma3, GC, n);
+        println!(
+            "4th order, {name}: a(n) = {:.3}, {} unknowns; Ψ_f per area {:.4} against Gc(n) = {want:.4} ({:+.2} %); band {:.3} l0; max c on the plane {:.4}",
+            gamma3.along(n),
+            r.unknowns,
+            r.per_area,
+            100.0 * (r.per_area / want - 1.0),
+            r.band,
+            r.on_plane
+        );
+        assert!(
+            (r.per_area / want - 1.0).abs() < 0.02,
+            "{name}: Ψ_f per area {} against {want}",
+            r.per_area
         );
     }
 }
@@ -194,6 +260,7 @@ fn multigrid_and_pcg_agree_with_the_direct_solve_in_3d() {
             l0: 0.25,
             k_f: 0.0,
             gamma: Gamma::default(),
+            gamma3: Default::default(),
         };
         let history: Vec<f64> = x
             .iter()
@@ -327,4 +394,42 @@ fn a_3d_phase_field_impact_does_not_depend_on_the_thread_count() {
     };
     assert!(bits(&a.0) == bits(&b.0), "series differ");
     assert!(a.1 == b.1, "particles differ");
+}
+
+/// A 3D scene's `phase_field.gamma` takes 9 or 21 numbers (the 6 × 6 γ),
+/// refusing the 2D form's 4 or 6 and a tensor whose a(n) is negative for
+/// some normal, naming the field; a valid one builds and steps.
+#[test]
+fn a_3d_gamma_takes_9_or_21_numbers() {
+    use cleave::scene::Scene;
+    let with = |gamma: &str| {
+        common::PF_IMPACT_3D.replace(
+            "phase_field = { gc = 20000.0, l0 = 2.0e-3 }",
+            &format!("phase_field = {{ gc = 20000.0, l0 = 2.0e-3, gamma = {gamma} }}"),
+        )
+    };
+    for (gamma, says) in [
+        ("[1.0, 1.0, 0.0, 2.0]", "give 9 numbers in 3D"),
+        (
+            "[1.0, 1.0, 1.0, 0.0, 0.0, 0.0, -9.0, 2.0, 2.0]",
+            "negative for some direction",
+        ),
+    ] {
+        match Scene::from_text(&with(gamma), None) {
+            Ok(_) => panic!("{gamma} accepted in 3D"),
+            Err(e) => {
+                let err = e
+                    .errors
+                    .iter()
+                    .find(|x| x.path == "materials.beam.phase_field.gamma")
+                    .unwrap_or_else(|| panic!("{e}"));
+                assert!(err.reason.contains(says), "{e}");
+            }
+        }
+    }
+    let text = with("[1.0, 1.0, 4.0, 0.0, 0.0, 0.0, 2.0, 2.0, 2.0]");
+    assert_ne!(text, common::PF_IMPACT_3D);
+    let s = Scene::from_text(&text, None).expect("a 9-number γ");
+    let mut run = cleave::methods::build(&s).expect("a 4th-order 3D phase field runs");
+    run.step().expect("a step");
 }

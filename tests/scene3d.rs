@@ -2,7 +2,7 @@
 //! three components describes a 3D problem; it validates with errors that
 //! name their field, seeds its bodies, and runs the explicit core,
 //! continuum damage, the 2nd-order phase field and snapshots; what is still
-//! 2D (the 4th-order phase field, DFG,
+//! 2D (a phase field's material angle, DFG,
 //! initial cracks and crack origins) is refused naming its key. 2D scenes
 //! serialise as before.
 
@@ -412,8 +412,8 @@ fn bad_3d_shapes_name_their_field() {
 }
 
 /// A 3D scene runs the explicit core (and writes its snapshots), but what
-/// is still 2D is refused, naming its key: here a 4th-order phase field
-/// (the 2nd-order one runs in 3D). A server's submit refuses it alike.
+/// is still 2D is refused, naming its key: here a phase field's material
+/// angle (the phase field runs in 3D). A server's submit refuses it alike.
 #[test]
 fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue() {
     let scene = Scene::from_text(BLOCK, Some(Format::Toml)).unwrap();
@@ -423,15 +423,15 @@ fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue(
     let quiet = BLOCK.to_string();
     let phase_field = BLOCK.replace(
         "poissons_ratio = 0.3 }",
-        "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.1, gamma = [1.0, 1.0, 0.0, 2.0] } }",
+        "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.1, angle = 30.0 } }",
     );
     let scene = Scene::from_text(&phase_field, Some(Format::Toml))
         .expect("a 3D phase-field scene validates");
     match cleave::methods::build(&scene) {
-        Ok(_) => panic!("a 3D 4th-order phase field was built"),
+        Ok(_) => panic!("a 3D phase field with a material angle was built"),
         Err(e) => {
             assert_eq!(
-                e.errors[0].path, "bodies[0].material.phase_field.gamma",
+                e.errors[0].path, "bodies[0].material.phase_field.angle",
                 "{e}"
             );
             assert!(e.errors[0].reason.contains("not run yet"), "{e}");
@@ -483,7 +483,7 @@ fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue(
     match jobs.submit(&phase_field, Some(Format::Toml), "block") {
         Err(JobError::Invalid(e)) => {
             assert_eq!(
-                e.errors[0].path, "bodies[0].material.phase_field.gamma",
+                e.errors[0].path, "bodies[0].material.phase_field.angle",
                 "{e}"
             );
         }

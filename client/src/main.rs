@@ -218,11 +218,19 @@ enum Command {
         server: ServerArgs,
     },
     /// The effective surface energy Gc(θ) of the anisotropic phase field
-    /// (eq. 8 of Kakouris & Triantafyllou) as a table and a polar plot.
+    /// (eq. 8 of Kakouris & Triantafyllou) as a table and a polar plot; with
+    /// a 3D tensor, Gc of planes by their normal and its extremes over the
+    /// sphere.
     GcPolar {
-        /// Voigt entries g1111,g2222,g1122,g1212[,g1112,g2212].
+        /// Voigt entries: 2D g1111,g2222,g1122,g1212[,g1112,g2212]; 3D nine
+        /// (orthotropic: g1111,g2222,g3333,g1122,g1133,g2233,g2323,g1313,g1212)
+        /// or the 21 of the 6 × 6 matrix's upper triangle.
         #[arg(long, allow_hyphen_values = true)]
         gamma: String,
+        /// 3D: a crack plane's normal nx,ny,nz (repeatable; default the
+        /// three axes).
+        #[arg(long, allow_hyphen_values = true)]
+        normal: Vec<String>,
         /// The model parameter Ḡc, N/m (the table is in the same unit).
         #[arg(long)]
         gc_bar: f64,
@@ -484,9 +492,10 @@ fn local_main(command: Command) -> ExitCode {
             gamma,
             gc_bar,
             angle_step,
+            normal,
             json,
             out,
-        } => gc_polar::run(&gamma, gc_bar, angle_step, json, &out),
+        } => gc_polar::run(&gamma, gc_bar, angle_step, &normal, json, &out),
         Command::Study {
             scene,
             vary,

@@ -156,7 +156,7 @@ fn bad_input_exits_2_and_names_the_field() {
 
 /// A 3D scene validates (exit 0, its particles and its three cell counts
 /// printed) and runs (`series.csv` with the 3D columns, 3D VTK files);
-/// with a 4th-order phase field (still 2D) `run` refuses it as it refuses an invalid
+/// with a phase field's material angle (still 2D) `run` refuses it as it refuses an invalid
 /// scene (exit 2), naming the key, and writes nothing; so does a study.
 #[test]
 fn a_3d_scene_validates_and_runs_and_what_is_still_2d_is_refused() {
@@ -192,14 +192,14 @@ velocity = [0.5, 0.0, -0.25]
     let expected = 4.0 / 3.0 * std::f64::consts::PI * 0.3f64.powi(3) / 0.05f64.powi(3);
     assert!((n - expected).abs() < 0.03 * expected, "{n} vs {expected}");
 
-    // a 4th-order phase field is still 2D: refused by run and study,
+    // a phase field's material angle is still 2D: refused by run and study,
     // naming the key, before anything is written
     let cracking = write(
         dir.path(),
         "cracking.toml",
         text.replace(
             "poissons_ratio = 0.3 }",
-            "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.2, gamma = [1.0, 1.0, 0.0, 2.0] } }",
+            "poissons_ratio = 0.3, phase_field = { gc = 1.0, l0 = 0.2, angle = 30.0 } }",
         )
         .as_bytes(),
     );
@@ -213,7 +213,7 @@ velocity = [0.5, 0.0, -0.25]
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("bodies[0].material.phase_field.gamma")
+        stderr(&out).contains("bodies[0].material.phase_field.angle")
             && stderr(&out).contains("not run yet"),
         "{}",
         stderr(&out)
@@ -229,7 +229,7 @@ velocity = [0.5, 0.0, -0.25]
         .unwrap();
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("bodies[0].material.phase_field.gamma"),
+        stderr(&out).contains("bodies[0].material.phase_field.angle"),
         "{}",
         stderr(&out)
     );
@@ -1169,4 +1169,44 @@ fn bench_3d_writes_the_table_with_bytes_per_particle() {
         .unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
+}
+
+/// `cleave gc-polar` with a 3D tensor (9 numbers): Gc of a plane by its
+/// normal and the extremes over the sphere, from the 1D profile along n.
+/// γ with a(n) = 1 + 3 n_z⁴: Gc_min = √2 Ḡc (a = 1) with n in the xy plane,
+/// Gc_max = G(4) Ḡc along z; the 4th-order isotropic tensor gives √2 Ḡc
+/// everywhere; `--normal` with a 2D tensor is refused.
+#[test]
+fn gc_polar_in_3d_gives_gc_by_normal_and_its_extremes_over_the_sphere() {
+    let run = |args: &[&str]| cleave().arg("gc-polar").args(args).output().unwrap();
+    let o = run(&[
+        "--gamma",
+        "1,1,4,0,0,0,2,2,2",
+        "--gc-bar",
+        "2",
+        "--normal",
+        "0,0,1",
+        "--normal",
+        "1,1,0",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let g4 = cleave::fracture::phase_field::anisotropy::profile_factor(4.0);
+    let (lo, hi) = (v["gc_min"].as_f64().unwrap(), v["gc_max"].as_f64().unwrap());
+    assert!((lo - 2.0 * 2f64.sqrt()).abs() < 1e-9, "{v}");
+    assert!((hi - 2.0 * g4).abs() < 1e-9, "{v}");
+    assert!(v["normal_min"][2].as_f64().unwrap().abs() < 1e-3, "{v}");
+    assert!(v["normal_max"][2].as_f64().unwrap().abs() > 0.999, "{v}");
+    let rows = v["normals"].as_array().unwrap();
+    assert!((rows[0]["gc"].as_f64().unwrap() - 2.0 * g4).abs() < 1e-9);
+    assert!((rows[1]["a"].as_f64().unwrap() - 1.0).abs() < 1e-12, "{v}");
+    let o = run(&["--gamma", "1,1,1,0,0,0,2,2,2", "--gc-bar", "1", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for k in ["gc_min", "gc_max"] {
+        assert!((v[k].as_f64().unwrap() - 2f64.sqrt()).abs() < 1e-9, "{v}");
+    }
+    let o = run(&["--gamma", "1,1,0,2", "--gc-bar", "1", "--normal", "0,0,1"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--normal"), "{}", stderr(&o));
 }

@@ -843,7 +843,7 @@ fn resolve_material(
         );
     }
     if let Some(pf) = &m.phase_field {
-        crate::fracture::phase_field::section::check(c, path, pf, m.model, plane);
+        crate::fracture::phase_field::section::check(c, path, pf, m.model, plane, dim);
     }
     let damage = m.damage.as_ref().and_then(|d| {
         crate::fracture::damage::section::resolve(

@@ -124,6 +124,131 @@ impl Gamma {
     }
 }
 
+/// The anisotropy tensor in 3D Voigt form: the symmetric 6×6 matrix M on
+/// `[c,11, c,22, c,33, c,23, c,13, c,12]` (the engine's Voigt order), as
+/// [`Gamma::voigt`] acts on `[c,11, c,22, c,12]` in 2D, so that the
+/// crack-profile term of eq. 4 is `l₀³ (∇²c)ᵀ M (∇²c)` and along a unit
+/// normal n, `a(n) = vᵀ M v` with `v = [n1², n2², n3², n2n3, n1n3, n1n2]`
+/// (eq. 6's γ, 3D: Kakouris & Triantafyllou leave its form "beyond the
+/// scope"; this is the one whose restriction to c(x, y) is the 2D Voigt
+/// tensor on the indices 11, 22, 12). A scene gives it as 9 numbers
+/// (orthotropic: γ1111, γ2222, γ3333, γ1122, γ1133, γ2233, γ2323, γ1313,
+/// γ1212, with the same weights as the 2D γ1212) or as the 21 entries of
+/// M's upper triangle, row by row.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Gamma3 {
+    pub m: [[f64; 6]; 6],
+}
+
+impl Gamma3 {
+    /// From a scene's list: 9 (orthotropic) or 21 (upper triangle) numbers;
+    /// None for another length. An empty list is γ = 0.
+    pub fn from_list(g: &[f64]) -> Option<Gamma3> {
+        let mut m = [[0.0; 6]; 6];
+        match g.len() {
+            0 => {}
+            9 => {
+                m[0][0] = g[0];
+                m[1][1] = g[1];
+                m[2][2] = g[2];
+                (m[0][1], m[0][2], m[1][2]) = (g[3], g[4], g[5]);
+                (m[1][0], m[2][0], m[2][1]) = (g[3], g[4], g[5]);
+                m[3][3] = g[6];
+                m[4][4] = g[7];
+                m[5][5] = g[8];
+            }
+            21 => {
+                let mut k = 0;
+                for i in 0..6 {
+                    for j in i..6 {
+                        m[i][j] = g[k];
+                        m[j][i] = g[k];
+                        k += 1;
+                    }
+                }
+            }
+            _ => return None,
+        }
+        Some(Gamma3 { m })
+    }
+
+    /// γ = 0: the 2nd-order isotropic model.
+    pub fn is_zero(&self) -> bool {
+        self.m.iter().flatten().all(|&g| g == 0.0)
+    }
+
+    /// a(n) for a unit normal n.
+    pub fn along(&self, n: [f64; 3]) -> f64 {
+        let v = [
+            n[0] * n[0],
+            n[1] * n[1],
+            n[2] * n[2],
+            n[1] * n[2],
+            n[0] * n[2],
+            n[0] * n[1],
+        ];
+        (0..6)
+            .map(|i| (0..6).map(|j| v[i] * self.m[i][j] * v[j]).sum::<f64>())
+            .sum()
+    }
+
+    /// The smallest and the largest a(n) over the unit sphere, with their
+    /// normals: the best of 20 000 directions of a Fibonacci lattice on the
+    /// half sphere (a(−n) = a(n); neighbours about 1.4° apart), each
+    /// refined by a local search on a shrinking pattern.
+    pub fn extremes(&self) -> ((f64, [f64; 3]), (f64, [f64; 3])) {
+        const N: usize = 20_000;
+        let golden = PI * (3.0 - 5f64.sqrt());
+        let dir = |k: usize| {
+            let z = 1.0 - (k as f64 + 0.5) / N as f64; // (0, 1]: half sphere
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let t = golden * k as f64;
+            [r * t.cos(), r * t.sin(), z]
+        };
+        let refine = |mut n: [f64; 3], sign: f64| {
+            let mut best = sign * self.along(n);
+            let mut step = 0.02;
+            while step > 1e-9 {
+                let mut moved = false;
+                for axis in 0..3 {
+                    for d in [-step, step] {
+                        let mut m = n;
+                        m[axis] += d;
+                        let len = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+                        let m = m.map(|c| c / len);
+                        let v = sign * self.along(m);
+                        if v > best {
+                            (best, n, moved) = (v, m, true);
+                        }
+                    }
+                }
+                if !moved {
+                    step *= 0.5;
+                }
+            }
+            (sign * best, n)
+        };
+        let (mut lo, mut hi) = ((f64::INFINITY, [0.0; 3]), (f64::NEG_INFINITY, [0.0; 3]));
+        for k in 0..N {
+            let n = dir(k);
+            let a = self.along(n);
+            if a < lo.0 {
+                lo = (a, n);
+            }
+            if a > hi.0 {
+                hi = (a, n);
+            }
+        }
+        (refine(lo.1, -1.0), refine(hi.1, 1.0))
+    }
+}
+
+/// Gc of a planar crack with unit normal `n` in 3D: eq. 8 with a(n) of the
+/// 3D tensor (the same 1D profile across the crack).
+pub fn surface_energy_3d(gamma: &Gamma3, gc_bar: f64, n: [f64; 3]) -> f64 {
+    gc_bar * profile_factor(gamma.along(n))
+}
+
 /// A minimal complex number for the profile roots.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct C(f64, f64);
@@ -350,5 +475,64 @@ mod tests {
                 "t = {t}: {got} vs {want}"
             );
         }
+    }
+
+    /// The 3D tensor: 9 orthotropic numbers and their 21-entry form agree;
+    /// a c(x, y) sees the 2D tensor (a(n) of a normal in the xy plane is
+    /// the 2D one's); the isotropic 4th order is a = 1 in every direction;
+    /// the extremes over the sphere are found where they are.
+    #[test]
+    fn the_3d_tensor_restricts_to_the_2d_one_and_finds_its_extremes() {
+        let ortho = [1.0, 80.0, 5.0, 0.5, 0.25, 2.0, 3.0, 4.0, 74.0];
+        let g = Gamma3::from_list(&ortho).unwrap();
+        let m = g.m;
+        let mut upper = Vec::new();
+        for i in 0..6 {
+            for j in i..6 {
+                upper.push(m[i][j]);
+            }
+        }
+        assert_eq!(Gamma3::from_list(&upper).unwrap(), g);
+        assert!(Gamma3::from_list(&[1.0; 4]).is_none());
+        let g2 = Gamma {
+            g1111: 1.0,
+            g2222: 80.0,
+            g1122: 0.5,
+            g1212: 74.0,
+            ..Default::default()
+        };
+        for deg in [0.0, 17.0, 45.0, 100.0] {
+            let t: f64 = f64::to_radians(deg);
+            let (a3, a2) = (
+                g.along([t.cos(), t.sin(), 0.0]),
+                g2.along([t.cos(), t.sin()]),
+            );
+            assert!(
+                (a3 - a2).abs() < 1e-12 * a2.abs().max(1.0),
+                "{deg}°: {a3} vs {a2}"
+            );
+        }
+        // the isotropic 4th order: γ_ijkl c,ij c,kl = (∇²c)·(∇²c), shear
+        // entries weighted 2 as in 2D's γ1212 = 2
+        let iso = Gamma3::from_list(&[1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 2.0, 2.0, 2.0]).unwrap();
+        for n in [[1.0, 0.0, 0.0], [0.6, 0.0, 0.8], [0.48, 0.6, 0.64]] {
+            assert!(
+                (iso.along(n) - 1.0).abs() < 1e-12,
+                "{n:?}: {}",
+                iso.along(n)
+            );
+        }
+        // a(n) = 1 + 3 n3⁴: least (1) where n3 = 0, largest (4) along z
+        let z = Gamma3::from_list(&[1.0, 1.0, 4.0, 0.0, 0.0, 0.0, 2.0, 2.0, 2.0]).unwrap();
+        let ((lo, nlo), (hi, nhi)) = z.extremes();
+        assert!(
+            (lo - 1.0).abs() < 1e-9 && nlo[2].abs() < 1e-4,
+            "{lo} at {nlo:?}"
+        );
+        assert!(
+            (hi - 4.0).abs() < 1e-9 && nhi[2].abs() > 1.0 - 1e-6,
+            "{hi} at {nhi:?}"
+        );
+        assert!((surface_energy_3d(&iso, 1.0, [0.0, 0.0, 1.0]) - 2f64.sqrt()).abs() < 1e-9);
     }
 }

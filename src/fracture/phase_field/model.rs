@@ -26,6 +26,7 @@ use crate::fracture::model::{
     body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut,
     SetupContext, StepContext,
 };
+use crate::fracture::phase_field::anisotropy::{Gamma, Gamma3};
 use crate::fracture::phase_field::system::{
     self, FactorKind, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem,
     SolveMethod, SolveStats,
@@ -205,12 +206,21 @@ impl<const D: usize> PhaseFields<D> {
             let Some(pf) = mat.phase_field() else {
                 continue;
             };
-            let gamma = phase_field_gamma(pf).rotated(pf.angle.to_radians());
+            // 2D: the Voigt γ turned by the material angle; 3D: the 6 × 6
+            // one as given (runnable refuses an angle in 3D)
+            let (gamma, gamma3) = if D == 2 {
+                let g = phase_field_gamma(pf).rotated(pf.angle.to_radians());
+                (g, Gamma3::default())
+            } else {
+                let g = Gamma3::from_list(&pf.gamma).unwrap_or_default();
+                (Gamma::default(), g)
+            };
             let params = PhaseFieldParams {
                 gc_bar: pf.gc,
                 l0: pf.l0,
                 k_f: pf.k_f,
                 gamma,
+                gamma3,
             };
             let particles: Vec<u32> = (0..parts.len() as u32)
                 .filter(|&p| parts.body[p as usize] as usize == b)
@@ -798,7 +808,6 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for PhaseFields<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fracture::phase_field::anisotropy::Gamma;
 
     #[test]
     fn the_initial_history_follows_the_crack_profile() {
@@ -807,6 +816,7 @@ mod tests {
             l0: 2.5e-4,
             k_f: 0.0,
             gamma: Gamma::default(),
+            gamma3: Default::default(),
         };
         let unit = 3.0 / (4.0 * 2.5e-4);
         let crack = |profile| {

@@ -2,7 +2,7 @@
 //! types (serde, as the scene file names them) and its checks, which
 //! [`crate::scene::Scene::validate`] calls with the material's field path.
 
-use super::anisotropy::Gamma;
+use super::anisotropy::{Gamma, Gamma3};
 use crate::material::{MaterialModel, PlaneKind};
 use crate::scene::Checker;
 use serde::{Deserialize, Serialize};
@@ -18,8 +18,11 @@ pub struct PhaseFieldSpec {
     /// Residual stiffness k_f of g(c) = (1 − k_f) c² + k_f, in [0, 1).
     #[serde(default)]
     pub k_f: f64,
-    /// The anisotropy tensor in Voigt form, [γ1111, γ2222, γ1122, γ1212]
-    /// or with [γ1112, γ2212] appended; absent or all zero: 2nd order.
+    /// The anisotropy tensor in Voigt form. 2D: [γ1111, γ2222, γ1122,
+    /// γ1212] or with [γ1112, γ2212] appended; 3D: 9 numbers (orthotropic:
+    /// γ1111, γ2222, γ3333, γ1122, γ1133, γ2233, γ2323, γ1313, γ1212) or the
+    /// 21 entries of the 6 × 6 matrix's upper triangle
+    /// ([`super::anisotropy::Gamma3`]); absent or all zero: 2nd order.
     #[serde(default)]
     pub gamma: Vec<f64>,
     /// Material angle φ, degrees counter-clockwise from x.
@@ -62,13 +65,15 @@ pub fn phase_field_gamma(pf: &PhaseFieldSpec) -> Gamma {
 }
 
 /// Checks a material's phase-field table (`path` is the material's
-/// field path; its `model` and the scene's `plane` constrain it).
+/// field path; its `model`, the scene's `plane` and its dimension `dim`
+/// constrain it).
 pub(crate) fn check(
     c: &mut Checker,
     path: &str,
     pf: &PhaseFieldSpec,
     model: MaterialModel,
     plane: PlaneKind,
+    dim: usize,
 ) {
     let q = format!("{path}.phase_field");
     c.positive(&format!("{q}.gc"), pf.gc);
@@ -80,7 +85,29 @@ pub(crate) fn check(
         );
     }
     c.finite(&format!("{q}.angle"), pf.angle);
-    if !(pf.gamma.is_empty() || pf.gamma.len() == 4 || pf.gamma.len() == 6) {
+    if dim == 3 {
+        match Gamma3::from_list(&pf.gamma) {
+            None => c.err(
+                &format!("{q}.gamma"),
+                format!(
+                    "give 9 numbers in 3D (orthotropic: g1111, g2222, g3333, g1122, g1133, g2233, \
+                     g2323, g1313, g1212) or the 21 of the 6 x 6 matrix's upper triangle, got {}",
+                    pf.gamma.len()
+                ),
+            ),
+            Some(g) => {
+                if pf
+                    .gamma
+                    .iter()
+                    .enumerate()
+                    .all(|(k, g)| c.finite(&format!("{q}.gamma[{k}]"), *g))
+                    && g.extremes().0 .0 < 0.0
+                {
+                    c.err(&format!("{q}.gamma"), "the crack-profile coefficient a(n) is negative for some direction: the functional is unbounded below");
+                }
+            }
+        }
+    } else if !(pf.gamma.is_empty() || pf.gamma.len() == 4 || pf.gamma.len() == 6) {
         c.err(
             &format!("{q}.gamma"),
             format!(

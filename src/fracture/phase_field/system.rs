@@ -15,7 +15,7 @@
 //! is unchanged; faer does not check that a reused analysis matches the
 //! matrix, so the node set itself is compared before every reuse.
 
-use super::anisotropy::Gamma;
+use super::anisotropy::{Gamma, Gamma3};
 use super::multigrid::Multigrid;
 use super::trisolve::{SolveScratch, SupernodalSolve};
 use crate::grid::shape::{Kernel, MAX_SUPPORT};
@@ -48,9 +48,36 @@ pub struct PhaseFieldParams {
     pub l0: f64,
     /// Residual stiffness k_f in g(c) = (1 − k_f)c² + k_f.
     pub k_f: f64,
-    /// The anisotropy tensor, already rotated by the material angle
-    /// (zero: the 2nd-order isotropic model).
+    /// The anisotropy tensor of a 2D field, already rotated by the
+    /// material angle (zero: the 2nd-order isotropic model).
     pub gamma: Gamma,
+    /// The anisotropy tensor of a 3D field (zero: the 2nd order).
+    pub gamma3: Gamma3,
+}
+
+impl PhaseFieldParams {
+    /// Whether the field in `D` dimensions has the 4th-order term.
+    pub fn fourth<const D: usize>(&self) -> bool {
+        if D == 2 {
+            !self.gamma.is_zero()
+        } else {
+            !self.gamma3.is_zero()
+        }
+    }
+
+    /// γ in Voigt form for `D` dimensions, in the first `D(D+1)/2` rows
+    /// and columns of a 6 × 6 matrix.
+    pub fn voigt6<const D: usize>(&self) -> [[f64; 6]; 6] {
+        if D == 2 {
+            let mut m = [[0.0; 6]; 6];
+            for (row, g) in m.iter_mut().zip(self.gamma.voigt()) {
+                row[..3].copy_from_slice(&g);
+            }
+            m
+        } else {
+            self.gamma3.m
+        }
+    }
 }
 
 /// What can go wrong in a solve.
@@ -690,9 +717,6 @@ impl<const D: usize> PhaseFieldSystem<D> {
     }
 
     /// Assembles K and F (eq. 57) from the particles.
-    ///
-    /// In 3D the anisotropy tensor must be zero (the 4th-order model is 2D
-    /// still; [`crate::methods::runnable`] refuses it).
     pub fn assemble<K: Kernel>(
         &mut self,
         geom: &GridGeom<D>,
@@ -717,25 +741,19 @@ impl<const D: usize> PhaseFieldSystem<D> {
         let t0 = Instant::now();
         self.refine = K::REFINE;
         self.grid_nodes = geom.nodes;
-        if self.update_keys::<K>(geom, parts, !p.gamma.is_zero()) {
+        if self.update_keys::<K>(geom, parts, p.fourth::<D>()) {
             self.set_active::<K>(geom);
         }
         self.values.clear();
         self.values.resize(self.row_idx.len(), 0.0);
         self.rhs.clear();
         self.rhs.resize(self.dofs.len(), 0.0);
-        let mut m = [[0.0; 6]; 6];
-        if D == 2 {
-            for (row, g) in m.iter_mut().zip(p.gamma.voigt()) {
-                row[..3].copy_from_slice(&g);
-            }
-        }
         let ctx = Accumulate {
             geom,
             parts,
             params: p,
-            m,
-            fourth: D == 2 && !p.gamma.is_zero(),
+            m: p.voigt6::<D>(),
+            fourth: p.fourth::<D>(),
             dof_of: &self.dof_of,
             nbr: &self.nbr,
             values: SyncPtr::new(&mut self.values),
@@ -1428,7 +1446,7 @@ pub fn field_at<K: Kernel, const D: usize>(
 
 /// The crack density Z of eq. 4 at a point:
 /// (c−1)²/(4l₀) + l₀|∇c|² + l₀³ (∇²c)ᵀ M (∇²c), with ∇²c as
-/// [`field_at`] gives it (the 4th-order term is 2D only).
+/// [`field_at`] gives it.
 pub fn crack_density<const D: usize>(
     p: &PhaseFieldParams,
     c: f64,
@@ -1441,7 +1459,10 @@ pub fn crack_density<const D: usize>(
             .map(|i| (0..3).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>())
             .sum()
     } else {
-        0.0
+        let m = &p.gamma3.m;
+        (0..6)
+            .map(|i| (0..6).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>())
+            .sum()
     };
     let mut g2 = g[0] * g[0];
     for d in 1..D {
