@@ -21,11 +21,12 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 
 /// Whether some method runs `scene`, or why none does. A 3D scene runs the
 /// grid MPM's explicit core (issue 32: the grid, the transfers, the
-/// materials, contact and the walls are generic over the dimension), and
+/// materials, contact and the walls are generic over the dimension),
 /// continuum damage (`materials.NAME.damage`: Rankine, time to failure,
-/// Weibull strengths, fragments); what is still 2D is refused here,
-/// naming the key: the phase field, DFG partitioning, initial cracks and
-/// crack origins (2D polylines and an in-plane tip tracker). Asked before a run is set up, so
+/// Weibull strengths, fragments) and DFG partitioning (`[dfg]`, with
+/// self-contact); what is still 2D is refused here, naming the key: the
+/// phase field, initial cracks and crack origins (2D polylines and an
+/// in-plane tip tracker). Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
 /// writing or queueing anything.
 pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
@@ -36,7 +37,7 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
     let not_yet = |path: String, what: &str| {
         Err(SceneError::single(
             &path,
-            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; and continuum damage)"),
+            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; continuum damage and DFG partitioning)"),
         ))
     };
     // a fracture model, named at its body's material
@@ -49,9 +50,6 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
         if m.phase_field().is_some() {
             return not_yet(format!("{key}.phase_field"), "a phase field");
         }
-    }
-    if file.dfg.is_some() {
-        return not_yet("dfg".into(), "DFG partitioning");
     }
     if let Some(i) = file.bodies.iter().position(|b| !b.cracks.is_empty()) {
         return not_yet(format!("bodies[{i}].cracks"), "an initial crack");

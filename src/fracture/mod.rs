@@ -17,6 +17,7 @@ pub(crate) const MODELS: &[model::Build] = &[
 ];
 
 /// The fracture models that run in 3D (issue 32), in the order of
-/// [`MODELS`]: continuum damage. The phase field and DFG are 2D still
-/// ([`crate::methods::runnable`] refuses them in a 3D scene).
-pub(crate) const MODELS_3D: &[model::Build<3, 6>] = &[damage::model::build::<3, 6>];
+/// [`MODELS`]: DFG partitioning and continuum damage. The phase field is
+/// 2D still ([`crate::methods::runnable`] refuses it in a 3D scene).
+pub(crate) const MODELS_3D: &[model::Build<3, 6>] =
+    &[dfg::model::build::<3, 6>, damage::model::build::<3, 6>];
