@@ -23,8 +23,9 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 /// grid MPM's explicit core (issue 32: the grid, the transfers, the
 /// materials, contact and the walls are generic over the dimension),
 /// continuum damage (`materials.NAME.damage`: Rankine, time to failure,
-/// Weibull strengths, fragments) and DFG partitioning (`[dfg]`, with
-/// self-contact); what is still 2D is refused here, naming the key: the
+/// Weibull strengths, fragments) and DFG partitioning (`[dfg]`; its
+/// self-contact runs but does not yet let a body slide on itself in 3D,
+/// docs/dfg.md "In 3D"); what is still 2D is refused here, naming the key: the
 /// phase field, initial cracks and crack origins (2D polylines and an
 /// in-plane tip tracker). Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
