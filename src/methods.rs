@@ -21,14 +21,16 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 
 /// Whether some method runs `scene`, or why none does. A 3D scene runs the
 /// grid MPM's explicit core (issue 32: the grid, the transfers, the
-/// materials, contact and the walls are generic over the dimension), and
+/// materials, contact and the walls are generic over the dimension),
 /// continuum damage (`materials.NAME.damage`: Rankine, time to failure,
-/// Weibull strengths, fragments) and the phase field (2nd order, and 4th
-/// order with the 6 × 6 γ; solved on the 3D stencil, every solver method);
-/// what is still 2D is refused here, naming the key: a phase field's
-/// material `angle` (an in-plane turn of the 2D tensor; in 3D γ is given in
-/// the scene's axes), DFG partitioning, initial cracks and crack origins
-/// (2D polylines and an in-plane tip tracker). Asked before a run is set up, so
+/// Weibull strengths, fragments), DFG partitioning (`[dfg]`; its
+/// self-contact runs but does not yet let a body slide on itself in 3D,
+/// docs/dfg.md "In 3D") and the phase field (2nd order, and 4th order with
+/// the 6 × 6 γ; solved on the 3D stencil, every solver method); what is
+/// still 2D is refused here, naming the key: a phase field's material
+/// `angle` (an in-plane turn of the 2D tensor; in 3D γ is given in the
+/// scene's axes), initial cracks and crack origins (2D polylines and an
+/// in-plane tip tracker). Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
 /// writing or queueing anything.
 pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
@@ -39,7 +41,7 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
     let not_yet = |path: String, what: &str| {
         Err(SceneError::single(
             &path,
-            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; continuum damage and the phase field)"),
+            format!("{what} in 3D is not run yet (a 3D scene runs the explicit core: elasticity, contact, walls, tractions; continuum damage, DFG partitioning and the phase field)"),
         ))
     };
     // a fracture model, named at its body's material
@@ -57,9 +59,6 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
                 );
             }
         }
-    }
-    if file.dfg.is_some() {
-        return not_yet("dfg".into(), "DFG partitioning");
     }
     if let Some(i) = file.bodies.iter().position(|b| !b.cracks.is_empty()) {
         return not_yet(format!("bodies[{i}].cracks"), "an initial crack");

@@ -17,10 +17,11 @@ pub(crate) const MODELS: &[model::Build] = &[
 ];
 
 /// The fracture models that run in 3D (issue 32), in the order of
-/// [`MODELS`]: the 2nd-order phase field and continuum damage. DFG and
-/// the 4th-order phase field are 2D still ([`crate::methods::runnable`]
-/// refuses them in a 3D scene).
+/// [`MODELS`]: the phase field, DFG partitioning and continuum damage
+/// (what of them is still 2D, [`crate::methods::runnable`] refuses in a
+/// 3D scene).
 pub(crate) const MODELS_3D: &[model::Build<3, 6>] = &[
     phase_field::model::build::<3, 6>,
+    dfg::model::build::<3, 6>,
     damage::model::build::<3, 6>,
 ];

@@ -249,7 +249,7 @@ pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
     ) -> Option<usize>;
 
     /// This step's field slots (after the partition).
-    fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a>;
+    fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a, D>;
 }
 
 /// The field slots of every model that splits the velocity fields, one
@@ -258,9 +258,9 @@ pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
 /// ([`SplitSlots::visit`]) rather than called through a pointer (which
 /// cost DFG's P2G and G2P about a tenth of their time). Adding a
 /// splitting model: its variant here and its arm in `visit`.
-pub enum SplitSlots<'a> {
+pub enum SplitSlots<'a, const D: usize = 2> {
     /// Damage-field-gradient partitioning (Homel & Herbold 2017).
-    Dfg(crate::fracture::dfg::DfgFields<'a>),
+    Dfg(crate::fracture::dfg::DfgFields<'a, D>),
 }
 
 /// What runs with a step's field slots, for any concrete slot rule.
@@ -269,7 +269,7 @@ pub trait SlotsVisitor {
     fn visit<S: FieldSlots>(self, slots: &S) -> Self::Output;
 }
 
-impl SplitSlots<'_> {
+impl<const D: usize> SplitSlots<'_, D> {
     /// Runs `v` with the concrete slots.
     pub fn visit<V: SlotsVisitor>(&self, v: V) -> V::Output {
         match self {

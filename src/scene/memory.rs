@@ -307,10 +307,21 @@ pub(super) fn estimate(
     let dfg = match &file.dfg {
         Some(spec) => {
             // per particle: surface, normal, damage, key, gradient, the
-            // direction table (33 f64), the cone shares (5 x (u8, f64)),
+            // direction table (33 f64), the cone shares (5 x (u16, f64)),
             // cut, partition position, the neighbour list's start and
-            // build positions
-            let state: u64 = 8 + 16 + 8 + 2 + 16 + 33 * 8 + 5 * 16 + 8 + 16 + 4 + 16;
+            // build positions; in 3D the vectors have three components,
+            // a particle up to 23 shares, and the direction table is per
+            // node (2 · 188 + 1 f64) and only with self-contact
+            let state: u64 = if three {
+                8 + 24 + 8 + 2 + 24 + 23 * 16 + 4 + 8 + 24 + 4 + 24
+            } else {
+                8 + 16 + 8 + 2 + 16 + 33 * 8 + 5 * 16 + 8 + 16 + 4 + 16
+            };
+            let table = if three && spec.self_contact {
+                nodes.saturating_mul((2 * 188 + 1) * 8)
+            } else {
+                0
+            };
             // neighbours within radius × h√2: π r² / spacing² of them
             let ppc = file
                 .bodies
@@ -326,6 +337,7 @@ pub(super) fn estimate(
                 (std::f64::consts::PI * r * r * ppc).ceil() as u64
             };
             n.saturating_mul(state + 4 * neighbours)
+                .saturating_add(table)
         }
         None => 0,
     };

@@ -53,6 +53,15 @@
 //! the band's own particles (no gradient) split at the band's centre
 //! instead of all going to side 0.
 //!
+//! One code path in 2D and 3D (`Dfg<D>`): positions, gradients and
+//! normals have D components, the neighbour bins are squares or cubes, the
+//! kernel ω(r̄) of eq. 18 is the same in 3D (the paper's section 2.2:
+//! r̄ = |x − x_q|/r), r is one cell diagonal by default (h√2, h√3), and
+//! the balanced direction's candidates cover the half circle or the half
+//! sphere ([`Candidates`]). The 2D arithmetic is the one it was before the
+//! code was generic (sums over axes start from the first term, in axis
+//! order).
+//!
 //! Approximation: the side statistics of the separability test are summed
 //! per node over all contact groups; they differ from the paper's per-field
 //! sums only at nodes where two groups and damage meet.
@@ -68,6 +77,7 @@ use crate::grid::{
     particle_support, scatter_coloured, Bins, FieldSlots, GridGeom, MultiField, SyncPtr, TILE,
 };
 use crate::particles::Particles;
+use crate::tensor::dot;
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -91,14 +101,14 @@ const SIDE_COS: f64 = 0.5;
 /// position: ∇D̄ points towards the surface, so side 0 lies behind it
 /// (n_i·x_p < cut) and side 1 in front.
 #[inline(always)]
-fn side(gp: [f64; 2], op: [f64; 2], ni: [f64; 2], xp: [f64; 2], cut: f64) -> u32 {
-    let clear = |g: [f64; 2]| {
-        let dot = g[0] * ni[0] + g[1] * ni[1];
-        (dot * dot > SIDE_COS * SIDE_COS * (g[0] * g[0] + g[1] * g[1])).then_some(dot < 0.0)
+fn side<const D: usize>(gp: [f64; D], op: [f64; D], ni: [f64; D], xp: [f64; D], cut: f64) -> u32 {
+    let clear = |g: [f64; D]| {
+        let d = dot(g, ni);
+        (d * d > SIDE_COS * SIDE_COS * dot(g, g)).then_some(d < 0.0)
     };
     let behind = clear(gp)
         .or_else(|| clear(op))
-        .unwrap_or_else(|| ni[0] * xp[0] + ni[1] * xp[1] > cut);
+        .unwrap_or_else(|| dot(ni, xp) > cut);
     u32::from(behind)
 }
 
@@ -107,17 +117,32 @@ fn side(gp: [f64; 2], op: [f64; 2], ni: [f64; 2], xp: [f64; 2], cut: f64) -> u32
 /// such as the gradient-free particles inside a failed band, go to side
 /// 0); with it, [`side`].
 #[inline(always)]
-fn side_at(paper: bool, gp: [f64; 2], op: [f64; 2], ni: [f64; 2], xp: [f64; 2], cut: f64) -> u32 {
+fn side_at<const D: usize>(
+    paper: bool,
+    gp: [f64; D],
+    op: [f64; D],
+    ni: [f64; D],
+    xp: [f64; D],
+    cut: f64,
+) -> u32 {
     if paper {
-        u32::from(gp[0] * ni[0] + gp[1] * ni[1] < 0.0)
+        u32::from(dot(gp, ni) < 0.0)
     } else {
         side(gp, op, ni, xp, cut)
     }
 }
 
-/// Candidate directions of the balanced nodal direction
+/// Candidate directions of the balanced nodal direction in 2D
 /// ([`Dfg::balance`]), spaced 180°/NDIR.
 const NDIR: usize = 16;
+
+/// Candidate directions in 3D ([`Candidates`]): a spiral on the half
+/// sphere, at most 11.25° between neighbours as in 2D.
+const NDIR_3D: usize = 188;
+
+/// Cube-map cells per face edge of the 3D candidates' lookup
+/// ([`Candidates`]).
+const BUCKETS_3D: usize = 8;
 
 /// A particle counts for a side of candidate n_k in [`Dfg::balance`] only
 /// if its direction lies within this cosine (26°) of ±n_k: two faces
@@ -129,17 +154,169 @@ const CONE_COS: f64 = 0.9;
 /// direction.
 const BALANCE_MIN: f64 = 0.01;
 
-/// Candidates within [`CONE_COS`] of a direction: at most five.
+/// 2D: the candidates within [`CONE_COS`] of a direction, at most five.
 const CONE_K: usize = 5;
+
+/// The candidate directions n_k of [`Dfg::balance`] (a unit direction and
+/// its negative are one candidate with two slots, 2k for +n_k and 2k + 1
+/// for −n_k, as `u16`) and how a particle's direction u finds those within
+/// the cone |n_k·u| > [`CONE_COS`].
+///
+/// - 2D: NDIR = 16 directions on the half circle, n_k at angle 180°·k/16
+///   (11.25° apart); the candidates in the cone of u are among the five
+///   around the nearest one (2 · 11.25° < acos 0.9 = 25.8° < 3 · 11.25°).
+/// - 3D: NDIR_3D = 188 directions on the upper half sphere, the spiral
+///   (Fibonacci) point set z_k = 1 − (k + ½)/188, azimuth k times the
+///   golden angle π(3 − √5): equal areas, 2π/188 sr per direction, as many
+///   as a hexagonal lattice of 11.25° spacing needs. Measured
+///   (`candidates_cover_the_half_sphere_evenly`, counting a direction's
+///   negative as the same candidate): nearest neighbours 6.0°–10.2° apart
+///   (mean 9.8°), every direction within 8.0° of one (2D: 5.6°). A
+///   deterministic set with no preferred axis but z, at a density a
+///   subdivided icosahedron (6, 21, 81, 321 directions on the half sphere)
+///   does not offer. The candidates near u are found by a cube map: u's
+///   face (its largest component) and an 8 × 8 cell of it; each cell lists,
+///   once, when the candidates are built, every n_k with |n_k·c| ≥
+///   cos(acos 0.9 + ρ) for its centre c and angular radius ρ (a cube-map
+///   cell is a geodesic quadrilateral, farthest from its centre at a
+///   corner), which by the triangle inequality holds every candidate within
+///   the cone of any u in the cell: at most 37 to test, of which 15–23 pass
+///   (`the_candidates_in_the_cone_are_those_a_full_search_finds`). Per node
+///   the balance then sums 2 · 188 + 1 values (3 kB), a table sized at the
+///   first balance, so only with self-contact.
+#[derive(Debug, Clone)]
+struct Candidates<const D: usize> {
+    dir: Vec<[f64; D]>,
+    /// 3D: `list[start[c]..start[c + 1]]` are the candidates near cube-map
+    /// cell c (empty in 2D).
+    start: Vec<u32>,
+    list: Vec<u16>,
+}
+
+impl<const D: usize> Candidates<D> {
+    fn new() -> Self {
+        if D == 2 {
+            let dir = (0..NDIR)
+                .map(|k| {
+                    let a = std::f64::consts::PI * k as f64 / NDIR as f64;
+                    let mut n = [0.0; D];
+                    (n[0], n[1]) = (a.cos(), a.sin());
+                    n
+                })
+                .collect();
+            return Candidates {
+                dir,
+                start: Vec::new(),
+                list: Vec::new(),
+            };
+        }
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let dir: Vec<[f64; D]> = (0..NDIR_3D)
+            .map(|k| {
+                let z = 1.0 - (k as f64 + 0.5) / NDIR_3D as f64;
+                let r = (1.0 - z * z).sqrt();
+                let a = golden * k as f64;
+                let mut n = [0.0; D];
+                (n[0], n[1], n[2]) = (r * a.cos(), r * a.sin(), z);
+                n
+            })
+            .collect();
+        let cone = CONE_COS.acos();
+        let m = BUCKETS_3D;
+        let mut start = vec![0u32];
+        let mut list = Vec::new();
+        for cell in 0..6 * m * m {
+            let corner = |i: f64, j: f64| cube_direction::<D>(cell / (m * m), i, j, m);
+            let (i, j) = ((cell % (m * m)) % m, (cell % (m * m)) / m);
+            let c = corner(i as f64 + 0.5, j as f64 + 0.5);
+            let rho = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                .iter()
+                .map(|&(di, dj)| {
+                    dot(c, corner(i as f64 + di, j as f64 + dj))
+                        .clamp(-1.0, 1.0)
+                        .acos()
+                })
+                .fold(0.0, f64::max);
+            // (a margin for the rounding of the test against the bound)
+            let reach = (cone + rho + 1e-6).min(std::f64::consts::FRAC_PI_2).cos();
+            list.extend(
+                (0..NDIR_3D)
+                    .filter(|&k| dot(dir[k], c).abs() >= reach)
+                    .map(|k| k as u16),
+            );
+            start.push(list.len() as u32);
+        }
+        Candidates { dir, start, list }
+    }
+
+    /// The candidates to test against unit direction `u` (ascending).
+    #[inline(always)]
+    fn near(&self, u: [f64; D]) -> &[u16] {
+        let c = cube_cell(u, BUCKETS_3D);
+        &self.list[self.start[c] as usize..self.start[c + 1] as usize]
+    }
+
+    /// Calls `f(slot, (n_k·u)²)` for every candidate within the cone of
+    /// ±u (unit), slot 2k for +n_k and 2k + 1 for −n_k.
+    #[inline(always)]
+    fn in_cone(&self, u: [f64; D], mut f: impl FnMut(u16, f64)) {
+        let mut test = |k: usize| {
+            let c = dot(self.dir[k], u);
+            if c.abs() > CONE_COS {
+                f((2 * k + usize::from(c < 0.0)) as u16, c * c);
+            }
+        };
+        if D == 2 {
+            let theta = u[1].atan2(u[0]).rem_euclid(std::f64::consts::PI);
+            let k0 = (theta * NDIR as f64 / std::f64::consts::PI).round() as usize;
+            for dk in 0..CONE_K {
+                test((k0 + NDIR + dk - CONE_K / 2) % NDIR);
+            }
+        } else {
+            for &k in self.near(u) {
+                test(k as usize);
+            }
+        }
+    }
+}
+
+/// The unit direction at cube-map coordinates (i, j) (in cells, 0..m) of
+/// face `face` (axis face / 2, sign − for odd faces); [`cube_cell`]'s
+/// inverse at the cell's points.
+fn cube_direction<const D: usize>(face: usize, i: f64, j: f64, m: usize) -> [f64; D] {
+    let a = face / 2;
+    let mut n = [0.0; D];
+    n[a] = if face % 2 == 1 { -1.0 } else { 1.0 };
+    n[(a + 1) % 3] = 2.0 * i / m as f64 - 1.0;
+    n[(a + 2) % 3] = 2.0 * j / m as f64 - 1.0;
+    unit(n).unwrap_or(n)
+}
+
+/// The cube-map cell of a 3D direction: the face of its largest component
+/// (the first of equal ones), then an m × m cell of the face.
+#[inline(always)]
+fn cube_cell<const D: usize>(u: [f64; D], m: usize) -> usize {
+    let mut a = 0;
+    for b in 1..3 {
+        if u[b].abs() > u[a].abs() {
+            a = b;
+        }
+    }
+    let face = 2 * a + usize::from(u[a] < 0.0);
+    let at = |c: f64| ((((c / u[a].abs()) + 1.0) * 0.5 * m as f64).max(0.0) as usize).min(m - 1);
+    let (i, j) = (at(u[(a + 1) % 3]), at(u[(a + 2) % 3]));
+    face * m * m + j * m + i
+}
+
 /// An empty entry of a particle's balance shares.
-const NONE_SLOT: u8 = u8::MAX;
+const NONE_SLOT: u16 = u16::MAX;
 
 /// Runs `f(p, node, N_ip m_p)` for every (particle, node) pair of the
 /// particles in `hot` tiles for which `take(p)`, coloured like P2G (see
 /// [`scatter_coloured`]: `f` may add into `node` through a [`SyncPtr`]).
-fn scatter_hot<K: Kernel>(
-    geom: &GridGeom,
-    parts: &Particles,
+fn scatter_hot<K: Kernel, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
     bins: &Bins,
     hot: &[bool],
     take: impl Fn(usize) -> bool + Sync,
@@ -155,7 +332,7 @@ fn scatter_hot<K: Kernel>(
                     if !take(p) {
                         continue;
                     }
-                    particle_support::<K, 2, 3>(geom, parts, p)
+                    particle_support::<K, D, V>(geom, parts, p)
                         .for_each(|n| f(p, n.node, n.w * parts.mass[p]));
                 }
             });
@@ -163,7 +340,8 @@ fn scatter_hot<K: Kernel>(
 }
 
 /// The kernel of eq. 18 and its derivative factor: ω(r̄) and
-/// (dω/dr̄)/(r̄ R²), so that ∇_x ω = factor · (x − x_q).
+/// (dω/dr̄)/(r̄ R²), so that ∇_x ω = factor · (x − x_q). The same in 2D
+/// and 3D.
 #[inline(always)]
 fn kernel(rbar: f64, radius: f64) -> (f64, f64) {
     (
@@ -172,20 +350,53 @@ fn kernel(rbar: f64, radius: f64) -> (f64, f64) {
     )
 }
 
-/// Neighbour lists by cell binning (section 2.5).
+/// a − b.
+#[inline(always)]
+fn sub<const D: usize>(a: [f64; D], b: [f64; D]) -> [f64; D] {
+    std::array::from_fn(|k| a[k] - b[k])
+}
+
+/// cof(F) N = det F · F⁻ᵀ N, the direction of a material normal N after
+/// the deformation F (row-major): in 2D [F₁₁N₀ − F₁₀N₁, −F₀₁N₀ + F₀₀N₁];
+/// in 3D N₀ a₁×a₂ + N₁ a₂×a₀ + N₂ a₀×a₁ with a_j the columns of F.
+#[inline(always)]
+fn cof_times<const D: usize>(f: &[[f64; D]; D], n: [f64; D]) -> [f64; D] {
+    let mut out = [0.0; D];
+    if D == 2 {
+        out[0] = f[1][1] * n[0] - f[1][0] * n[1];
+        out[1] = -f[0][1] * n[0] + f[0][0] * n[1];
+    } else {
+        let col = |j: usize| [f[0][j], f[1][j], f[2][j]];
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let (a0, a1, a2) = (col(0), col(1), col(2));
+        let (c0, c1, c2) = (cross(a1, a2), cross(a2, a0), cross(a0, a1));
+        for k in 0..3 {
+            out[k] = n[0] * c0[k] + n[1] * c1[k] + n[2] * c2[k];
+        }
+    }
+    out
+}
+
+/// Neighbour lists by cell binning (section 2.5), in 2D or 3D.
 #[derive(Debug, Clone, Default)]
-pub struct Neighbours {
+pub struct Neighbours<const D: usize = 2> {
     /// `list[start[p]..start[p+1]]` are the particles within the build
     /// reach of p (p included), in bin order.
     start: Vec<u32>,
     list: Vec<u32>,
     /// Positions at the last build.
-    x_built: Vec<[f64; 2]>,
+    x_built: Vec<[f64; D]>,
     /// Lists built so far.
     pub builds: u64,
 }
 
-impl Neighbours {
+impl<const D: usize> Neighbours<D> {
     /// The key of particles that take no part.
     pub const NONE: u16 = u16::MAX;
 
@@ -195,25 +406,21 @@ impl Neighbours {
 
     /// Builds the lists: pairs closer than `reach` with the same `key`.
     /// Particles keyed [`Neighbours::NONE`] get no list and are in none.
-    pub fn build(&mut self, x: &[[f64; 2]], key: &[u16], reach: f64, min: [f64; 2], max: [f64; 2]) {
+    pub fn build(&mut self, x: &[[f64; D]], key: &[u16], reach: f64, min: [f64; D], max: [f64; D]) {
         let n = x.len();
-        let nb = [
-            ((max[0] - min[0]) / reach).ceil() as usize + 1,
-            ((max[1] - min[1]) / reach).ceil() as usize + 1,
-        ];
+        let nb: [usize; D] =
+            std::array::from_fn(|a| ((max[a] - min[a]) / reach).ceil() as usize + 1);
+        let bins: usize = nb.iter().product();
         // counting sort by bin (stable: ascending index inside a bin)
-        let mut bin_start = vec![0u32; nb[0] * nb[1] + 1];
+        let mut bin_start = vec![0u32; bins + 1];
         let bin_of: Vec<u32> = x
             .iter()
-            .map(|&p| {
-                let (cx, cy) = bin_cell(p, min, reach, nb);
-                (cx + cy * nb[0]) as u32
-            })
+            .map(|&p| bin_index(bin_cell(p, min, reach, nb), nb) as u32)
             .collect();
         for &b in &bin_of {
             bin_start[b as usize + 1] += 1;
         }
-        for b in 0..nb[0] * nb[1] {
+        for b in 0..bins {
             bin_start[b + 1] += bin_start[b];
         }
         let mut order = vec![0u32; n];
@@ -265,7 +472,7 @@ impl Neighbours {
 
     /// Whether some particle with a list moved more than `limit` since
     /// the last build.
-    pub fn stale(&self, x: &[[f64; 2]], limit: f64) -> bool {
+    pub fn stale(&self, x: &[[f64; D]], limit: f64) -> bool {
         if self.x_built.len() != x.len() {
             return true;
         }
@@ -274,50 +481,73 @@ impl Neighbours {
             .zip(&self.x_built)
             .enumerate()
             .any(|(p, (a, b))| {
-                let d = [a[0] - b[0], a[1] - b[1]];
-                self.start[p + 1] > self.start[p] && d[0] * d[0] + d[1] * d[1] > l2
+                let d = sub(*a, *b);
+                self.start[p + 1] > self.start[p] && dot(d, d) > l2
             })
     }
 }
 
 /// The bin of a point (clamped into the bin grid).
 #[inline(always)]
-fn bin_cell(p: [f64; 2], min: [f64; 2], reach: f64, nb: [usize; 2]) -> (usize, usize) {
-    let cx = (((p[0] - min[0]) / reach).max(0.0) as usize).min(nb[0] - 1);
-    let cy = (((p[1] - min[1]) / reach).max(0.0) as usize).min(nb[1] - 1);
-    (cx, cy)
+fn bin_cell<const D: usize>(p: [f64; D], min: [f64; D], reach: f64, nb: [usize; D]) -> [usize; D] {
+    std::array::from_fn(|a| (((p[a] - min[a]) / reach).max(0.0) as usize).min(nb[a] - 1))
 }
 
-/// Particles sorted into square bins of the search reach.
-struct BinGrid<'a> {
-    x: &'a [[f64; 2]],
+/// The index of bin `c`: x fastest, then y, then z.
+#[inline(always)]
+fn bin_index<const D: usize>(c: [usize; D], nb: [usize; D]) -> usize {
+    let mut b = c[D - 1];
+    for a in (0..D - 1).rev() {
+        b = b * nb[a] + c[a];
+    }
+    b
+}
+
+/// Particles sorted into square (cubic) bins of the search reach.
+struct BinGrid<'a, const D: usize> {
+    x: &'a [[f64; D]],
     key: &'a [u16],
     order: &'a [u32],
     bin_start: &'a [u32],
-    nb: [usize; 2],
-    min: [f64; 2],
+    nb: [usize; D],
+    min: [f64; D],
     reach: f64,
 }
 
-impl BinGrid<'_> {
+impl<const D: usize> BinGrid<'_, D> {
     /// Calls `f(q)` for every q closer than the reach to p with p's key, in
-    /// bin order.
+    /// bin order (the 3^D bins around p's, x fastest).
     #[inline(always)]
     fn visit(&self, p: usize, mut f: impl FnMut(u32)) {
-        if self.key[p] == Neighbours::NONE {
+        if self.key[p] == Neighbours::<D>::NONE {
             return;
         }
         let (x, r2) = (self.x, self.reach * self.reach);
-        let (cx, cy) = bin_cell(x[p], self.min, self.reach, self.nb);
-        for by in cy.saturating_sub(1)..(cy + 2).min(self.nb[1]) {
-            for bx in cx.saturating_sub(1)..(cx + 2).min(self.nb[0]) {
-                let b = bx + by * self.nb[0];
-                for &q in &self.order[self.bin_start[b] as usize..self.bin_start[b + 1] as usize] {
-                    let d = [x[q as usize][0] - x[p][0], x[q as usize][1] - x[p][1]];
-                    if self.key[q as usize] == self.key[p] && d[0] * d[0] + d[1] * d[1] < r2 {
-                        f(q);
-                    }
+        let c = bin_cell(x[p], self.min, self.reach, self.nb);
+        let lo: [usize; D] = std::array::from_fn(|a| c[a].saturating_sub(1));
+        let hi: [usize; D] = std::array::from_fn(|a| (c[a] + 2).min(self.nb[a]));
+        let mut at = lo;
+        loop {
+            // the bins lo[0]..hi[0] of this row are consecutive
+            let b = bin_index(at, self.nb);
+            let row = self.bin_start[b] as usize..self.bin_start[b + hi[0] - lo[0]] as usize;
+            for &q in &self.order[row] {
+                let d = sub(x[q as usize], x[p]);
+                if self.key[q as usize] == self.key[p] && dot(d, d) < r2 {
+                    f(q);
                 }
+            }
+            let mut a = 1;
+            loop {
+                if a == D {
+                    return;
+                }
+                at[a] += 1;
+                if at[a] < hi[a] {
+                    break;
+                }
+                at[a] = lo[a];
+                a += 1;
             }
         }
     }
@@ -358,20 +588,20 @@ pub struct DfgStats {
 }
 
 /// The partitioning state: neighbour lists, surface flags, the field
-/// gradients of the current step.
+/// gradients of the current step, in `D` = 2 or 3 dimensions.
 #[derive(Debug, Clone)]
-pub struct Dfg {
+pub struct Dfg<const D: usize = 2> {
     params: DfgParams,
-    neighbours: Neighbours,
+    neighbours: Neighbours<D>,
     /// Self-contact surface flags s_p (empty without self-contact).
     surface: Vec<f64>,
     /// Outward unit normals of the surface particles in the reference
     /// configuration, from the gradient of their body's kernel sum (zero
     /// inside; empty without self-contact).
-    normal0: Vec<[f64; 2]>,
+    normal0: Vec<[f64; D]>,
     /// `normal0` rotated by cof F at this step's partition, where the
     /// material tracks F (empty otherwise; see [`Dfg::normals`]).
-    normal: Vec<[f64; 2]>,
+    normal: Vec<[f64; D]>,
     /// d_p = max(s_p, D_p) of this step.
     d: Vec<f64>,
     /// Neighbour-list key: the contact group of particles that can carry
@@ -379,22 +609,27 @@ pub struct Dfg {
     /// elastic striker needs no damage field).
     key: Vec<u16>,
     /// ∇D̄ at the particles (zero away from damage).
-    pub grad: Vec<[f64; 2]>,
+    pub grad: Vec<[f64; D]>,
     /// The nodal direction: Algorithm 1's, turned towards opposing
     /// surfaces where there are some ([`Dfg::balance`]).
-    pub node_grad: Vec<[f64; 2]>,
-    /// Per node: for each candidate direction n_k the two sides' sums of
-    /// [`Dfg::balance`], then Σ N_ip m_p; reused by its second pass.
-    dirs: Vec<[f64; 2 * NDIR + 1]>,
-    /// Per particle, its (slot, weight) entries of `dirs` (the balance).
-    shares: Vec<[(u8, f64); CONE_K]>,
+    pub node_grad: Vec<[f64; D]>,
+    /// The candidate directions of [`Dfg::balance`].
+    cand: Candidates<D>,
+    /// Per node, `stride` entries: for each candidate direction n_k the
+    /// two sides' sums of [`Dfg::balance`], then Σ N_ip m_p; reused by its
+    /// second pass. Sized at the first balance (self-contact only).
+    dirs: Vec<f64>,
+    /// Per particle, its (slot, weight) entries of `dirs` (the balance):
+    /// `shares[share_start[p]..share_start[p + 1]]`.
+    share_start: Vec<u32>,
+    shares: Vec<(u16, f64)>,
     /// Where the surface lies at each node, along its unit direction
     /// (n_i·x, m; see [`Dfg::balance`]).
     pub cut: Vec<f64>,
     /// Particle positions at this step's partition: the side rule
     /// ([`side`]) must give the same field in P2G and G2P, and G2P moves
     /// the particles.
-    pub x_partition: Vec<[f64; 2]>,
+    pub x_partition: Vec<[f64; D]>,
     sums: Vec<SideSums>,
     /// Node ranges written in the last step (zeroed before the next).
     written: Vec<Range<usize>>,
@@ -404,26 +639,26 @@ pub struct Dfg {
     surface_count: u64,
 }
 
-impl Dfg {
+impl<const D: usize> Dfg<D> {
     /// Sets up the partitioning; with `self_contact`, flags as surface
     /// particles those whose kernel sum over their own body is below
     /// `threshold` times the body's largest (section 2.4).
     /// `takes_part[m]` says whether particles of material m can be damaged
     /// (all particles take part with self-contact).
-    pub fn new(
+    pub fn new<const V: usize>(
         params: DfgParams,
-        geom: &GridGeom,
-        parts: &Particles,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
         self_contact: Option<f64>,
         takes_part: &[bool],
-    ) -> Dfg {
+    ) -> Dfg<D> {
         let n = parts.len();
         let key = (0..n)
             .map(|p| {
                 if self_contact.is_some() || takes_part[parts.material[p] as usize] {
                     parts.group[p] as u16
                 } else {
-                    Neighbours::NONE
+                    Neighbours::<D>::NONE
                 }
             })
             .collect();
@@ -431,7 +666,7 @@ impl Dfg {
         let mut normal0 = Vec::new();
         let mut surface_count = 0;
         if let Some(threshold) = self_contact {
-            let mut nb = Neighbours::default();
+            let mut nb = Neighbours::<D>::default();
             nb.build(
                 &parts.x,
                 &parts.body,
@@ -440,20 +675,17 @@ impl Dfg {
                 geom.domain_max,
             );
             // kernel sum and its gradient (which points into the body)
-            let (sum, sgrad): (Vec<f64>, Vec<[f64; 2]>) = (0..n)
+            let (sum, sgrad): (Vec<f64>, Vec<[f64; D]>) = (0..n)
                 .into_par_iter()
                 .map(|p| {
-                    let (mut s, mut g) = (0.0, [0.0; 2]);
+                    let (mut s, mut g) = (0.0, [0.0; D]);
                     for &q in nb.of(p) {
-                        let d = [
-                            parts.x[p][0] - parts.x[q as usize][0],
-                            parts.x[p][1] - parts.x[q as usize][1],
-                        ];
-                        let rbar = (d[0] * d[0] + d[1] * d[1]).sqrt() / params.radius;
+                        let d = sub(parts.x[p], parts.x[q as usize]);
+                        let rbar = dot(d, d).sqrt() / params.radius;
                         if rbar < 1.0 {
                             let (w, f) = kernel(rbar, params.radius);
                             s += w;
-                            g = [g[0] + f * d[0], g[1] + f * d[1]];
+                            g = std::array::from_fn(|a| g[a] + f * d[a]);
                         }
                     }
                     (s, g)
@@ -481,8 +713,8 @@ impl Dfg {
             surface_count = surface.iter().filter(|&&s| s > 0.0).count() as u64;
             normal0 = (0..n)
                 .map(|p| match unit(sgrad[p]) {
-                    Some(u) if surface[p] > 0.0 => [-u[0], -u[1]],
-                    _ => [0.0; 2],
+                    Some(u) if surface[p] > 0.0 => u.map(|c| -c),
+                    _ => [0.0; D],
                 })
                 .collect();
         }
@@ -494,9 +726,11 @@ impl Dfg {
             normal: Vec::new(),
             normal0,
             d: vec![0.0; n],
-            grad: vec![[0.0; 2]; n],
-            node_grad: vec![[0.0; 2]; geom.node_count()],
-            dirs: vec![[0.0; 2 * NDIR + 1]; geom.node_count()],
+            grad: vec![[0.0; D]; n],
+            node_grad: vec![[0.0; D]; geom.node_count()],
+            cand: Candidates::new(),
+            dirs: Vec::new(),
+            share_start: Vec::new(),
             shares: Vec::new(),
             cut: vec![0.0; geom.node_count()],
             x_partition: Vec::with_capacity(n),
@@ -510,18 +744,18 @@ impl Dfg {
 
     /// What a checkpoint keeps of the neighbour lists: the positions they
     /// were built at (empty before the first build) and the builds so far.
-    pub fn neighbour_state(&self) -> (Vec<[f64; 2]>, u64) {
+    pub fn neighbour_state(&self) -> (Vec<[f64; D]>, u64) {
         (self.neighbours.x_built.clone(), self.neighbours.builds)
     }
 
     /// The neighbour lists of a checkpoint ([`Dfg::neighbour_state`]):
     /// built again at the same positions, so that they and the rebuild
     /// rule are as the run left them.
-    pub fn restore_neighbours(
+    pub fn restore_neighbours<const V: usize>(
         &mut self,
-        geom: &GridGeom,
-        parts: &Particles,
-        x_built: &[[f64; 2]],
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
+        x_built: &[[f64; D]],
         builds: u64,
     ) {
         self.neighbours = Neighbours::default();
@@ -533,7 +767,12 @@ impl Dfg {
 
     /// The neighbour lists at positions `x` (the search reach is the
     /// kernel radius plus twice the rebuild skin).
-    fn build_neighbours(&mut self, geom: &GridGeom, parts: &Particles, x: &[[f64; 2]]) {
+    fn build_neighbours<const V: usize>(
+        &mut self,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
+        x: &[[f64; D]],
+    ) {
         let r = self.params.radius;
         let skin = self.params.rebuild_fraction * r;
         let groups: Vec<u16> = parts.group.iter().map(|&g| g as u16).collect();
@@ -556,7 +795,12 @@ impl Dfg {
 
     /// The `damage_field` stage: d_p, the particle gradients ∇D̄ (eqs.
     /// 17–19) near damage, and the nodal gradients of Algorithm 1.
-    pub fn field<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles, bins: &Bins) {
+    pub fn field<K: Kernel, const V: usize>(
+        &mut self,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
+        bins: &Bins,
+    ) {
         let n = parts.len();
         let (damage, phase) = (&parts.damage, &parts.phase);
         let surface = &self.surface;
@@ -572,31 +816,44 @@ impl Dfg {
         if self.neighbours.stale(&parts.x, skin) {
             self.build_neighbours(geom, parts, &parts.x);
         }
-        // Tiles with a failed particle (d = 1) in them or next to them. Only
-        // a node that a failed particle maps to can separate (section 2.3);
-        // the particles that share such a node are within 3 cells of it,
-        // the kernel reaches r < 2 cells further, both inside the next tile
-        // (8 cells). Elsewhere the sides merge whatever the gradients say,
-        // so they are left zero.
-        let ntiles = geom.tiles[0] * geom.tiles[1];
-        let mut any = vec![false; ntiles];
-        for (t, a) in any.iter_mut().enumerate() {
-            *a = bins
-                .particles_of(t as u32)
-                .iter()
-                .any(|&p| self.d[p as usize] >= FAILED);
-        }
+        // Tiles with a failed particle (d = 1) in them or next to them (the
+        // 3^D around it). Only a node that a failed particle maps to can
+        // separate (section 2.3); the particles that share such a node are
+        // within 3 cells of it, the kernel reaches r < 2 cells further
+        // (one cell diagonal, h√2 or h√3), both inside the next tile (8
+        // cells). Elsewhere the sides merge whatever the gradients say, so
+        // they are left zero.
+        let ntiles = geom.tile_count();
         self.hot.clear();
         self.hot.resize(ntiles, false);
-        let [ntx, nty] = geom.tiles;
-        for (t, _) in any.iter().enumerate().filter(|a| *a.1) {
+        let tiles = geom.tiles;
+        for t in 0..ntiles {
+            if !bins
+                .particles_of(t as u32)
+                .iter()
+                .any(|&p| self.d[p as usize] >= FAILED)
             {
-                let (tx, ty) = (t % ntx, t / ntx);
-                for y in ty.saturating_sub(1)..(ty + 2).min(nty) {
-                    for x in tx.saturating_sub(1)..(tx + 2).min(ntx) {
-                        self.hot[x + y * ntx] = true;
+                continue;
+            }
+            let mut rest = t;
+            let c: [usize; D] = std::array::from_fn(|a| {
+                let c = rest % tiles[a];
+                rest /= tiles[a];
+                c
+            });
+            let lo: [usize; D] = std::array::from_fn(|a| c[a].saturating_sub(1));
+            let hi: [usize; D] = std::array::from_fn(|a| (c[a] + 2).min(tiles[a]));
+            let mut at = lo;
+            'tiles: loop {
+                self.hot[bin_index(at, tiles)] = true;
+                for a in 0..D {
+                    at[a] += 1;
+                    if at[a] < hi[a] {
+                        continue 'tiles;
                     }
+                    at[a] = lo[a];
                 }
+                break;
             }
         }
         debug_assert!(r < TILE as f64 * geom.h);
@@ -612,8 +869,8 @@ impl Dfg {
             .par_iter_mut()
             .enumerate()
             .for_each(|(p, g)| {
-                *g = [0.0; 2];
-                if !hot[tile_of[p] as usize] || key[p] == Neighbours::NONE {
+                *g = [0.0; D];
+                if !hot[tile_of[p] as usize] || key[p] == Neighbours::<D>::NONE {
                     return;
                 }
                 let list = nb.of(p);
@@ -622,48 +879,48 @@ impl Dfg {
                 if list.iter().all(|&q| d[q as usize] == d[p]) {
                     return;
                 }
-                let (mut s, mut ds, mut gs, mut gds) = (0.0, 0.0, [0.0; 2], [0.0; 2]);
+                let (mut s, mut ds, mut gs, mut gds) = (0.0, 0.0, [0.0; D], [0.0; D]);
                 for &q in list {
                     let q = q as usize;
-                    let dx = [x[p][0] - x[q][0], x[p][1] - x[q][1]];
-                    let r2 = dx[0] * dx[0] + dx[1] * dx[1];
+                    let dx = sub(x[p], x[q]);
+                    let r2 = dot(dx, dx);
                     if r2 >= r * r {
                         continue;
                     }
                     let (w, f) = kernel(r2.sqrt() / r, r);
                     s += w;
                     ds += d[q] * w;
-                    gs[0] += f * dx[0];
-                    gs[1] += f * dx[1];
-                    gds[0] += d[q] * f * dx[0];
-                    gds[1] += d[q] * f * dx[1];
+                    for a in 0..D {
+                        gs[a] += f * dx[a];
+                        gds[a] += d[q] * f * dx[a];
+                    }
                 }
                 if s > 0.0 {
                     let dbar = ds / s;
-                    *g = [(gds[0] - dbar * gs[0]) / s, (gds[1] - dbar * gs[1]) / s];
+                    *g = std::array::from_fn(|a| (gds[a] - dbar * gs[a]) / s);
                 }
             });
         // Algorithm 1, coloured like P2G (deterministic: within a colour the
         // tiles' node sets are disjoint; ties keep the first particle).
         for r in &self.written {
-            self.node_grad[r.clone()].fill([0.0; 2]);
+            self.node_grad[r.clone()].fill([0.0; D]);
             self.cut[r.clone()].fill(0.0);
             self.sums[r.clone()].fill(SideSums::default());
         }
         self.written.clone_from(&bins.active);
         let ng = SyncPtr::new(&mut self.node_grad);
         let grad = &self.grad;
-        scatter_hot::<K>(
+        scatter_hot::<K, D, V>(
             geom,
             parts,
             bins,
             &self.hot,
-            |p| grad[p] != [0.0; 2],
+            |p| grad[p] != [0.0; D],
             |p, node, _| {
                 let g = grad[p];
                 // SAFETY: coloured scatter (see `scatter_coloured`).
                 let gi = unsafe { ng.at(node) };
-                if g[0] * g[0] + g[1] * g[1] > gi[0] * gi[0] + gi[1] * gi[1] {
+                if dot(g, g) > dot(*gi, *gi) {
                     *gi = g;
                 }
             },
@@ -671,18 +928,17 @@ impl Dfg {
         if !self.normal0.is_empty() && !parts.def_grad.is_empty() {
             // n ∝ F⁻ᵀ N = cof(F) N / det F
             self.normal.clear();
-            self.normal
-                .extend(self.normal0.iter().zip(&parts.def_grad).map(|(n, f)| {
-                    [
-                        f[1][1] * n[0] - f[1][0] * n[1],
-                        -f[0][1] * n[0] + f[0][0] * n[1],
-                    ]
-                }));
+            self.normal.extend(
+                self.normal0
+                    .iter()
+                    .zip(&parts.def_grad)
+                    .map(|(n, f)| cof_times(f, *n)),
+            );
         }
         // Without self-contact the paper's Algorithm 1 stands as it is: the
         // balance is for surfaces that touch (see the module docs).
         if !self.normal0.is_empty() {
-            self.balance::<K>(geom, parts, bins);
+            self.balance::<K, V>(geom, parts, bins);
         }
     }
 
@@ -694,122 +950,143 @@ impl Dfg {
     /// block's side face wins, the plane and the block land on one side and
     /// are welded there. Contact needs the direction along which particles
     /// face each other, so each particle contributes its unit direction u_p
-    /// (∇D̄_p, or its outward normal where D̄ is flat), and among NDIR
-    /// candidates n_k we take the one that maximizes the weaker side,
-    /// min(Σ N m (n_k·u_p)² over u_p within [`CONE_COS`] of +n_k, the same
-    /// for −n_k). At a straight crack that is the crack normal (as with
-    /// Algorithm 1); at a lone free face no direction has an opposing side
-    /// and Algorithm 1's gradient stays. The candidates are 11.25° apart,
-    /// well inside the [`side`] test's tolerance; the contact normals come
-    /// from the mass gradients, not from this direction. A second pass puts
-    /// the surface (`cut`, along n_i) at the centroid of d_p = max(s_p,
-    /// D_p) — the damaged band, or the surface bands of two faces in
-    /// contact, whose inner particles have no gradient and are placed by
-    /// it; elsewhere it is the node. Leaves `node_grad` unit or zero.
-    fn balance<K: Kernel>(&mut self, geom: &GridGeom, parts: &Particles, bins: &Bins) {
-        let cand: [[f64; 2]; NDIR] = std::array::from_fn(|k| {
-            let a = std::f64::consts::PI * k as f64 / NDIR as f64;
-            [a.cos(), a.sin()]
-        });
-        // Each particle's share, (slot, (n_k·u_p)²) for the candidates
-        // within the cone of ±u_p: those within two of the nearest one
-        // (2 · 11.25° < acos 0.9 = 25.8° < 3 · 11.25°), the same for the
-        // particle's nine nodes.
-        let normal: &[[f64; 2]] = if self.normal.is_empty() {
+    /// (∇D̄_p, or its outward normal where D̄ is flat), and among the
+    /// candidates n_k ([`Candidates`]: 16 on the half circle in 2D, 188 on
+    /// the half sphere in 3D) we take the one that maximizes the weaker
+    /// side, min(Σ N m (n_k·u_p)² over u_p within [`CONE_COS`] of +n_k, the
+    /// same for −n_k). At a straight crack that is the crack normal (as
+    /// with Algorithm 1); at a lone free face no direction has an opposing
+    /// side and Algorithm 1's gradient stays. The candidates are about
+    /// 11.25° apart, well inside the [`side`] test's tolerance; the contact
+    /// normals come from the mass gradients, not from this direction. A
+    /// second pass puts the surface (`cut`, along n_i) at the centroid of
+    /// d_p = max(s_p, D_p) — the damaged band, or the surface bands of two
+    /// faces in contact, whose inner particles have no gradient and are
+    /// placed by it; elsewhere it is the node. Leaves `node_grad` unit or
+    /// zero.
+    fn balance<K: Kernel, const V: usize>(
+        &mut self,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
+        bins: &Bins,
+    ) {
+        let ncand = self.cand.dir.len();
+        let stride = 2 * ncand + 1;
+        let total = stride * geom.node_count();
+        if self.dirs.len() != total {
+            self.dirs.clear();
+            self.dirs.resize(total, 0.0);
+        }
+        // Each particle's shares, (slot, (n_k·u_p)²) for the candidates
+        // within the cone of ±u_p, the same for all its nodes: counted,
+        // then written.
+        let normal: &[[f64; D]] = if self.normal.is_empty() {
             &self.normal0
         } else {
             &self.normal
         };
-        let (grad, hot, tile_of) = (&self.grad, &self.hot, &bins.tile_of);
-        self.shares.resize(parts.len(), [(0, 0.0); CONE_K]);
-        self.shares
+        let (grad, hot, tile_of, cand) = (&self.grad, &self.hot, &bins.tile_of, &self.cand);
+        let direction = |p: usize| {
+            if !hot[tile_of[p] as usize] {
+                return None;
+            }
+            unit(grad[p]).or_else(|| normal.get(p).copied().and_then(unit))
+        };
+        let n = parts.len();
+        self.share_start.resize(n + 1, 0);
+        self.share_start[0] = 0;
+        self.share_start[1..]
             .par_iter_mut()
             .enumerate()
-            .for_each(|(p, share)| {
-                *share = [(NONE_SLOT, 0.0); CONE_K];
-                if !hot[tile_of[p] as usize] {
-                    return;
-                }
-                let Some(g) = unit(grad[p]).or_else(|| normal.get(p).copied().and_then(unit))
-                else {
-                    return;
-                };
-                let theta = g[1].atan2(g[0]).rem_euclid(std::f64::consts::PI);
-                let k0 = (theta * NDIR as f64 / std::f64::consts::PI).round() as usize;
-                for (e, dk) in share.iter_mut().zip(0..CONE_K) {
-                    let k = (k0 + NDIR + dk - CONE_K / 2) % NDIR;
-                    let n = cand[k];
-                    let c = n[0] * g[0] + n[1] * g[1];
-                    if c.abs() > CONE_COS {
-                        *e = ((2 * k + usize::from(c < 0.0)) as u8, c * c);
-                    }
+            .for_each(|(p, k)| {
+                *k = 0;
+                if let Some(u) = direction(p) {
+                    cand.in_cone(u, |_, _| *k += 1);
                 }
             });
+        for p in 0..n {
+            self.share_start[p + 1] += self.share_start[p];
+        }
+        self.shares
+            .resize(self.share_start[n] as usize, (NONE_SLOT, 0.0));
+        let shares = SyncPtr::new(&mut self.shares);
+        let share_start = &self.share_start;
+        (0..n).into_par_iter().for_each(|p| {
+            let Some(u) = direction(p) else {
+                return;
+            };
+            let mut at = share_start[p] as usize;
+            cand.in_cone(u, |slot, c2| {
+                // SAFETY: p writes only its own range of `shares`.
+                unsafe { *shares.at(at) = (slot, c2) };
+                at += 1;
+            });
+        });
         let dirs = SyncPtr::new(&mut self.dirs);
         let shares = &self.shares;
         let has_direction =
-            |p: usize| grad[p] != [0.0; 2] || normal.get(p).is_some_and(|n| *n != [0.0; 2]);
-        scatter_hot::<K>(geom, parts, bins, &self.hot, has_direction, |p, node, w| {
-            if shares[p][CONE_K / 2].0 == NONE_SLOT && shares[p].iter().all(|e| e.0 == NONE_SLOT) {
+            |p: usize| grad[p] != [0.0; D] || normal.get(p).is_some_and(|n| *n != [0.0; D]);
+        scatter_hot::<K, D, V>(geom, parts, bins, &self.hot, has_direction, |p, node, w| {
+            let mine = &shares[share_start[p] as usize..share_start[p + 1] as usize];
+            if mine.is_empty() {
                 return;
             }
-            // SAFETY: coloured scatter (see `scatter_coloured`).
-            let a = unsafe { dirs.at(node) };
-            for &(slot, c2) in &shares[p] {
-                if slot != NONE_SLOT {
-                    a[slot as usize] += w * c2;
-                }
+            let base = node * stride;
+            for &(slot, c2) in mine {
+                // SAFETY: coloured scatter (see `scatter_coloured`).
+                unsafe { *dirs.at(base + slot as usize) += w * c2 };
             }
-            a[2 * NDIR] += w;
+            // SAFETY: as above.
+            unsafe { *dirs.at(base + 2 * ncand) += w };
         });
         for r in &self.written {
             for n in r.clone() {
-                let a = &mut self.dirs[n];
-                let (mut best, mut best_k) = (BALANCE_MIN * a[2 * NDIR], NDIR);
-                for k in 0..NDIR {
+                let a = &mut self.dirs[n * stride..(n + 1) * stride];
+                let (mut best, mut best_k) = (BALANCE_MIN * a[2 * ncand], ncand);
+                for k in 0..ncand {
                     let weaker = a[2 * k].min(a[2 * k + 1]);
                     if weaker > best {
                         (best, best_k) = (weaker, k);
                     }
                 }
-                *a = [0.0; 2 * NDIR + 1];
+                a.fill(0.0);
                 let g = &mut self.node_grad[n];
-                if best_k < NDIR {
-                    *g = cand[best_k];
-                    a[2 * NDIR] = 1.0; // balanced: the second pass finds the cut
+                if best_k < ncand {
+                    *g = self.cand.dir[best_k];
+                    a[2 * ncand] = 1.0; // balanced: the second pass finds the cut
                 } else if let Some(u) = unit(*g) {
                     *g = u;
                 }
-                let x = geom.node_position(n);
-                self.cut[n] = g[0] * x[0] + g[1] * x[1];
+                self.cut[n] = dot(*g, geom.node_position(n));
             }
         }
         let dirs = SyncPtr::new(&mut self.dirs);
         let (ng, d) = (&self.node_grad, &self.d);
-        scatter_hot::<K>(
+        scatter_hot::<K, D, V>(
             geom,
             parts,
             bins,
             &self.hot,
             |p| d[p] != 0.0,
             |p, node, w| {
+                let base = node * stride;
                 // SAFETY: coloured scatter (see `scatter_coloured`).
-                let a = unsafe { dirs.at(node) };
-                if a[2 * NDIR] != 0.0 {
-                    let (n, x) = (ng[node], parts.x[p]);
-                    let w = w * d[p];
-                    a[0] += w;
-                    a[1] += w * (n[0] * x[0] + n[1] * x[1]);
+                unsafe {
+                    if *dirs.at(base + 2 * ncand) != 0.0 {
+                        let w = w * d[p];
+                        *dirs.at(base) += w;
+                        *dirs.at(base + 1) += w * dot(ng[node], parts.x[p]);
+                    }
                 }
             },
         );
         for r in &self.written {
             for n in r.clone() {
-                let a = &mut self.dirs[n];
-                if a[2 * NDIR] != 0.0 && a[0] > 0.0 {
+                let a = &mut self.dirs[n * stride..(n + 1) * stride];
+                if a[2 * ncand] != 0.0 && a[0] > 0.0 {
                     self.cut[n] = a[1] / a[0];
                 }
-                *a = [0.0; 2 * NDIR + 1];
+                a.fill(0.0);
             }
         }
     }
@@ -817,13 +1094,13 @@ impl Dfg {
     /// The surface normals of this step's partition, what [`side`] falls
     /// back on: the reference ones, or rotated by cof F (empty without
     /// self-contact).
-    pub fn normals(&self) -> &[[f64; 2]] {
+    pub fn normals(&self) -> &[[f64; D]] {
         Self::normals_of(&self.normal, &self.normal0)
     }
 
     /// [`Dfg::normals`] from the two fields alone (borrowing them, not all
     /// of `self`, so the sums can be written meanwhile).
-    fn normals_of<'a>(normal: &'a [[f64; 2]], normal0: &'a [[f64; 2]]) -> &'a [[f64; 2]] {
+    fn normals_of<'a>(normal: &'a [[f64; D]], normal0: &'a [[f64; D]]) -> &'a [[f64; D]] {
         if normal.is_empty() {
             normal0
         } else {
@@ -835,10 +1112,10 @@ impl Dfg {
     /// per contact group, Algorithm 2) present at each node, merges the two
     /// sides where the node is not separable (section 2.3), and lays out
     /// the slots. Returns the number of slots.
-    pub fn partition<K: Kernel>(
+    pub fn partition<K: Kernel, const V: usize>(
         &mut self,
-        geom: &GridGeom,
-        parts: &Particles,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
         bins: &Bins,
         multi: &mut MultiField,
     ) -> usize {
@@ -852,16 +1129,16 @@ impl Dfg {
         let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
         let (cut, normal) = (&self.cut, Self::normals_of(&self.normal, &self.normal0));
         let paper = normal.is_empty();
-        scatter_coloured::<K, 2, 3>(geom, parts, bins, |p, sup| {
+        scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
             let (gp, xp) = (grad[p], parts.x[p]);
-            let op = normal.get(p).copied().unwrap_or([0.0; 2]);
+            let op = normal.get(p).copied().unwrap_or([0.0; D]);
             let base = 2 * parts.group[p] as u32;
             let m = parts.mass[p];
             sup.for_each(|n| {
                 let node = n.node;
                 let gi = ngrad[node];
                 // (a node without a direction has everything on side 0)
-                let side = if gi == [0.0; 2] {
+                let side = if gi == [0.0; D] {
                     0
                 } else {
                     side_at(paper, gp, op, gi, xp, cut[node]) as usize
@@ -869,7 +1146,7 @@ impl Dfg {
                 // SAFETY: coloured scatter; every write is to `node`.
                 unsafe {
                     *mask.at(node) |= 1 << (base + side as u32);
-                    if gi != [0.0; 2] {
+                    if gi != [0.0; D] {
                         let s = sums.at(node);
                         let w = n.w * m;
                         s.w[side] += w;
@@ -904,20 +1181,20 @@ impl Dfg {
 /// Slots of a DFG step: the field of a (node, particle) pair is its
 /// contact group's side by the sign of ∇D̄_p·∇D̄_i, or the other side where
 /// the two were merged.
-pub struct DfgFields<'a> {
+pub struct DfgFields<'a, const D: usize = 2> {
     /// Particle positions at the partition ([`Dfg::x_partition`]).
-    pub x: &'a [[f64; 2]],
+    pub x: &'a [[f64; D]],
     pub cut: &'a [f64],
     /// Surface normals at the partition ([`Dfg::normals`]).
-    pub normal: &'a [[f64; 2]],
+    pub normal: &'a [[f64; D]],
     pub nodes: usize,
     pub multi: &'a MultiField,
     pub group: &'a [u8],
-    pub grad: &'a [[f64; 2]],
-    pub node_grad: &'a [[f64; 2]],
+    pub grad: &'a [[f64; D]],
+    pub node_grad: &'a [[f64; D]],
 }
 
-impl FieldSlots for DfgFields<'_> {
+impl<const D: usize> FieldSlots for DfgFields<'_, D> {
     #[inline(always)]
     fn slot(&self, node: usize, particle: usize) -> usize {
         let base = 2 * self.group[particle] as u32;
@@ -928,7 +1205,7 @@ impl FieldSlots for DfgFields<'_> {
             2 => base + 1,
             _ => {
                 let (gp, gi) = (self.grad[particle], self.node_grad[node]);
-                let op = self.normal.get(particle).copied().unwrap_or([0.0; 2]);
+                let op = self.normal.get(particle).copied().unwrap_or([0.0; D]);
                 let mut field = base
                     + side_at(
                         self.normal.is_empty(),
@@ -951,6 +1228,7 @@ impl FieldSlots for DfgFields<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     #[test]
     fn kernel_matches_eq_18_and_its_derivative() {
@@ -970,6 +1248,94 @@ mod tests {
             );
         }
         assert_eq!(kernel(1.0, r).0, 0.0);
+    }
+
+    /// The 3D candidates: unit, on the upper half sphere, at most 11.25°
+    /// from their nearest neighbours (counting a direction's negative as
+    /// the same candidate), every direction within 8.5° of one; 2D's are
+    /// the 16 of the half circle.
+    #[test]
+    fn candidates_cover_the_half_sphere_evenly() {
+        let c2 = Candidates::<2>::new();
+        assert_eq!(c2.dir.len(), NDIR);
+        assert_eq!(c2.dir[4], [(PI / 4.0).cos(), (PI / 4.0).sin()]);
+        let c = Candidates::<3>::new();
+        assert_eq!(c.dir.len(), NDIR_3D);
+        assert!(2 * NDIR_3D < NONE_SLOT as usize);
+        let angle = |a: [f64; 3], b: [f64; 3]| dot(a, b).abs().min(1.0).acos().to_degrees();
+        let mut nearest = Vec::new();
+        for (k, &n) in c.dir.iter().enumerate() {
+            assert!((dot(n, n) - 1.0).abs() < 1e-14 && n[2] > 0.0);
+            let m = (0..NDIR_3D)
+                .filter(|&j| j != k)
+                .map(|j| angle(n, c.dir[j]))
+                .fold(f64::INFINITY, f64::min);
+            nearest.push(m);
+        }
+        let (lo, hi) = nearest
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(l, h), &x| (l.min(x), h.max(x)));
+        let mean = nearest.iter().sum::<f64>() / NDIR_3D as f64;
+        // the farthest any direction lies from its nearest candidate
+        let mut cover = 0.0f64;
+        for u in directions(20_000) {
+            let m = c
+                .dir
+                .iter()
+                .map(|&n| angle(n, u))
+                .fold(f64::INFINITY, f64::min);
+            cover = cover.max(m);
+        }
+        println!("3D candidates: nearest neighbours {lo:.1}°–{hi:.1}° (mean {mean:.2}°), covering {cover:.1}°");
+        assert!(lo > 5.5 && hi < 11.25 && mean > 9.5, "{lo} {hi} {mean}");
+        assert!(cover < 8.5, "{cover}");
+    }
+
+    /// Quasi-random unit directions over the whole sphere.
+    fn directions(n: usize) -> impl Iterator<Item = [f64; 3]> {
+        (0..n).map(move |k| {
+            let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let a = 2.399_963 * k as f64 + 0.3;
+            [r * a.cos(), r * a.sin(), z]
+        })
+    }
+
+    /// The cube map finds every candidate within the cone of ±u, as a
+    /// search through all of them does, with the right slots; in 2D the
+    /// window around the nearest candidate does.
+    #[test]
+    fn the_candidates_in_the_cone_are_those_a_full_search_finds() {
+        fn check<const D: usize>(c: &Candidates<D>, u: [f64; D]) -> usize {
+            let mut got = Vec::new();
+            c.in_cone(u, |slot, c2| got.push((slot, c2)));
+            got.sort_by_key(|e| e.0);
+            let want: Vec<(u16, f64)> = (0..c.dir.len())
+                .filter_map(|k| {
+                    let x = dot(c.dir[k], u);
+                    (x.abs() > CONE_COS).then(|| ((2 * k + usize::from(x < 0.0)) as u16, x * x))
+                })
+                .collect();
+            assert_eq!(got, want, "{u:?}");
+            got.len()
+        }
+        let c3 = Candidates::<3>::new();
+        let (mut lo, mut hi) = (usize::MAX, 0);
+        for u in directions(50_000).chain([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]) {
+            let k = check(&c3, u);
+            (lo, hi) = (lo.min(k), hi.max(k));
+        }
+        let longest = (0..6 * BUCKETS_3D * BUCKETS_3D)
+            .map(|b| c3.start[b + 1] - c3.start[b])
+            .max()
+            .unwrap_or(0);
+        println!("3D: {lo}–{hi} candidates in a cone, cube-map lists up to {longest}");
+        assert!(lo >= 15 && hi <= 23 && longest <= 40, "{lo} {hi} {longest}");
+        let c2 = Candidates::<2>::new();
+        for k in 0..3600 {
+            let a = PI * k as f64 / 1800.0 + 1e-3;
+            check(&c2, [a.cos(), a.sin()]);
+        }
     }
 
     #[test]
@@ -1000,6 +1366,51 @@ mod tests {
         assert!(!nb.stale(&x, 0.001));
         let mut y = x.clone();
         y[7][0] += 0.002;
+        assert!(nb.stale(&y, 0.001));
+    }
+
+    /// The same in 3D: cubic bins, the 27 around a particle's.
+    #[test]
+    fn neighbour_lists_hold_every_close_pair_of_the_same_key_in_3d() {
+        let mut x = Vec::new();
+        let mut key = Vec::new();
+        for i in 0..14 {
+            for j in 0..10 {
+                for k in 0..8 {
+                    let wobble = 0.001 * ((i + 2 * j + 3 * k) % 4) as f64;
+                    x.push([
+                        0.013 * i as f64 + wobble,
+                        0.011 * j as f64,
+                        0.012 * k as f64,
+                    ]);
+                    key.push(if i == 3 {
+                        Neighbours::<3>::NONE
+                    } else {
+                        u16::from(k >= 4)
+                    });
+                }
+            }
+        }
+        let mut nb = Neighbours::<3>::default();
+        let reach = 0.03;
+        nb.build(&x, &key, reach, [0.0; 3], [0.2, 0.12, 0.1]);
+        for p in 0..x.len() {
+            let mut want: Vec<u32> = (0..x.len() as u32)
+                .filter(|&q| {
+                    let d = sub(x[q as usize], x[p]);
+                    key[p] != Neighbours::<3>::NONE
+                        && key[q as usize] == key[p]
+                        && dot(d, d) < reach * reach
+                })
+                .collect();
+            let mut got = nb.of(p).to_vec();
+            got.sort();
+            want.sort();
+            assert_eq!(got, want, "particle {p}");
+        }
+        assert!(!nb.stale(&x, 0.001));
+        let mut y = x.clone();
+        y[7][2] += 0.002;
         assert!(nb.stale(&y, 0.001));
     }
 }

@@ -2,7 +2,8 @@
 //! (`damage_field`, `field_partition`) decide the velocity field of every
 //! particle–node pair before the scatter, so they run through its
 //! [`FieldSplit`] (where the step builds its field slots), not through
-//! [`FractureModel::run`].
+//! [`FractureModel::run`]. One model for 2D and 3D (`Dfg<D>`,
+//! `FractureModel<D, V>`).
 
 use super::{Dfg, DfgFields, DfgParams};
 use crate::fracture::model::{
@@ -14,13 +15,24 @@ use crate::grid::MultiField;
 use crate::scene::Stage;
 
 /// DFG partitioning for a scene with a `[dfg]` table: the kernel radius
-/// in cells of the diagonal, and the materials that can be damaged (those
-/// with a fracture model).
-pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>> {
+/// in cell diagonals (h√2 in 2D, h√3 in 3D: the paper's one diagonal,
+/// Homel & Herbold 2017, section 2.2), and the materials that can be
+/// damaged (those with a fracture model).
+pub(crate) fn build<const D: usize, const V: usize>(
+    at: &mut SetupContext<'_, D, V>,
+) -> Option<Box<dyn FractureModel<D, V>>>
+where
+    [f64; D]: serde::Serialize + serde::de::DeserializeOwned,
+{
     let (scene, file) = (at.scene, &at.scene.file);
     let spec = file.dfg.as_ref()?;
+    let diagonal = if D == 2 {
+        std::f64::consts::SQRT_2
+    } else {
+        (D as f64).sqrt()
+    };
     let params = DfgParams {
-        radius: spec.radius * file.grid.cell_size * std::f64::consts::SQRT_2,
+        radius: spec.radius * file.grid.cell_size * diagonal,
         rebuild_fraction: spec.rebuild_fraction,
         separability: spec.separability,
         self_friction: spec.friction,
@@ -30,7 +42,7 @@ pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>
         .iter()
         .map(|m| m.fracture.is_some())
         .collect();
-    Some(Box::new(Dfg::new(
+    Some(Box::new(Dfg::<D>::new(
         params,
         at.geom,
         at.parts,
@@ -39,7 +51,7 @@ pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>
     )))
 }
 
-impl FieldSplit for Dfg {
+impl<const D: usize, const V: usize> FieldSplit<D, V> for Dfg<D> {
     fn self_friction(&self) -> f64 {
         self.params.self_friction
     }
@@ -47,7 +59,7 @@ impl FieldSplit for Dfg {
     fn before_scatter(
         &mut self,
         stage: Stage,
-        at: ScatterContext<'_>,
+        at: ScatterContext<'_, D, V>,
         multi: &mut MultiField,
     ) -> Option<usize> {
         let ScatterContext {
@@ -58,17 +70,17 @@ impl FieldSplit for Dfg {
         } = at;
         match stage {
             Stage::DamageField => {
-                by_kernel!(kernel, K => self.field::<K>(geom, parts, bins));
+                by_kernel!(kernel, K => self.field::<K, V>(geom, parts, bins));
                 Some(geom.node_count())
             }
             Stage::FieldPartition => {
-                Some(by_kernel!(kernel, K => self.partition::<K>(geom, parts, bins, multi)))
+                Some(by_kernel!(kernel, K => self.partition::<K, V>(geom, parts, bins, multi)))
             }
             _ => None,
         }
     }
 
-    fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a> {
+    fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a, D> {
         SplitSlots::Dfg(DfgFields {
             x: &self.x_partition,
             cut: &self.cut,
@@ -85,12 +97,19 @@ impl FieldSplit for Dfg {
 /// What a checkpoint keeps of DFG: the positions its neighbour lists were
 /// built at and the builds so far.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
-pub(crate) struct DfgSaved {
-    pub x_built: Vec<[f64; 2]>,
+#[serde(bound(
+    serialize = "[f64; D]: serde::Serialize",
+    deserialize = "[f64; D]: serde::Deserialize<'de>"
+))]
+pub(crate) struct DfgSaved<const D: usize = 2> {
+    pub x_built: Vec<[f64; D]>,
     pub builds: u64,
 }
 
-impl FractureModel for Dfg {
+impl<const D: usize, const V: usize> FractureModel<D, V> for Dfg<D>
+where
+    [f64; D]: serde::Serialize + serde::de::DeserializeOwned,
+{
     fn name(&self) -> &'static str {
         "dfg"
     }
@@ -99,14 +118,14 @@ impl FractureModel for Dfg {
         &[]
     }
 
-    fn run(&mut self, _stage: Stage, _ctx: StepContext<'_>) -> Result<(), String> {
+    fn run(&mut self, _stage: Stage, _ctx: StepContext<'_, D, V>) -> Result<(), String> {
         Ok(())
     }
 
     /// The nodes where a group's two sides were separate fields in the last
     /// step (`dfg_separated_nodes`) and the neighbour-list builds so far
     /// (`dfg_neighbour_builds`).
-    fn series(&mut self, _at: &RowContext<'_>, out: &mut SeriesOut) {
+    fn series(&mut self, _at: &RowContext<'_, D, V>, out: &mut SeriesOut) {
         let st = self.stats();
         out.push("dfg_separated_nodes", st.separated_nodes as f64);
         out.push("dfg_neighbour_builds", st.neighbour_builds as f64);
@@ -124,8 +143,8 @@ impl FractureModel for Dfg {
     }
 
     /// The neighbour lists built again at the saved positions.
-    fn restore(&mut self, state: &[u8], at: RestoreContext<'_>) -> Result<(), String> {
-        let s: DfgSaved = decode(state)?;
+    fn restore(&mut self, state: &[u8], at: RestoreContext<'_, D, V>) -> Result<(), String> {
+        let s: DfgSaved<D> = decode(state)?;
         if s.x_built.len() != at.parts.len() && !s.x_built.is_empty() {
             return Err("DFG's neighbour positions are not one per particle".into());
         }
@@ -133,7 +152,7 @@ impl FractureModel for Dfg {
         Ok(())
     }
 
-    fn field_split(&mut self) -> Option<&mut dyn FieldSplit> {
+    fn field_split(&mut self) -> Option<&mut dyn FieldSplit<D, V>> {
         Some(self)
     }
 }
