@@ -1,7 +1,9 @@
-//! The 2nd-order phase field in 3D (issue 32; Kakouris & Triantafyllou,
-//! eq. 57 on the 3D stencil): the fracture energy of an imposed planar
-//! crack against Ḡc × its area, the iterative solvers against the direct
-//! one, and a coupled 3D run that repeats bit for bit on any thread count.
+//! The phase field in 3D (issue 32; Kakouris & Triantafyllou, eq. 57 on
+//! the 3D stencil): the fracture energy of an imposed planar crack against
+//! Ḡc × its area (2nd order) and against Gc(n) of the 1D profile (4th
+//! order, the 6 × 6 γ), the iterative solvers against the direct one, the
+//! 3D γ's validation, and a coupled 3D run that repeats bit for bit on any
+//! thread count.
 
 mod common;
 
