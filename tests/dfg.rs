@@ -71,29 +71,15 @@ fn a_bar_separates_through_a_failed_band_with_dfg_and_holds_together_without() {
     // all its kinetic energy as strain energy.
     assert!(ss > 0.9 * k0, "single field stored only {ss} J of {k0} J");
     // The right half's mean velocity: kept with DFG, mostly lost without.
-    let right_vx = |sim: &Simulation| {
-        let p = sim.particles();
-        let (mut m, mut px) = (0.0, 0.0);
-        for k in 0..p.len() {
-            if p.x[k][0] > 0.16 {
-                m += p.mass[k];
-                px += p.mass[k] * p.v[k][0];
-            }
-        }
-        px / m
-    };
-    let (dv, sv) = (right_vx(&d_sim), right_vx(&s_sim));
+    let (dv, sv) = (
+        common::mean_vx_right_of(d_sim.particles(), 0.16),
+        common::mean_vx_right_of(s_sim.particles(), 0.16),
+    );
     println!("bar: right half's mean velocity {dv:.3} m/s (DFG) vs {sv:.3} m/s (single field)");
     assert!(dv > 4.0, "DFG right half at {dv} m/s (initially 5 m/s)");
     assert!(sv.abs() < 0.5 * dv);
     // the failed band is the same set of particles in both runs
-    let failed = |r: &Recorder, cols: &[String]| {
-        r.rows
-            .last()
-            .unwrap()
-            .get(cols, "failed_particles")
-            .unwrap()
-    };
+    let failed = |r: &Recorder, cols: &[String]| common::last_value(r, cols, "failed_particles");
     assert_eq!(failed(&d_rec, &d_sim.series_columns()), 32.0);
     assert_eq!(failed(&s_rec, &s_sim.series_columns()), 32.0);
 }

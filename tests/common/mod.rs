@@ -16,6 +16,31 @@ pub fn slope_after(samples: &[(f64, f64)], after: f64) -> f64 {
     num / den
 }
 
+/// The mass-weighted mean x-velocity of the particles right of `x0`: how
+/// much of its motion the right half of a bar pulled apart keeps.
+pub fn mean_vx_right_of<const D: usize, const V: usize>(
+    p: &cleave::particles::Particles<D, V>,
+    x0: f64,
+) -> f64 {
+    let (mut m, mut px) = (0.0, 0.0);
+    for k in 0..p.len() {
+        if p.x[k][0] > x0 {
+            m += p.mass[k];
+            px += p.mass[k] * p.v[k][0];
+        }
+    }
+    px / m
+}
+
+/// The value of column `name` in the last row a run recorded.
+pub fn last_value(rec: &cleave::diagnostics::Recorder, cols: &[String], name: &str) -> f64 {
+    rec.rows
+        .last()
+        .expect("a recorded row")
+        .get(cols, name)
+        .unwrap_or_else(|| panic!("no column {name}"))
+}
+
 /// `f` run on a pool of `threads` threads: what the tests that compare one
 /// and two threads run their simulation in.
 pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
