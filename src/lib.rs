@@ -8,6 +8,7 @@
 
 pub mod checkpoint;
 pub mod contact;
+pub mod cpu;
 pub mod diagnostics;
 pub mod fracture;
 pub mod geometry;

@@ -266,7 +266,9 @@ snapshots = 0
 }
 
 /// 1 and 2 threads give the same bits in 3D: a sphere dropped on a block
-/// in contact (two velocity fields, the 8-colour scatter, the walls).
+/// in contact (two velocity fields, the 8-colour scatter, the walls); and
+/// so do the baseline and the wide copies of the transfer loops
+/// (`cleave::cpu`: AVX2 or AVX-512 where this CPU has them).
 #[test]
 fn three_d_runs_do_not_depend_on_the_thread_count() {
     let s = scene(
@@ -310,6 +312,77 @@ snapshots = 0
     assert!(a.2 > 0, "the sphere touched the block");
     assert!(a.0 == b.0, "series differ");
     assert!(a.1 == b.1, "particles differ");
+    // the baseline copy (a cap for the whole process: other tests running
+    // now only get slower)
+    let wide = cleave::cpu::level();
+    cleave::cpu::force(Some(cleave::cpu::Level::Baseline));
+    let c = go(2);
+    cleave::cpu::force(None);
+    println!("wide copies: {wide:?} against Baseline");
+    assert!(a.0 == c.0, "series differ between {wide:?} and Baseline");
+    assert!(a.1 == c.1, "particles differ between {wide:?} and Baseline");
+}
+
+/// The wide copies of the transfer loops (`cleave::cpu`) give the 2D
+/// results of the baseline to the bit: FLIP with MUSL's remap and
+/// second gather, APIC, two contact groups, a traction.
+#[test]
+fn two_d_wide_and_baseline_copies_agree() {
+    let text = |transfer: &str| {
+        format!(
+            r#"
+body_force = [0.0, -9.81]
+[grid]
+cell_size = 0.01
+min = [0.0, 0.0]
+max = [0.3, 0.3]
+boundary = {{ bottom = "fixed", left = "roller" }}
+[time]
+end = 0.01
+[transfer]
+{transfer}
+[[bodies]]
+shape = {{ type = "box", min = [0.0, 0.0], max = [0.3, 0.06] }}
+material = {{ model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }}
+contact_group = 0
+[[bodies]]
+shape = {{ type = "disk", center = [0.15, 0.13], radius = 0.06 }}
+material = {{ model = "neo_hookean", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }}
+velocity = [0.3, -2.0]
+contact_group = 1
+[contact]
+friction = 0.2
+[output]
+series_rows = 5
+snapshots = 0
+"#
+        )
+    };
+    for transfer in [
+        r#"scheme = "flip"
+stress_update = "musl""#,
+        r#"scheme = "apic""#,
+    ] {
+        let s = cleave::scene::Scene::from_text(&text(transfer), None).expect("the 2D scene");
+        let go = || {
+            let mut sim = cleave::mpm::Simulation::<2, 3>::build(&s);
+            let mut rec = Recorder::default();
+            let summary = sim.run(&mut rec).expect("the disk lands");
+            let rows: Vec<Vec<u64>> = rec
+                .rows
+                .iter()
+                .map(|r| r.values().iter().map(|v| v.to_bits()).collect())
+                .collect();
+            (rows, sim.particles().clone(), summary.contact_steps)
+        };
+        let a = go();
+        cleave::cpu::force(Some(cleave::cpu::Level::Baseline));
+        let b = go();
+        cleave::cpu::force(None);
+        assert!(a.2 > 0, "the disk touched the block ({transfer})");
+        assert!(a.0 == b.0, "series differ ({transfer})");
+        assert!(a.1 == b.1, "particles differ ({transfer})");
+    }
 }
 
 /// A free block (0.15 × 0.06 × 0.3 m) pulled by traction sides, the

@@ -548,10 +548,16 @@ pub fn scatter_coloured<K: Kernel, const D: usize, const V: usize>(
 ) {
     for colour in &bins.colours {
         colour.par_iter().for_each(|&tile| {
-            for &p in bins.particles_of(tile) {
-                let p = p as usize;
-                scatter(p, &particle_support::<K, D, V>(geom, parts, p));
-            }
+            // a tile's loop, compiled wide where the CPU allows (same bits)
+            crate::cpu::wide(
+                #[inline(always)]
+                || {
+                    for &p in bins.particles_of(tile) {
+                        let p = p as usize;
+                        scatter(p, &particle_support::<K, D, V>(geom, parts, p));
+                    }
+                },
+            )
         });
     }
 }

@@ -243,94 +243,102 @@ fn gather<
     (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let mut st = G2pStats::default();
-            for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                // SAFETY: particle p belongs to this chunk only.
-                let (xp, vp) = unsafe { (x.at(p), v.at(p)) };
-                let lp = if gimp { half_size[p] } else { 0.0 };
-                let sup = Support::<K, D>::new(geom, *xp, lp);
-                let xi = sup.xi();
-                let mut vpic = [0.0; D];
-                let mut dflip = [0.0; D];
-                let mut l = [[0.0; D]; D]; // ∂v_a/∂x_b
-                let mut b = [[0.0; D]; D];
-                sup.for_each(|n| {
-                    let s = slots.slot(n.node, p);
-                    let (w, g) = (n.w, n.grad);
-                    let vi = vel[s];
-                    for a in 0..D {
-                        vpic[a] += w * vi[a];
-                    }
-                    if !APIC {
-                        let vo = vel_old[s];
-                        for a in 0..D {
-                            dflip[a] += w * (vi[a] - vo[a]);
-                        }
-                    } else if dinv.is_some() {
-                        let mut d = [0.0; D];
-                        for c in 0..D {
-                            d[c] = n.at[c] as f64 - xi[c];
-                        }
-                        for a in 0..D {
-                            let wv = w * vi[a];
-                            for c in 0..D {
-                                b[a][c] += wv * d[c];
-                            }
-                        }
-                    }
-                    for a in 0..D {
-                        for c in 0..D {
-                            l[a][c] += vi[a] * g[c];
-                        }
-                    }
-                });
-                // velocity and position
-                let vnew = if APIC {
-                    // SAFETY: as above.
-                    let a = unsafe { affine.at(p) };
-                    *a = match dinv {
-                        // B is in cell units of distance: C = B h D⁻¹.
-                        Some(d) => {
-                            let mut c = [[0.0; D]; D];
-                            for r in 0..D {
-                                for k in 0..D {
-                                    c[r][k] = b[r][k] * geom.h * d;
+            crate::cpu::wide(
+                #[inline(always)]
+                || {
+                    let mut st = G2pStats::default();
+                    for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                        // SAFETY: particle p belongs to this chunk only.
+                        let (xp, vp) = unsafe { (x.at(p), v.at(p)) };
+                        let lp = if gimp { half_size[p] } else { 0.0 };
+                        let sup = Support::<K, D>::new(geom, *xp, lp);
+                        let xi = sup.xi();
+                        let mut vpic = [0.0; D];
+                        let mut dflip = [0.0; D];
+                        let mut l = [[0.0; D]; D]; // ∂v_a/∂x_b
+                        let mut b = [[0.0; D]; D];
+                        sup.for_each(
+                            #[inline(always)]
+                            |n| {
+                                let s = slots.slot(n.node, p);
+                                let (w, g) = (n.w, n.grad);
+                                let vi = vel[s];
+                                for a in 0..D {
+                                    vpic[a] += w * vi[a];
                                 }
+                                if !APIC {
+                                    let vo = vel_old[s];
+                                    for a in 0..D {
+                                        dflip[a] += w * (vi[a] - vo[a]);
+                                    }
+                                } else if dinv.is_some() {
+                                    let mut d = [0.0; D];
+                                    for c in 0..D {
+                                        d[c] = n.at[c] as f64 - xi[c];
+                                    }
+                                    for a in 0..D {
+                                        let wv = w * vi[a];
+                                        for c in 0..D {
+                                            b[a][c] += wv * d[c];
+                                        }
+                                    }
+                                }
+                                for a in 0..D {
+                                    for c in 0..D {
+                                        l[a][c] += vi[a] * g[c];
+                                    }
+                                }
+                            },
+                        );
+                        // velocity and position
+                        let vnew = if APIC {
+                            // SAFETY: as above.
+                            let a = unsafe { affine.at(p) };
+                            *a = match dinv {
+                                // B is in cell units of distance: C = B h D⁻¹.
+                                Some(d) => {
+                                    let mut c = [[0.0; D]; D];
+                                    for r in 0..D {
+                                        for k in 0..D {
+                                            c[r][k] = b[r][k] * geom.h * d;
+                                        }
+                                    }
+                                    c
+                                }
+                                None => l,
+                            };
+                            vpic
+                        } else {
+                            let mut v = [0.0; D];
+                            for a in 0..D {
+                                v[a] = alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a];
                             }
-                            c
+                            v
+                        };
+                        *vp = vnew;
+                        let mut moved = [0.0; D];
+                        for a in 0..D {
+                            moved[a] = xp[a] + dt * vpic[a];
                         }
-                        None => l,
-                    };
-                    vpic
-                } else {
-                    let mut v = [0.0; D];
-                    for a in 0..D {
-                        v[a] = alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a];
+                        geom.keep_inside(&mut moved, vp);
+                        if VELOCITY_ONLY {
+                            // SAFETY: as above.
+                            unsafe { *x_next.at(p) = moved };
+                            continue;
+                        }
+                        *xp = moved;
+                        // constitutive update and guards
+                        let mat = &mats[material[p] as usize];
+                        // SAFETY: as above.
+                        let (sig, j_ratio) =
+                            unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
+                        unsafe { *stress.at(p) = sig };
+                        // SAFETY: as above.
+                        unsafe { finish(geom, p, *xp, vnew, sig, j_ratio, mat, tile_of, &mut st) };
                     }
-                    v
-                };
-                *vp = vnew;
-                let mut moved = [0.0; D];
-                for a in 0..D {
-                    moved[a] = xp[a] + dt * vpic[a];
-                }
-                geom.keep_inside(&mut moved, vp);
-                if VELOCITY_ONLY {
-                    // SAFETY: as above.
-                    unsafe { *x_next.at(p) = moved };
-                    continue;
-                }
-                *xp = moved;
-                // constitutive update and guards
-                let mat = &mats[material[p] as usize];
-                // SAFETY: as above.
-                let (sig, j_ratio) =
-                    unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
-                unsafe { *stress.at(p) = sig };
-                // SAFETY: as above.
-                unsafe { finish(geom, p, *xp, vnew, sig, j_ratio, mat, tile_of, &mut st) };
-            }
-            st
+                    st
+                },
+            )
         })
         .reduce(G2pStats::default, G2pStats::merge)
 }
@@ -363,30 +371,38 @@ pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
     (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let mut st = G2pStats::default();
-            for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                // SAFETY: particle p belongs to this chunk only.
-                let xp = unsafe { x.at(p) };
-                let lp = if gimp { half_size[p] } else { 0.0 };
-                let mut l = [[0.0; D]; D];
-                Support::<K, D>::new(geom, *xp, lp).for_each(|n| {
-                    let vi = vel[slots.slot(n.node, p)];
-                    for a in 0..D {
-                        for c in 0..D {
-                            l[a][c] += vi[a] * n.grad[c];
-                        }
+            crate::cpu::wide(
+                #[inline(always)]
+                || {
+                    let mut st = G2pStats::default();
+                    for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                        // SAFETY: particle p belongs to this chunk only.
+                        let xp = unsafe { x.at(p) };
+                        let lp = if gimp { half_size[p] } else { 0.0 };
+                        let mut l = [[0.0; D]; D];
+                        Support::<K, D>::new(geom, *xp, lp).for_each(
+                            #[inline(always)]
+                            |n| {
+                                let vi = vel[slots.slot(n.node, p)];
+                                for a in 0..D {
+                                    for c in 0..D {
+                                        l[a][c] += vi[a] * n.grad[c];
+                                    }
+                                }
+                            },
+                        );
+                        let mat = &mats[material[p] as usize];
+                        // SAFETY: as above.
+                        let (sig, j_ratio) =
+                            unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
+                        unsafe { *stress.at(p) = sig };
+                        *xp = x_next[p];
+                        // SAFETY: as above.
+                        unsafe { finish(geom, p, *xp, v[p], sig, j_ratio, mat, tile_of, &mut st) };
                     }
-                });
-                let mat = &mats[material[p] as usize];
-                // SAFETY: as above.
-                let (sig, j_ratio) =
-                    unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
-                unsafe { *stress.at(p) = sig };
-                *xp = x_next[p];
-                // SAFETY: as above.
-                unsafe { finish(geom, p, *xp, v[p], sig, j_ratio, mat, tile_of, &mut st) };
-            }
-            st
+                    st
+                },
+            )
         })
         .reduce(G2pStats::default, G2pStats::merge)
 }

@@ -40,58 +40,68 @@ pub fn p2g<
     let mom = SyncPtr::new(&mut grid.momentum);
     let force = SyncPtr::new(&mut grid.force);
     let mgrad = SyncPtr::new(&mut grid.mass_grad);
-    scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
-        let m = parts.mass[p];
-        let v = parts.v[p];
-        let vol = parts.vol[p];
-        let s = parts.stress[p];
-        let c = if APIC { parts.affine[p] } else { [[0.0; D]; D] };
-        let h = geom.h;
-        let xi = sup.xi();
-        sup.for_each(|n| {
-            let (w, g) = (n.w, n.grad);
-            let slot = slots.slot(n.node, p);
-            let wm = w * m;
-            // SAFETY: coloured scatter (see `scatter_coloured`).
-            unsafe {
-                *mass.at(slot) += wm;
-                let q = mom.at(slot);
-                if APIC {
-                    // N m (v + C (x_i − x_p)), the affine sum in axis order
-                    let mut d = [0.0; D];
-                    for a in 0..D {
-                        d[a] = (n.at[a] as f64 - xi[a]) * h;
-                    }
-                    for a in 0..D {
-                        let mut t = v[a];
-                        for b in 0..D {
-                            t += c[a][b] * d[b];
+    // inline(always) down to the node: the loop runs in `cpu::wide`'s copy
+    scatter_coloured::<K, D, V>(
+        geom,
+        parts,
+        bins,
+        #[inline(always)]
+        |p, sup| {
+            let m = parts.mass[p];
+            let v = parts.v[p];
+            let vol = parts.vol[p];
+            let s = parts.stress[p];
+            let c = if APIC { parts.affine[p] } else { [[0.0; D]; D] };
+            let h = geom.h;
+            let xi = sup.xi();
+            sup.for_each(
+                #[inline(always)]
+                |n| {
+                    let (w, g) = (n.w, n.grad);
+                    let slot = slots.slot(n.node, p);
+                    let wm = w * m;
+                    // SAFETY: coloured scatter (see `scatter_coloured`).
+                    unsafe {
+                        *mass.at(slot) += wm;
+                        let q = mom.at(slot);
+                        if APIC {
+                            // N m (v + C (x_i − x_p)), the affine sum in axis order
+                            let mut d = [0.0; D];
+                            for a in 0..D {
+                                d[a] = (n.at[a] as f64 - xi[a]) * h;
+                            }
+                            for a in 0..D {
+                                let mut t = v[a];
+                                for b in 0..D {
+                                    t += c[a][b] * d[b];
+                                }
+                                q[a] += wm * t;
+                            }
+                        } else {
+                            for a in 0..D {
+                                q[a] += wm * v[a];
+                            }
                         }
-                        q[a] += wm * t;
+                        let f = force.at(slot);
+                        for a in 0..D {
+                            // (σ ∇N)_a summed over b in order from the first term
+                            let mut t = s[voigt::<D>(a, 0)] * g[0];
+                            for b in 1..D {
+                                t += s[voigt::<D>(a, b)] * g[b];
+                            }
+                            f[a] -= vol * t;
+                        }
+                        if MGRAD {
+                            let mg = mgrad.at(slot);
+                            for a in 0..D {
+                                mg[a] += m * g[a];
+                            }
+                        }
                     }
-                } else {
-                    for a in 0..D {
-                        q[a] += wm * v[a];
-                    }
-                }
-                let f = force.at(slot);
-                for a in 0..D {
-                    // (σ ∇N)_a summed over b in order from the first term
-                    let mut t = s[voigt::<D>(a, 0)] * g[0];
-                    for b in 1..D {
-                        t += s[voigt::<D>(a, b)] * g[b];
-                    }
-                    f[a] -= vol * t;
-                }
-                if MGRAD {
-                    let mg = mgrad.at(slot);
-                    for a in 0..D {
-                        mg[a] += m * g[a];
-                    }
-                }
-            }
-        });
-    });
+                },
+            );
+        },
+    );
 }
 
 /// Marks, for every node, which contact groups have particles whose support
@@ -107,15 +117,24 @@ pub fn partition_fields<K: Kernel, const D: usize, const V: usize>(
     multi.mask.clear();
     multi.mask.resize(nodes, 0);
     let mask = SyncPtr::new(&mut multi.mask);
-    scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
-        let bit = 1u32 << parts.group[p];
-        // Every node of the support, even at zero weight: P2G writes the
-        // gradient there, so the slot must exist.
-        sup.for_each(|n| {
-            // SAFETY: coloured scatter; a bitwise OR is order-independent.
-            unsafe { *mask.at(n.node) |= bit };
-        });
-    });
+    scatter_coloured::<K, D, V>(
+        geom,
+        parts,
+        bins,
+        #[inline(always)]
+        |p, sup| {
+            let bit = 1u32 << parts.group[p];
+            // Every node of the support, even at zero weight: P2G writes the
+            // gradient there, so the slot must exist.
+            sup.for_each(
+                #[inline(always)]
+                |n| {
+                    // SAFETY: coloured scatter; a bitwise OR is order-independent.
+                    unsafe { *mask.at(n.node) |= bit };
+                },
+            );
+        },
+    );
     multi.layout()
 }
 
@@ -145,28 +164,37 @@ pub fn remap_velocities<
     }
     grid.momentum[nodes..].fill([0.0; D]);
     let mom = SyncPtr::new(&mut grid.momentum);
-    scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
-        let (m, v) = (parts.mass[p], parts.v[p]);
-        let c = if APIC { parts.affine[p] } else { [[0.0; D]; D] };
-        let xi = sup.xi();
-        sup.for_each(|n| {
-            let wm = n.w * m;
-            // SAFETY: coloured scatter (see `scatter_coloured`).
-            let q = unsafe { mom.at(slots.slot(n.node, p)) };
-            // the remap always carries the affine term (zero without APIC)
-            let mut d = [0.0; D];
-            for a in 0..D {
-                d[a] = (n.at[a] as f64 - xi[a]) * geom.h;
-            }
-            for a in 0..D {
-                let mut t = v[a];
-                for b in 0..D {
-                    t += c[a][b] * d[b];
-                }
-                q[a] += wm * t;
-            }
-        });
-    });
+    scatter_coloured::<K, D, V>(
+        geom,
+        parts,
+        bins,
+        #[inline(always)]
+        |p, sup| {
+            let (m, v) = (parts.mass[p], parts.v[p]);
+            let c = if APIC { parts.affine[p] } else { [[0.0; D]; D] };
+            let xi = sup.xi();
+            sup.for_each(
+                #[inline(always)]
+                |n| {
+                    let wm = n.w * m;
+                    // SAFETY: coloured scatter (see `scatter_coloured`).
+                    let q = unsafe { mom.at(slots.slot(n.node, p)) };
+                    // the remap always carries the affine term (zero without APIC)
+                    let mut d = [0.0; D];
+                    for a in 0..D {
+                        d[a] = (n.at[a] as f64 - xi[a]) * geom.h;
+                    }
+                    for a in 0..D {
+                        let mut t = v[a];
+                        for b in 0..D {
+                            t += c[a][b] * d[b];
+                        }
+                        q[a] += wm * t;
+                    }
+                },
+            );
+        },
+    );
     let (mass, mom) = (&grid.mass, &grid.momentum);
     grid.vel.par_iter_mut().enumerate().for_each(|(s, v)| {
         *v = if mass[s] > m_min {
