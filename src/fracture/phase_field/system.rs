@@ -243,7 +243,37 @@ fn support<K: Kernel, const D: usize, const S: usize, const HESS: bool>(
     s
 }
 
-/// What one particle's contribution to K and F needs.
+impl<const D: usize, const S: usize> SupportTable<D, S> {
+    /// The particle's footprint key, as [`PhaseFieldSystem::update_keys`]
+    /// makes it from the same support (the table made with `HESS`): the
+    /// first node in the high 64 bits, the mask of the footprint nodes by
+    /// local index in the low 64. The Voigt entries are all the distinct
+    /// entries of the symmetric Hessian, so "one of them is non-zero" is
+    /// the same test as on the full matrix.
+    #[inline(always)]
+    fn footprint_key<const HESS: bool>(&self) -> u128 {
+        let mut mask = 0u64;
+        for a in 0..self.n {
+            if self.w[a] > 0.0 || (HESS && self.hess[a].iter().any(|&h| h != 0.0)) {
+                mask |= 1 << a;
+            }
+        }
+        ((self.node[0] as u128) << 64) | mask as u128
+    }
+}
+
+/// Assemblies in a row that must keep the node set before
+/// [`PhaseFieldSystem::assemble`] finds the footprint keys in the pass that
+/// adds the terms, instead of in a pass of their own. That saves the keys'
+/// pass over the particles (a fifth of P1's assembly); when the node set
+/// then turns out new, the terms went onto the old pattern and are added
+/// again, which costs a whole assembly more. So the single pass pays only
+/// where the node set changes in fewer than about one assembly in five:
+/// P1 never after the first, P3 every other step while the disk is in
+/// contact, where this many kept assemblies in a row rarely come.
+const SPECULATE_AFTER: u32 = 16;
+
+/// What one particle's footprint key and contribution to K and F need.
 struct Accumulate<'a, const D: usize> {
     geom: &'a GridGeom<D>,
     parts: &'a FieldParticles<'a, D>,
@@ -253,11 +283,14 @@ struct Accumulate<'a, const D: usize> {
     fourth: bool,
     dof_of: &'a [u32],
     nbr: &'a [u32],
+    /// The footprint keys, written with `KEYS` only.
+    keys: SyncPtr<'a, u128>,
     values: SyncPtr<'a, f64>,
     rhs: SyncPtr<'a, f64>,
 }
 
-// SAFETY: the raw pointers are written only under the colouring rule.
+// SAFETY: the raw pointers are written only under the colouring rule (a
+// key: by the one task that visits its particle).
 unsafe impl<const D: usize> Sync for Accumulate<'_, D> {}
 
 /// One cell's block of K (lower triangle, `k[a·S + b]` for b ≤ a) and F:
@@ -286,21 +319,43 @@ impl<const S: usize> CellBlock<S> {
 
 impl<const D: usize> Accumulate<'_, D> {
     /// Adds particle q's terms of eq. 57 to the block of its cell, after
-    /// adding the block to the system if it holds another cell.
+    /// adding the block to the system if it holds another cell; with
+    /// `KEYS`, stores q's footprint key too. Returns whether the key
+    /// changed (false without `KEYS`).
     ///
     /// # Safety
     /// No other task writes the entries of the support nodes of q or of
-    /// the block's cell concurrently.
+    /// the block's cell concurrently, nor (with `KEYS`) accesses q's key.
     #[inline]
-    unsafe fn particle<K: Kernel, const S: usize>(&self, q: usize, blk: &mut CellBlock<S>) {
+    unsafe fn particle<K: Kernel, const S: usize, const KEYS: bool>(
+        &self,
+        q: usize,
+        blk: &mut CellBlock<S>,
+    ) -> bool {
         // SAFETY: passed on from the caller.
         unsafe {
             if self.fourth {
-                self.particle_of::<K, S, true>(q, blk)
+                self.particle_of::<K, S, true, KEYS>(q, blk)
             } else {
-                self.particle_of::<K, S, false>(q, blk)
+                self.particle_of::<K, S, false, KEYS>(q, blk)
             }
         }
+    }
+
+    /// Sets q's key; whether it changed. Written only when it changed: in
+    /// a run whose particles keep their cells, the keys are only read.
+    ///
+    /// # Safety
+    /// q is a particle index and no other task accesses its key.
+    #[inline(always)]
+    unsafe fn set_key(&self, q: usize, key: u128) -> bool {
+        // SAFETY: passed on from the caller.
+        let slot = unsafe { self.keys.at(q) };
+        if *slot == key {
+            return false;
+        }
+        *slot = key;
+        true
     }
 
     /// [`Accumulate::particle`] for the 2nd-order (`FOURTH` false) or
@@ -309,20 +364,23 @@ impl<const D: usize> Accumulate<'_, D> {
     /// # Safety
     /// As [`Accumulate::particle`].
     #[inline(always)]
-    unsafe fn particle_of<K: Kernel, const S: usize, const FOURTH: bool>(
+    unsafe fn particle_of<K: Kernel, const S: usize, const FOURTH: bool, const KEYS: bool>(
         &self,
         q: usize,
         blk: &mut CellBlock<S>,
-    ) {
+    ) -> bool {
         let parts = self.parts;
         if !parts.member(q) {
-            return;
+            // SAFETY: passed on from the caller.
+            return KEYS && unsafe { self.set_key(q, KEY_NONE) };
         }
         let p = self.params;
         let v = parts.vol[q];
         let reaction = v * (4.0 * p.l0 * (1.0 - p.k_f) * parts.history[q] / p.gc_bar + 1.0);
         let (c2, c4) = (4.0 * p.l0 * p.l0, 4.0 * p.l0.powi(4));
         let s = support::<K, D, S, FOURTH>(self.geom, parts.x[q]);
+        // SAFETY: passed on from the caller.
+        let changed = KEYS && unsafe { self.set_key(q, s.footprint_key::<FOURTH>()) };
         if blk.base != s.node[0] {
             // SAFETY: the caller's colouring covers the block's cell.
             unsafe { self.flush::<K, S>(blk) };
@@ -357,6 +415,7 @@ impl<const D: usize> Accumulate<'_, D> {
                 *kab += t;
             }
         }
+        changed
     }
 
     /// Adds the block to K and F and empties it.
@@ -457,6 +516,10 @@ pub struct PhaseFieldSystem<const D: usize = 2> {
     /// assembly ([`KEY_NONE`] for non-members); the node set is rebuilt
     /// only when one changes.
     keys: Vec<u128>,
+    /// Assemblies in a row that have kept the node set (a grid's first node
+    /// set counts as kept); from [`SPECULATE_AFTER`] on, the keys are found
+    /// in the pass that adds the terms.
+    node_set_kept: u32,
     values: Vec<f64>,
     /// Position in `values` of each dof's diagonal entry.
     diag: Vec<u32>,
@@ -538,6 +601,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
             row_idx: Vec::new(),
             nbr: Vec::new(),
             keys: Vec::new(),
+            node_set_kept: SPECULATE_AFTER,
             values: Vec::new(),
             diag: Vec::new(),
             rhs: Vec::new(),
@@ -649,9 +713,10 @@ impl<const D: usize> PhaseFieldSystem<D> {
 
     /// Sets the unknowns to the nodes the particles' supports reach with
     /// positive weight (the GIMP window and the knots of B-splines include
-    /// nodes at exactly zero weight, whose rows would be singular), and
-    /// rebuilds the sparsity pattern and the position table.
-    fn set_active<K: Kernel>(&mut self, geom: &GridGeom<D>) {
+    /// nodes at exactly zero weight, whose rows would be singular) and, if
+    /// they are not the unknowns already, rebuilds the sparsity pattern and
+    /// the position table; returns whether it did.
+    fn set_active<K: Kernel>(&mut self, geom: &GridGeom<D>) -> bool {
         let nodes = geom.node_count();
         let mut active = vec![false; nodes];
         for &key in &self.keys {
@@ -667,7 +732,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
         }
         let dofs: Vec<u32> = (0..nodes as u32).filter(|&n| active[n as usize]).collect();
         if dofs == self.dofs && self.dof_of.len() == nodes {
-            return;
+            return false;
         }
         self.dof_of.clear();
         self.dof_of.resize(nodes, u32::MAX);
@@ -717,9 +782,21 @@ impl<const D: usize> PhaseFieldSystem<D> {
         self.factored = false;
         self.multigrid = None;
         self.last.clear();
+        true
     }
 
     /// Assembles K and F (eq. 57) from the particles.
+    ///
+    /// The unknowns are the nodes of the particles' footprints. Each
+    /// particle's footprint key (its support's first node and footprint
+    /// mask) is compared with the last assembly's, and only when one changed
+    /// is the node set made again; then the terms are added onto the
+    /// pattern of that node set. Once the node set has held for
+    /// [`SPECULATE_AFTER`] assemblies, the pass that adds the terms (onto
+    /// the last pattern) finds the keys too, from the support it evaluates
+    /// anyway, and the terms are added a second time only if the node set
+    /// turns out new. Every entry of K and F receives the same terms in the
+    /// same order either way, so the bits do not depend on the path.
     pub fn assemble<K: Kernel>(
         &mut self,
         geom: &GridGeom<D>,
@@ -744,50 +821,32 @@ impl<const D: usize> PhaseFieldSystem<D> {
         let t0 = Instant::now();
         self.refine = K::REFINE;
         self.grid_nodes = geom.nodes;
-        if self.update_keys::<K>(geom, parts, p.fourth::<D>()) {
-            self.set_active::<K>(geom);
-        }
-        self.values.clear();
-        self.values.resize(self.row_idx.len(), 0.0);
-        self.rhs.clear();
-        self.rhs.resize(self.dofs.len(), 0.0);
-        let ctx = Accumulate {
-            geom,
-            parts,
-            params: p,
-            m: p.voigt6::<D>(),
-            fourth: p.fourth::<D>(),
-            dof_of: &self.dof_of,
-            nbr: &self.nbr,
-            values: SyncPtr::new(&mut self.values),
-            rhs: SyncPtr::new(&mut self.rhs),
-        };
-        match parts.bins {
-            Some(bins) => {
-                for colour in &bins.colours {
-                    colour.par_iter().for_each(|&tile| {
-                        let mut blk = CellBlock::<S>::new();
-                        for &q in bins.particles_of(tile) {
-                            // SAFETY: particles of same-colour tiles share no
-                            // node, hence no matrix entry, and the block
-                            // holds one of the tile's cells; colours run in
-                            // turn.
-                            unsafe { ctx.particle::<K, S>(q as usize, &mut blk) };
-                        }
-                        // SAFETY: as above.
-                        unsafe { ctx.flush::<K, S>(&mut blk) };
-                    });
-                }
+        let n = parts.x.len();
+        let fresh = self.keys.len() != n || self.dof_of.len() != geom.node_count();
+        // The single pass writes the keys of the particles it visits: with
+        // bins, those they list, which must be every particle once (they
+        // are the simulation's, and `parts.x` all its particles).
+        let one_pass = !fresh
+            && self.node_set_kept >= SPECULATE_AFTER
+            && parts.bins.is_none_or(|b| b.order.len() == n);
+        if one_pass {
+            let changed = self.add_terms::<K, S, true>(geom, parts, p);
+            if changed && self.set_active::<K>(geom) {
+                // the terms went onto the old pattern: add them again
+                self.add_terms::<K, S, false>(geom, parts, p);
+                self.node_set_kept = 0;
+            } else {
+                self.node_set_kept = self.node_set_kept.saturating_add(1);
             }
-            None => {
-                let mut blk = CellBlock::<S>::new();
-                for q in 0..parts.x.len() {
-                    // SAFETY: serial.
-                    unsafe { ctx.particle::<K, S>(q, &mut blk) };
-                }
-                // SAFETY: serial.
-                unsafe { ctx.flush::<K, S>(&mut blk) };
-            }
+        } else {
+            let renumbered =
+                self.update_keys::<K>(geom, parts, p.fourth::<D>()) && self.set_active::<K>(geom);
+            self.node_set_kept = if renumbered && !fresh {
+                0
+            } else {
+                self.node_set_kept.saturating_add(1)
+            };
+            self.add_terms::<K, S, false>(geom, parts, p);
         }
         // A node at the fringe of the particles' supports sees only tiny
         // weights: its row is all but singular, and round-off in the
@@ -806,6 +865,74 @@ impl<const D: usize> PhaseFieldSystem<D> {
             self.rhs[d] += delta;
         }
         self.stats.assembly += t0.elapsed().as_secs_f64();
+    }
+
+    /// One pass over the particles: K and F from zero on the present
+    /// pattern and, with `KEYS`, the particles' footprint keys (the caller
+    /// has checked that the pass visits every particle once). Returns
+    /// whether a key changed (false without `KEYS`).
+    fn add_terms<K: Kernel, const S: usize, const KEYS: bool>(
+        &mut self,
+        geom: &GridGeom<D>,
+        parts: &FieldParticles<D>,
+        p: &PhaseFieldParams,
+    ) -> bool {
+        self.values.clear();
+        self.values.resize(self.row_idx.len(), 0.0);
+        self.rhs.clear();
+        self.rhs.resize(self.dofs.len(), 0.0);
+        let ctx = Accumulate {
+            geom,
+            parts,
+            params: p,
+            m: p.voigt6::<D>(),
+            fourth: p.fourth::<D>(),
+            dof_of: &self.dof_of,
+            nbr: &self.nbr,
+            keys: SyncPtr::new(&mut self.keys),
+            values: SyncPtr::new(&mut self.values),
+            rhs: SyncPtr::new(&mut self.rhs),
+        };
+        match parts.bins {
+            Some(bins) => {
+                let mut changed = false;
+                for colour in &bins.colours {
+                    // whether a key changed: an `or`, the same for any
+                    // split of the tiles among threads
+                    changed |= colour
+                        .par_iter()
+                        .map(|&tile| {
+                            let mut blk = CellBlock::<S>::new();
+                            let mut changed = false;
+                            for &q in bins.particles_of(tile) {
+                                // SAFETY: particles of same-colour tiles
+                                // share no node, hence no matrix entry, and
+                                // the block holds one of the tile's cells;
+                                // colours run in turn; the bins list each
+                                // particle once, so its key is this task's.
+                                changed |=
+                                    unsafe { ctx.particle::<K, S, KEYS>(q as usize, &mut blk) };
+                            }
+                            // SAFETY: as above.
+                            unsafe { ctx.flush::<K, S>(&mut blk) };
+                            changed
+                        })
+                        .reduce(|| false, |a, b| a || b);
+                }
+                changed
+            }
+            None => {
+                let mut blk = CellBlock::<S>::new();
+                let mut changed = false;
+                for q in 0..parts.x.len() {
+                    // SAFETY: serial.
+                    changed |= unsafe { ctx.particle::<K, S, KEYS>(q, &mut blk) };
+                }
+                // SAFETY: serial.
+                unsafe { ctx.flush::<K, S>(&mut blk) };
+                changed
+            }
+        }
     }
 
     /// The relative phase-field residual that a history update leaves,
@@ -1498,4 +1625,101 @@ pub fn fracture_energy<K: Kernel, const D: usize>(
         .filter(|&q| parts.member(q) && keep(parts.x[q]))
         .map(|q| parts.vol[q] * fracture_energy_density::<K, D>(geom, c, p, parts.x[q]))
         .fold(0.0, |a, b| a + b) // (an empty f64 sum is −0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::shape::{CubicBspline, Gimp, Linear, QuadraticBspline};
+
+    /// Particles at every sixth of a cell along each axis (the knots and
+    /// cell centres of every kernel, where nodes of zero weight or zero
+    /// Hessian sit) and at a shifted lattice inside the cells; every third
+    /// one outside the field.
+    fn lattice<const D: usize>(cells: usize, h: f64) -> (Vec<[f64; D]>, Vec<u16>) {
+        let per_axis = 6 * cells;
+        let mut x = Vec::new();
+        for shift in [0.0, 0.37] {
+            for i in 0..per_axis.pow(D as u32) {
+                let mut rest = i;
+                x.push(std::array::from_fn(|_| {
+                    let k = rest % per_axis;
+                    rest /= per_axis;
+                    (k as f64 + shift) * h / 6.0
+                }));
+            }
+        }
+        let body = (0..x.len()).map(|p| u16::from(p % 3 == 2)).collect();
+        (x, body)
+    }
+
+    /// The single pass's keys (from the support table it assembles with)
+    /// are [`PhaseFieldSystem::update_keys`]'s, bit for bit, and so are K
+    /// and F: a system assembles once (its keys in their own pass), forgets
+    /// its keys, and assembles again in one pass, serially and by the bins.
+    fn one_pass_finds_the_same_keys<K: Kernel, const D: usize>(fourth: bool) {
+        let h = 0.25;
+        let cells = if D == 2 { 6 } else { 3 };
+        let geom = GridGeom::<D>::new([0.0; D], h, [cells; D]);
+        let (x, body) = lattice::<D>(cells, h);
+        let vol = vec![h.powi(D as i32) / 36.0; x.len()];
+        let history: Vec<f64> = (0..x.len()).map(|p| (p % 7) as f64).collect();
+        let mut gamma3 = Gamma3::default();
+        let mut gamma = Gamma::default();
+        if fourth {
+            gamma.g1111 = 1.0;
+            gamma.g2222 = 1.0;
+            gamma.g1212 = 74.0;
+            for r in 0..6 {
+                gamma3.m[r][r] = 1.0 + r as f64;
+            }
+        }
+        let params = PhaseFieldParams {
+            gc_bar: 2.0,
+            l0: 0.4,
+            k_f: 1e-3,
+            gamma,
+            gamma3,
+        };
+        assert_eq!(params.fourth::<D>(), fourth);
+        let bins = Bins::new(&geom, &x, K::N);
+        for binned in [false, true] {
+            let parts = FieldParticles {
+                x: &x,
+                vol: &vol,
+                history: &history,
+                body: Some((&body, 0)),
+                bins: binned.then_some(&bins),
+            };
+            let mut sys = PhaseFieldSystem::<D>::new();
+            sys.assemble::<K>(&geom, &parts, &params);
+            let keys = sys.keys.clone();
+            let values: Vec<u64> = sys.values.iter().map(|v| v.to_bits()).collect();
+            let rhs: Vec<u64> = sys.rhs.iter().map(|v| v.to_bits()).collect();
+            assert!(sys.node_set_kept >= SPECULATE_AFTER);
+            assert!(keys.contains(&KEY_NONE));
+            sys.keys.fill(KEY_FRESH);
+            sys.assemble::<K>(&geom, &parts, &params);
+            assert!(
+                sys.keys == keys,
+                "the keys, fourth {fourth}, binned {binned}"
+            );
+            assert!(sys.node_set_kept > SPECULATE_AFTER, "the node set was kept");
+            let again: Vec<u64> = sys.values.iter().map(|v| v.to_bits()).collect();
+            assert!(again == values, "K");
+            assert!(sys.rhs.iter().map(|v| v.to_bits()).eq(rhs), "F");
+        }
+    }
+
+    #[test]
+    fn the_assembly_finds_the_footprint_keys_of_update_keys() {
+        for fourth in [false, true] {
+            one_pass_finds_the_same_keys::<Linear, 2>(fourth);
+            one_pass_finds_the_same_keys::<Gimp, 2>(fourth);
+            one_pass_finds_the_same_keys::<QuadraticBspline, 2>(fourth);
+            one_pass_finds_the_same_keys::<CubicBspline, 2>(fourth);
+            one_pass_finds_the_same_keys::<QuadraticBspline, 3>(fourth);
+            one_pass_finds_the_same_keys::<CubicBspline, 3>(fourth);
+        }
+    }
 }
