@@ -295,6 +295,10 @@ fn cpu_name() -> String {
                 .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
         })
         .unwrap_or_else(|| "unknown CPU".into())
+        + &format!(
+            "; transfer loops in the {:?} copy (`cleave::cpu`)",
+            cleave::cpu::level()
+        )
 }
 
 /// The thread counts as the docs say them: "1 and 2", "1, 2 and 4".
