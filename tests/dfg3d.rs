@@ -199,3 +199,69 @@ fn a_3d_dfg_run_does_not_depend_on_the_thread_count() {
         assert!(a.1 == b.1, "particles differ ({extra:?})");
     }
 }
+
+/// Section 2.4 in 3D: the incline of `tests/verification3d.rs` (θ = 30°,
+/// μ = 0.3) with block and plane in ONE contact group and `[dfg]
+/// self_contact`: the block should slide at a = g(sin θ − μ cos θ) as two
+/// contact groups do (within 3 %). It does not yet: the block welds to the
+/// plane (docs/dfg.md, "In 3D", has what is isolated so far). Run with
+/// `cargo test --release --test dfg3d -- --ignored`.
+#[test]
+#[ignore = "3D self-contact still welds the block: docs/dfg.md, In 3D"]
+fn a_block_in_one_group_slides_down_an_incline_with_3d_self_contact() {
+    let s = scene(
+        r#"
+body_force = [4.905, -8.495709, 0.0]
+[grid]
+cell_size = 0.01
+min = [0.0, 0.0, 0.0]
+max = [0.4, 0.12, 0.05]
+boundary = { bottom = "fixed" }
+[time]
+end = 0.06
+cfl = 0.4
+[transfer]
+scheme = "flip"
+flip_blend = 0.99
+[materials.rubbery]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 2.0e7
+poissons_ratio = 0.3
+[[bodies]]
+shape = { type = "box", min = [0.0, 0.0, 0.0], max = [0.4, 0.04, 0.05] }
+material = "rubbery"
+[[bodies]]
+shape = { type = "box", min = [0.04, 0.04, 0.0], max = [0.09, 0.09, 0.05] }
+material = "rubbery"
+[output]
+snapshots = 0
+[dfg]
+self_contact = true
+friction = 0.3
+surface_threshold = 0.99
+"#,
+    );
+    let theta = 30f64.to_radians();
+    let expected = 9.81 * (theta.sin() - 0.3 * theta.cos());
+    let mut sim = Sim3::build(&s);
+    let mut samples = Vec::new();
+    while sim.time() < s.file.time.end * (1.0 - 1e-12) {
+        sim.step().expect("the block slides");
+        let p = sim.particles();
+        let (mut m, mut px) = (0.0, 0.0);
+        for k in 0..p.len() {
+            if p.body[k] == 1 {
+                m += p.mass[k];
+                px += p.mass[k] * p.v[k][0];
+            }
+        }
+        samples.push((sim.time(), px / m));
+    }
+    let a = common::slope_after(&samples, 0.02);
+    println!(
+        "3D self-contact block: a = {a:.4} m/s² vs g(sin θ − μ cos θ) = {expected:.4} m/s² ({:+.2} %)",
+        100.0 * (a / expected - 1.0)
+    );
+    assert!((a / expected - 1.0).abs() < 0.03, "a = {a} vs {expected}");
+}

@@ -100,15 +100,29 @@ const SIDE_COS: f64 = 0.5;
 /// decides if it has one (it points the way ∇D̄ would), and otherwise its
 /// position: ∇D̄ points towards the surface, so side 0 lies behind it
 /// (n_i·x_p < cut) and side 1 in front.
+///
+/// In 3D a surface particle (one with a normal) is placed by its normal
+/// alone, never by ∇D̄: where two flagged surfaces touch, d = 1 in both
+/// bands and ∇D̄ of a band particle points away from the nearest
+/// unflagged (d = 0) particles, whichever body they belong to. Under the
+/// bottom edges of a block standing on a plane, the plane's third layer
+/// (below the 0.99 threshold's reach) is nearer than the block's own
+/// interior, so the block's edge particles had ∇D̄ pointing up into the
+/// block, like the plane's, and joined the plane's side (docs/dfg.md, "In
+/// 3D", has the measurement). 2D keeps ∇D̄ first, as measured there.
 #[inline(always)]
 fn side<const D: usize>(gp: [f64; D], op: [f64; D], ni: [f64; D], xp: [f64; D], cut: f64) -> u32 {
     let clear = |g: [f64; D]| {
         let d = dot(g, ni);
         (d * d > SIDE_COS * SIDE_COS * dot(g, g)).then_some(d < 0.0)
     };
-    let behind = clear(gp)
-        .or_else(|| clear(op))
-        .unwrap_or_else(|| dot(ni, xp) > cut);
+    // 3D: a surface particle's own normal before ∇D̄ (see the doc above)
+    let by_direction = if D == 3 && op != [0.0; D] {
+        clear(op)
+    } else {
+        clear(gp).or_else(|| clear(op))
+    };
+    let behind = by_direction.unwrap_or_else(|| dot(ni, xp) > cut);
     u32::from(behind)
 }
 
@@ -990,7 +1004,13 @@ impl<const D: usize> Dfg<D> {
             if !hot[tile_of[p] as usize] {
                 return None;
             }
-            unit(grad[p]).or_else(|| normal.get(p).copied().and_then(unit))
+            // 3D: a surface particle's own normal, for the reason given
+            // at `side`; 2D: ∇D̄, else the normal
+            let own = normal.get(p).copied().and_then(unit);
+            if D == 3 && own.is_some() {
+                return own;
+            }
+            unit(grad[p]).or(own)
         };
         let n = parts.len();
         self.share_start.resize(n + 1, 0);
