@@ -205,6 +205,24 @@ fn a_resumed_damage_run_with_dfg_and_contact_repeats_the_straight_one_bit_for_bi
 }
 
 #[test]
+fn a_resumed_run_with_explicit_cracks_repeats_the_straight_one_bit_for_bit() {
+    // the centre-cracked plate to 0.1 ms, resumed at step 300: the crack
+    // surfaces, their velocities (XPIC(1) reads them) and the plane travel
+    // in the checkpoint; the series has the crack's ends and length
+    let text = scene_text(
+        "cramp_center_crack.toml",
+        &[
+            ("end = 6.0e-4", "end = 1.0e-4"),
+            ("series_rows = 61", "series_rows = 11"),
+            ("snapshots = 7", "snapshots = 3"),
+        ],
+    );
+    let (a, b) = straight_and_resumed(&text, 300, 40);
+    assert!(a.series.contains("crack0_length"), "no crack column");
+    assert_same(&a, &b);
+}
+
+#[test]
 fn with_pcg_a_resumed_run_agrees_to_the_solver_tolerance() {
     // the PCG's factor is not in the checkpoint: the first solve after the
     // resume refactorizes, so c differs within the tolerance; with [dfg]

@@ -1,6 +1,7 @@
 //! Fracture models. Each lives in its own module and plugs into the
 //! explicit step through the plan; a scene that asks for none runs none.
 
+pub mod cracks;
 pub mod damage;
 pub mod dfg;
 pub mod model;
@@ -14,6 +15,7 @@ pub(crate) const MODELS: &[model::Build] = &[
     phase_field::model::build::<2, 3>,
     dfg::model::build,
     damage::model::build,
+    cracks::model::build,
 ];
 
 /// The fracture models that run in 3D (issue 32), in the order of

@@ -12,7 +12,7 @@
 
 use crate::diagnostics::crack::CrackTip;
 use crate::diagnostics::Field;
-use crate::grid::{Bins, FieldSlots, GridGeom, MultiField};
+use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, MultiField};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::{Scene, ShapeFunctionKind, Stage};
@@ -250,6 +250,42 @@ pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
 
     /// This step's field slots (after the partition).
     fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a, D>;
+
+    /// Contact between the split's fields by the split's own law (explicit
+    /// cracks: each crack's normal and friction), in the `contact` stage;
+    /// returns the nodes where it acted. None: the step's law between
+    /// fields ([`crate::contact::apply`], with [`Self::self_friction`]).
+    fn contact(&self, _at: ContactContext<'_, D>) -> Option<usize> {
+        None
+    }
+
+    /// Runs a stage that comes after the step's slots are released
+    /// ([`Stage::after_slots`]: moving crack surfaces), on the nodal
+    /// fields the step left; false for a stage that is not the split's.
+    fn after_slots(&mut self, _stage: Stage, _at: AfterContext<'_, D, V>) -> bool {
+        false
+    }
+}
+
+/// What a split's contact law works on: the step's nodal fields after the
+/// grid update (velocities to correct), the field layout, and the mass
+/// below which a field takes no part, kg.
+pub struct ContactContext<'a, const D: usize = 2> {
+    pub grid: &'a mut GridFields<D>,
+    pub multi: &'a MultiField,
+    pub floor: f64,
+}
+
+/// What a split's stages after the slots read: the grid and the nodal
+/// fields the step left (mass, first and final velocities per field slot),
+/// the particles after the gather, the kernel and Δt.
+pub struct AfterContext<'a, const D: usize = 2, const V: usize = 3> {
+    pub geom: &'a GridGeom<D>,
+    pub parts: &'a Particles<D, V>,
+    pub grid: &'a GridFields<D>,
+    pub multi: &'a MultiField,
+    pub kernel: ShapeFunctionKind,
+    pub dt: f64,
 }
 
 /// The field slots of every model that splits the velocity fields, one
@@ -261,6 +297,8 @@ pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
 pub enum SplitSlots<'a, const D: usize = 2> {
     /// Damage-field-gradient partitioning (Homel & Herbold 2017).
     Dfg(crate::fracture::dfg::DfgFields<'a, D>),
+    /// Explicit cracks' velocity fields (Nairn & Aimene).
+    Cramp(crate::fracture::cracks::CrampFields<'a, D>),
 }
 
 /// What runs with a step's field slots, for any concrete slot rule.
@@ -274,6 +312,7 @@ impl<const D: usize> SplitSlots<'_, D> {
     pub fn visit<V: SlotsVisitor>(&self, v: V) -> V::Output {
         match self {
             SplitSlots::Dfg(s) => v.visit(s),
+            SplitSlots::Cramp(s) => v.visit(s),
         }
     }
 }

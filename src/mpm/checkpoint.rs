@@ -289,6 +289,9 @@ mod tests {
         tracer
             .trace_simple_type::<crate::fracture::dfg::model::DfgSaved>()
             .expect("trace DFG's state");
+        tracer
+            .trace_simple_type::<crate::fracture::cracks::model::CrampSaved>()
+            .expect("trace the explicit cracks' state");
         let registry = tracer.registry().expect("every saved type is known");
         let layout = serde_json::to_string_pretty(&registry).expect("layout as JSON") + "\n";
         let path =

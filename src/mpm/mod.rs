@@ -23,7 +23,8 @@ pub use g2p::BadKind;
 use crate::contact::{self, ContactLaw};
 use crate::diagnostics::{measure, Control, Observer, Progress, SeriesRow};
 use crate::fracture::model::{
-    self as fm, FractureModel, RowContext, ScatterContext, SeriesOut, SlotContext, StepContext,
+    self as fm, AfterContext, ContactContext, FieldSplit, FractureModel, RowContext,
+    ScatterContext, SeriesOut, SlotContext, StepContext,
 };
 use crate::grid::shape::{by_kernel, Kernel};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
@@ -485,8 +486,13 @@ where
             .iter()
             .position(|t| !t.stage.before_scatter())
             .unwrap_or(times.len());
-        let (pre, rest) = times.split_at_mut(split);
-        let r = self.execute::<K>(dt, pre, rest);
+        let after = times
+            .iter()
+            .position(|t| t.stage.after_slots())
+            .unwrap_or(times.len());
+        let (head, post) = times.split_at_mut(after);
+        let (pre, rest) = head.split_at_mut(split);
+        let r = self.execute::<K>(dt, pre, rest, post);
         self.times.stages = times;
         r
     }
@@ -496,11 +502,15 @@ where
         dt: f64,
         pre: &mut [StageTime],
         rest: &mut [StageTime],
+        post: &mut [StageTime],
     ) -> Result<(), SimError> {
         let nodes = self.geom.node_count();
         let Some(mut multi) = self.multi.take() else {
-            debug_assert!(pre.is_empty(), "stages before the scatter need contact");
-            return self.stages::<K, _>(dt, &SingleField, None, nodes, rest);
+            debug_assert!(
+                pre.is_empty() && post.is_empty(),
+                "stages before and after the slots need contact"
+            );
+            return self.stages::<K, _>(dt, &SingleField, None, None, nodes, rest);
         };
         let group = std::mem::take(&mut self.group_of);
         // A model that splits the fields runs the stages before the
@@ -550,23 +560,47 @@ where
             group: &group,
         };
         let r = match split.as_mut().and_then(|m| m.field_split()) {
-            Some(s) => s.slots(at_slots).visit(Rest::<K, D, V> {
-                sim: self,
-                dt,
-                multi: &multi,
-                slots_n,
-                plan: rest,
-                kernel: std::marker::PhantomData,
-            }),
+            Some(s) => {
+                let s: &dyn FieldSplit<D, V> = s;
+                s.slots(at_slots).visit(Rest::<K, D, V> {
+                    sim: self,
+                    dt,
+                    multi: &multi,
+                    split: s,
+                    slots_n,
+                    plan: rest,
+                    kernel: std::marker::PhantomData,
+                })
+            }
             None => {
                 let slots = GroupFields {
                     nodes,
                     multi: &multi,
                     group: &group,
                 };
-                self.stages::<K, _>(dt, &slots, Some(&multi), slots_n, rest)
+                self.stages::<K, _>(dt, &slots, Some(&multi), None, slots_n, rest)
             }
         };
+        // the split's stages on the nodal fields the step left
+        if r.is_ok() {
+            for t in post.iter_mut() {
+                let t0 = Instant::now();
+                let at = AfterContext {
+                    geom: &self.geom,
+                    parts: &self.parts,
+                    grid: &self.grid,
+                    multi: &multi,
+                    kernel: self.scene.file.grid.shape_function,
+                    dt,
+                };
+                let ran = split
+                    .as_mut()
+                    .and_then(|m| m.field_split())
+                    .is_some_and(|s| s.after_slots(t.stage, at));
+                t.seconds += t0.elapsed().as_secs_f64();
+                t.runs += u64::from(ran);
+            }
+        }
         if let (Some(i), Some(m)) = (at, split) {
             self.models.insert(i, m);
         }
@@ -582,6 +616,8 @@ struct Rest<'s, K, const D: usize, const V: usize> {
     sim: &'s mut Simulation<D, V>,
     dt: f64,
     multi: &'s MultiField,
+    /// The split whose slots these are (its contact law).
+    split: &'s dyn FieldSplit<D, V>,
     slots_n: usize,
     plan: &'s mut [StageTime],
     kernel: std::marker::PhantomData<K>,
@@ -593,8 +629,14 @@ where
 {
     type Output = Result<(), SimError>;
     fn visit<S: FieldSlots>(self, slots: &S) -> Self::Output {
-        self.sim
-            .stages::<K, S>(self.dt, slots, Some(self.multi), self.slots_n, self.plan)
+        self.sim.stages::<K, S>(
+            self.dt,
+            slots,
+            Some(self.multi),
+            Some(self.split),
+            self.slots_n,
+            self.plan,
+        )
     }
 }
 
@@ -603,12 +645,14 @@ where
     Particles<D, V>: Saved,
 {
     /// The stages from the scatter on, with the field slots `slots`
-    /// (`slots_n` of them) fixed for the step.
+    /// (`slots_n` of them) fixed for the step, and the splitting model
+    /// that made them (if one did: its contact law).
     fn stages<K: Kernel, S: FieldSlots>(
         &mut self,
         dt: f64,
         slots: &S,
         multi: Option<&MultiField>,
+        split: Option<&dyn FieldSplit<D, V>>,
         slots_n: usize,
         plan: &mut [StageTime],
     ) -> Result<(), SimError> {
@@ -647,7 +691,20 @@ where
                         let Some(m) = multi else {
                             break 'stage false;
                         };
-                        let touched = contact::apply(&mut self.grid, m, &self.friction, self.m_min);
+                        let floor = self
+                            .m_min
+                            .max(contact::MIN_FIELD_FRACTION * self.friction.full_node_mass);
+                        let own = split.and_then(|s| {
+                            s.contact(ContactContext {
+                                grid: &mut self.grid,
+                                multi: m,
+                                floor,
+                            })
+                        });
+                        let touched = match own {
+                            Some(n) => n,
+                            None => contact::apply(&mut self.grid, m, &self.friction, self.m_min),
+                        };
                         if touched > 0 {
                             self.contact_steps += 1;
                         }
@@ -714,8 +771,8 @@ where
                         }
                         true
                     }
-                    // these run before the scatter (`execute`)
-                    Stage::DamageField | Stage::FieldPartition => false,
+                    // these run before the scatter and after the slots (`execute`)
+                    Stage::DamageField | Stage::FieldPartition | Stage::CrackSurfaces => false,
                     // the fracture models' own stages
                     stage => {
                         let ctx = StepContext {

@@ -20,8 +20,10 @@ pub enum Stage {
     DamageField,
     /// Assigns each particle–node pair a velocity field (one per contact
     /// group present at the node, each split in two by the damage-field
-    /// gradient with `[dfg]`, Algorithm 2 and the separability rule); only
-    /// with more than one contact group or with `[dfg]`.
+    /// gradient with `[dfg]`, Algorithm 2 and the separability rule; with
+    /// explicit cracks, by the cracks the line from particle to node
+    /// crosses, Nairn & Aimene's appendix); only with more than one
+    /// contact group, `[dfg]` or explicit cracks.
     FieldPartition,
     /// Particle-to-grid: clears the nodes the last scatter wrote, then
     /// scatters mass, momentum, internal and external force.
@@ -59,12 +61,17 @@ pub enum Stage {
     /// The staggered scheme's residual; more phase-field solves and
     /// history updates while it is above the tolerance.
     PhaseFieldStagger,
+    /// Explicit cracks: the crack surfaces move with the grid velocities of
+    /// their own velocity fields, the crack plane with their mean (Nairn &
+    /// Aimene, eqs. 3–6). Runs after the step's field slots are released,
+    /// on the nodal fields the step left.
+    CrackSurfaces,
 }
 
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 15] = [
+    pub const ALL: [Stage; 16] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -80,6 +87,7 @@ impl Stage {
         Stage::Damage,
         Stage::Rebin,
         Stage::PhaseFieldStagger,
+        Stage::CrackSurfaces,
     ];
 
     /// The stage of a [`name`](Stage::name).
@@ -104,6 +112,7 @@ impl Stage {
             Stage::Damage => "damage",
             Stage::Rebin => "rebin",
             Stage::PhaseFieldStagger => "phase_field_stagger",
+            Stage::CrackSurfaces => "crack_surfaces",
         }
     }
 
@@ -119,6 +128,13 @@ impl Stage {
     /// scatter's field slots exist.
     pub fn before_scatter(self) -> bool {
         matches!(self, Stage::DamageField | Stage::FieldPartition)
+    }
+
+    /// Stages of a model that splits the velocity fields which run after
+    /// the step's field slots are released, on the nodal fields the step
+    /// left (they come last in the plan).
+    pub fn after_slots(self) -> bool {
+        matches!(self, Stage::CrackSurfaces)
     }
 }
 
@@ -157,7 +173,8 @@ impl Plan {
             .chain(b.front.as_ref())
             .any(|s| matches!(s, SideCondition::Traction { .. }));
         let dfg = file.dfg.is_some();
-        let contact = contact_groups.len() > 1 || dfg;
+        let cracks = file.bodies.iter().any(|b| !b.explicit_cracks.is_empty());
+        let contact = contact_groups.len() > 1 || dfg || cracks;
         let uses = |f: fn(&super::schema::MaterialSpec) -> bool| {
             file.bodies
                 .iter()
@@ -180,6 +197,7 @@ impl Plan {
                 Stage::G2p => !musl,
                 Stage::G2pVelocity | Stage::Remap | Stage::G2pStress => musl,
                 Stage::Damage => damage,
+                Stage::CrackSurfaces => cracks,
             })
             .collect();
         Plan { stages }

@@ -16,6 +16,7 @@ pub use crate::grid::shape::ShapeFunctionKind;
 pub use crate::material::{MaterialModel, PlaneKind};
 // Each fracture model owns its scene section (its types and their checks
 // live in the model's folder); the scene file names them.
+pub use crate::fracture::cracks::section::{CrampSpec, ExplicitCrackSpec, SurfaceUpdate};
 pub use crate::fracture::damage::section::{DamageModel, DamageSpec, WeibullSpec};
 pub use crate::fracture::dfg::section::DfgSpec;
 pub use crate::fracture::phase_field::section::{PhaseFieldSpec, PlaneStressSplit};
@@ -61,6 +62,10 @@ pub struct SceneFile {
     /// ([`crate::fracture::phase_field::dfg_damage`]).
     #[serde(default)]
     pub dfg: Option<DfgSpec>,
+    /// Options of the explicit cracks (Nairn & Aimene's CRAMP) that bodies
+    /// list in `explicit_cracks`; left out, the defaults.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cramp: Option<CrampSpec>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
@@ -593,6 +598,11 @@ pub struct BodySpec {
     /// the body's tip is not tracked.
     #[serde(default)]
     pub crack_origin: Option<Vector>,
+    /// Explicit cracks (Nairn & Aimene's CRAMP, 2D): polylines of crack
+    /// points that split the velocity fields, move with the material and
+    /// keep their faces from interpenetrating.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub explicit_cracks: Vec<ExplicitCrackSpec>,
 }
 
 impl BodySpec {

@@ -387,6 +387,31 @@ impl Scene {
             );
         }
 
+        {
+            let bodies: Vec<_> = file
+                .bodies
+                .iter()
+                .map(|b| (&b.shape, b.explicit_cracks.as_slice()))
+                .collect();
+            let xy = |v: &Vector| {
+                let c = v.components();
+                [
+                    c.first().copied().unwrap_or(0.0),
+                    c.get(1).copied().unwrap_or(0.0),
+                ]
+            };
+            let (lo, hi) = (xy(&file.grid.min), xy(&file.grid.max));
+            crate::fracture::cracks::section::check(
+                &mut c,
+                &bodies,
+                dim,
+                groups.len(),
+                (lo, hi, file.grid.cell_size),
+                file.cramp.as_ref(),
+                file.dfg.is_some(),
+            );
+        }
+
         if !c.errors.is_empty() {
             return Err(SceneError { errors: c.errors });
         }

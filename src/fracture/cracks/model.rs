@@ -1,0 +1,152 @@
+//! Explicit cracks (CRAMP) as a [`FractureModel`] that splits the velocity
+//! fields: its `field_partition` runs before the scatter, its contact law
+//! takes the `contact` stage's place, and its `crack_surfaces` stage runs
+//! after the step's slots are released, all through its [`FieldSplit`].
+//! 2D only (validation refuses explicit cracks in a 3D scene).
+
+use super::{Crack, Cramp, Warnings};
+use crate::fracture::model::{
+    decode, encode, AfterContext, ContactContext, FieldSplit, FractureModel, RestoreContext,
+    RowContext, ScatterContext, SeriesOut, SetupContext, SlotContext, SplitSlots, StepContext,
+};
+use crate::grid::shape::by_kernel;
+use crate::grid::MultiField;
+use crate::scene::Stage;
+
+/// The model for a scene whose bodies list `explicit_cracks`.
+pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>> {
+    let file = &at.scene.file;
+    let mut cracks = Vec::new();
+    for (b, body) in file.bodies.iter().enumerate() {
+        for spec in &body.explicit_cracks {
+            cracks.push(Crack::new(b as u16, spec.friction, spec.xy()));
+        }
+    }
+    if cracks.is_empty() {
+        return None;
+    }
+    let update = file
+        .cramp
+        .as_ref()
+        .map(|c| c.surface_update)
+        .unwrap_or_default();
+    Some(Box::new(Cramp::new(cracks, update)))
+}
+
+impl FieldSplit for Cramp {
+    /// Unused: crack contact has its own law ([`Cramp::contact`]), with
+    /// each crack's friction.
+    fn self_friction(&self) -> f64 {
+        0.0
+    }
+
+    fn before_scatter(
+        &mut self,
+        stage: Stage,
+        at: ScatterContext<'_>,
+        multi: &mut MultiField,
+    ) -> Option<usize> {
+        match stage {
+            Stage::FieldPartition => {
+                let (geom, parts) = (at.geom, at.parts);
+                Some(by_kernel!(at.kernel, K => self.partition::<K, 3>(geom, parts, multi)))
+            }
+            _ => None,
+        }
+    }
+
+    fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a> {
+        SplitSlots::Cramp(self.slots(at.nodes, at.multi))
+    }
+
+    fn contact(&self, at: ContactContext<'_>) -> Option<usize> {
+        Some(Cramp::contact(self, at.grid, at.multi, at.floor))
+    }
+
+    fn after_slots(&mut self, stage: Stage, at: AfterContext<'_>) -> bool {
+        match stage {
+            Stage::CrackSurfaces => {
+                by_kernel!(at.kernel, K => self.move_surfaces::<K>(at.geom, at.grid, at.multi, at.dt));
+                true
+            }
+            _ => false,
+        }
+    }
+}
+
+/// What a checkpoint keeps of the explicit cracks: every crack's points,
+/// surfaces and surface velocities, whether the surfaces have moved, and
+/// the counters.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub(crate) struct CrampSaved {
+    pub cracks: Vec<Crack>,
+    pub started: bool,
+    pub warnings: Warnings,
+}
+
+impl FractureModel for Cramp {
+    fn name(&self) -> &'static str {
+        "explicit_cracks"
+    }
+
+    fn stages(&self) -> &'static [Stage] {
+        &[]
+    }
+
+    fn run(&mut self, _stage: Stage, _ctx: StepContext<'_>) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// Per crack c (in the order of the bodies and their lists), its two
+    /// ends' positions, `crack{c}_start_x`, `_start_y`, `crack{c}_end_x`,
+    /// `_end_y` (m), and its length along the plane, `crack{c}_length`.
+    fn series(&mut self, _at: &RowContext<'_>, out: &mut SeriesOut) {
+        for (c, crack) in self.cracks.iter().enumerate() {
+            let ends = [
+                ("start", crack.plane[0]),
+                ("end", crack.plane[crack.plane.len() - 1]),
+            ];
+            for (end, x) in ends {
+                out.push(&format!("crack{c}_{end}_x"), x[0]);
+                out.push(&format!("crack{c}_{end}_y"), x[1]);
+            }
+            out.push(&format!("crack{c}_length"), crack.length());
+        }
+    }
+
+    fn summary(&self) -> serde_json::Value {
+        serde_json::json!({
+            "cracks": self.cracks.len(),
+            "crack_points": self.cracks.iter().map(|c| c.plane.len()).sum::<usize>(),
+            "warnings_wrong_side": self.warnings.wrong_side,
+            "warnings_third_crack": self.warnings.third_crack,
+        })
+    }
+
+    fn save(&self) -> Vec<u8> {
+        encode(&CrampSaved {
+            cracks: self.cracks.clone(),
+            started: self.started,
+            warnings: self.warnings,
+        })
+    }
+
+    fn restore(&mut self, state: &[u8], _at: RestoreContext<'_>) -> Result<(), String> {
+        let s: CrampSaved = decode(state)?;
+        if s.cracks.len() != self.cracks.len() {
+            return Err(format!(
+                "the checkpoint has {} explicit cracks, the scene {}",
+                s.cracks.len(),
+                self.cracks.len()
+            ));
+        }
+        self.cracks = s.cracks;
+        self.started = s.started;
+        self.warnings = s.warnings;
+        Ok(())
+    }
+
+    fn field_split(&mut self) -> Option<&mut dyn FieldSplit> {
+        Some(self)
+    }
+}

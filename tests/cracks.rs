@@ -1,0 +1,369 @@
+//! Explicit cracks (Nairn & Aimene's CRAMP, issue 33): the crack velocity
+//! fields keep the two sides of a crack apart, crack contact keeps closed
+//! faces from interpenetrating, the crack surfaces follow the material,
+//! and bad crack input is refused naming the field.
+
+use cleave::diagnostics::Recorder;
+use cleave::fracture::cracks::Cramp;
+use cleave::mpm::Simulation;
+use cleave::scene::{Scene, Stage};
+
+fn parse(text: &str) -> Scene {
+    Scene::from_text(text, None).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Two blocks of one contact group stacked at y = 15.1 mm, cut apart by an
+/// explicit crack along their interface and 2.9 mm beyond their x-edges
+/// (an edge crack must reach past the body by the kernel's reach, else a
+/// line from a corner particle to a node outside the body passes round
+/// its end: with 0.4 mm the corners leaked 0.1 % of the top block's
+/// velocity per step into the bottom one); the
+/// top block moves with `TOP_V`, the bottom one is at rest. One contact
+/// group: without the crack they would share one velocity field (welded).
+fn stacked(top_v: [f64; 2], friction: f64) -> String {
+    format!(
+        r#"
+[grid]
+cell_size = 0.001
+max = [0.03, 0.03]
+shape_function = "quadratic_bspline"
+[analysis]
+plane = "plane_strain"
+[time]
+end = 1.0e-4
+cfl = 0.3
+[materials.m]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 1.0e8
+poissons_ratio = 0.3
+[[bodies]]
+name = "bottom"
+shape = {{ type = "box", min = [0.005, 0.005], max = [0.025, 0.0151] }}
+material = "m"
+explicit_cracks = [{{ points = [[0.0021, 0.0151], [0.0055, 0.0151], [0.0101, 0.0151], [0.0152, 0.0151], [0.0203, 0.0151], [0.0245, 0.0151], [0.0279, 0.0151]], friction = {friction} }}]
+[[bodies]]
+name = "top"
+shape = {{ type = "box", min = [0.005, 0.0151], max = [0.025, 0.025] }}
+material = "m"
+velocity = [{}, {}]
+[output]
+series_rows = 5
+"#,
+        top_v[0], top_v[1]
+    )
+}
+
+fn run(scene: &Scene) -> (Simulation, Recorder) {
+    let mut sim = Simulation::new(scene);
+    let mut rec = Recorder::default();
+    sim.run(&mut rec).unwrap_or_else(|e| panic!("{e}"));
+    (sim, rec)
+}
+
+fn body_velocities(sim: &Simulation, body: u16) -> Vec<[f64; 2]> {
+    let p = sim.particles();
+    (0..p.len())
+        .filter(|&i| p.body[i] == body)
+        .map(|i| p.v[i])
+        .collect()
+}
+
+/// The top block pulls away: the crack keeps it off the bottom block's
+/// velocity field, so the bottom block stays exactly at rest and the top
+/// one moves rigidly; the upper crack surface follows the top block, the
+/// lower one stays, the plane goes halfway.
+#[test]
+fn a_crack_lets_the_sides_separate_freely() {
+    let scene = parse(&stacked([0.0, 1.0], 0.0));
+    assert!(scene.plan.has(Stage::FieldPartition));
+    assert!(scene.plan.has(Stage::Contact));
+    assert!(scene.plan.has(Stage::CrackSurfaces));
+    let (sim, _) = run(&scene);
+    let t = sim.time();
+    let cramp = sim.model::<Cramp>().expect("the crack model");
+    assert_eq!(cramp.warnings, Default::default());
+    for v in body_velocities(&sim, 0) {
+        assert_eq!(v, [0.0, 0.0], "the bottom block moved");
+    }
+    for v in body_velocities(&sim, 1) {
+        assert!(
+            (v[0]).abs() < 1e-12 && (v[1] - 1.0).abs() < 1e-12,
+            "the top block is not rigid: {v:?}"
+        );
+    }
+    let crack = &cramp.cracks[0];
+    // the ends stick out of the blocks: they have no material to follow
+    // and stay; the points inside move
+    let last = crack.plane.len() - 1;
+    assert_eq!(crack.plane[0], [0.0021, 0.0151]);
+    assert_eq!(crack.plane[last], [0.0279, 0.0151]);
+    for k in 1..last {
+        let (a, b, p) = (crack.above[k], crack.below[k], crack.plane[k]);
+        assert!((b[1] - 0.0151).abs() < 1e-15, "lower surface moved: {b:?}");
+        assert!(
+            (a[1] - (0.0151 + t)).abs() < 1e-9,
+            "upper surface {a:?}, expected y = {}",
+            0.0151 + t
+        );
+        assert!((p[1] - (0.0151 + 0.5 * t)).abs() < 1e-9, "plane {p:?}");
+    }
+    assert_eq!(cramp.warnings.wrong_side + cramp.warnings.third_crack, 0);
+}
+
+/// Without the crack the two blocks of one group share a field: the
+/// bottom block is dragged along (the control of the test above).
+#[test]
+fn without_the_crack_the_blocks_are_welded() {
+    let text = stacked([0.0, 1.0], 0.0).replace(
+        "explicit_cracks = [{ points = [[0.0021, 0.0151], [0.0055, 0.0151], [0.0101, 0.0151], [0.0152, 0.0151], [0.0203, 0.0151], [0.0245, 0.0151], [0.0279, 0.0151]], friction = 0 }]",
+        "",
+    );
+    let scene = parse(&text);
+    assert!(!scene.plan.has(Stage::Contact));
+    let (sim, _) = run(&scene);
+    let dragged = body_velocities(&sim, 0)
+        .iter()
+        .map(|v| v[1])
+        .fold(0.0, f64::max);
+    assert!(
+        dragged > 0.1,
+        "bottom block's fastest particle {dragged} m/s"
+    );
+}
+
+/// The top block pushes down on the bottom one: the closed crack carries
+/// the compression (momentum goes into the bottom block, the total is
+/// kept) and the faces do not pass through each other.
+#[test]
+fn a_closed_crack_carries_compression_without_interpenetration() {
+    let scene = parse(&stacked([0.0, -1.0], 0.0));
+    let (sim, _) = run(&scene);
+    let p = sim.particles();
+    let (mut bottom, mut total) = (0.0, 0.0);
+    for i in 0..p.len() {
+        total += p.mass[i] * p.v[i][1];
+        if p.body[i] == 0 {
+            bottom += p.mass[i] * p.v[i][1];
+        }
+    }
+    let top_mass: f64 = (0..p.len())
+        .filter(|&i| p.body[i] == 1)
+        .map(|i| p.mass[i])
+        .sum();
+    let p0 = -top_mass;
+    assert!(
+        (total - p0).abs() < 1e-9 * p0.abs(),
+        "momentum {total} vs {p0}"
+    );
+    assert!(
+        bottom < 0.2 * p0,
+        "the bottom block took {bottom} of {p0} kg·m/s"
+    );
+    let cramp = sim.model::<Cramp>().expect("the crack model");
+    let crack = &cramp.cracks[0];
+    let h = 0.001;
+    for k in 0..crack.plane.len() - 1 {
+        let gap = crack.opening(k, 0.5);
+        assert!(
+            gap > -0.05 * h,
+            "faces interpenetrate by {gap} m at segment {k}"
+        );
+    }
+    // the bottom block's top row is not above the top block's bottom row
+    let lowest_top = (0..p.len())
+        .filter(|&i| p.body[i] == 1)
+        .map(|i| p.x[i][1])
+        .fold(f64::INFINITY, f64::min);
+    let highest_bottom = (0..p.len())
+        .filter(|&i| p.body[i] == 0)
+        .map(|i| p.x[i][1])
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(
+        lowest_top > highest_bottom,
+        "{lowest_top} ≤ {highest_bottom}"
+    );
+}
+
+/// The top block slides along a closed frictionless crack: nothing pulls
+/// the bottom block along (the control: with one field it would be).
+#[test]
+fn a_frictionless_crack_lets_the_faces_slide() {
+    let scene = parse(&stacked([1.0, 0.0], 0.0));
+    let (sim, _) = run(&scene);
+    for v in body_velocities(&sim, 0) {
+        assert!(v[0].abs() < 1e-12, "the bottom block was dragged: {v:?}");
+    }
+}
+
+/// A cracked plate that translates: its crack moves with it, exactly.
+#[test]
+fn a_crack_in_a_translating_body_moves_with_it() {
+    let text = r#"
+[grid]
+cell_size = 0.001
+max = [0.04, 0.03]
+[analysis]
+plane = "plane_strain"
+[time]
+end = 2.0e-4
+cfl = 0.3
+[materials.m]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 1.0e8
+poissons_ratio = 0.3
+[[bodies]]
+shape = { type = "box", min = [0.005, 0.005], max = [0.025, 0.025] }
+material = "m"
+velocity = [20.0, 10.0]
+explicit_cracks = [{ points = [[0.0101, 0.0143], [0.0152, 0.0151], [0.0198, 0.0162]] }]
+"#;
+    for update in ["xpic1", "flip"] {
+        let scene = parse(&format!("{text}\n[cramp]\nsurface_update = \"{update}\"\n"));
+        let (sim, _) = run(&scene);
+        let t = sim.time();
+        let cramp = sim.model::<Cramp>().expect("the crack model");
+        let start = [[0.0101, 0.0143], [0.0152, 0.0151], [0.0198, 0.0162]];
+        for (k, x0) in start.iter().enumerate() {
+            for s in [
+                cramp.cracks[0].plane[k],
+                cramp.cracks[0].above[k],
+                cramp.cracks[0].below[k],
+            ] {
+                let want = [x0[0] + 20.0 * t, x0[1] + 10.0 * t];
+                assert!(
+                    (s[0] - want[0]).abs() < 1e-12 && (s[1] - want[1]).abs() < 1e-12,
+                    "{update}: point {k} at {s:?}, expected {want:?}"
+                );
+            }
+        }
+    }
+}
+
+/// Bad crack input: each a clear error naming the field.
+#[test]
+fn bad_cracks_are_refused_naming_the_field() {
+    let base = stacked([0.0, 1.0], 0.0);
+    let line = "explicit_cracks = [{ points = [[0.0021, 0.0151], [0.0055, 0.0151], [0.0101, 0.0151], [0.0152, 0.0151], [0.0203, 0.0151], [0.0245, 0.0151], [0.0279, 0.0151]], friction = 0 }]";
+    assert!(base.contains(line));
+    let refused = |with: &str, path: &str, words: &str| {
+        let text = base.replace(line, with);
+        let err = Scene::from_text(&text, None)
+            .expect_err("refused")
+            .to_string();
+        assert!(err.contains(path), "{err}");
+        assert!(err.contains(words), "{err}");
+    };
+    refused(
+        "explicit_cracks = [{ points = [[0.0046, 0.0151]] }]",
+        "bodies[0].explicit_cracks[0].points",
+        "at least 2 points",
+    );
+    refused(
+        "explicit_cracks = [{ points = [[0.001, 0.028], [0.003, 0.029]] }]",
+        "bodies[0].explicit_cracks[0]",
+        "outside its body",
+    );
+    refused(
+        "explicit_cracks = [{ points = [[0.01, 0.01], [0.05, 0.01]] }]",
+        "bodies[0].explicit_cracks[0].points[1]",
+        "outside the grid",
+    );
+    refused(
+        "explicit_cracks = [{ points = [[0.01, 0.01], [0.02, 0.01]], friction = -1 }]",
+        "bodies[0].explicit_cracks[0].friction",
+        "",
+    );
+    // three cracks through one node's reach
+    refused(
+        "explicit_cracks = [{ points = [[0.01, 0.01], [0.02, 0.0101]] }, { points = [[0.01, 0.0103], [0.02, 0.0104]] }, { points = [[0.015, 0.007], [0.0151, 0.013]] }]",
+        "bodies[0].explicit_cracks[2]",
+        "sees 3 cracks",
+    );
+    // a second contact group
+    let text = base.replace("name = \"top\"", "name = \"top\"\ncontact_group = 1");
+    let err = Scene::from_text(&text, None)
+        .expect_err("refused")
+        .to_string();
+    assert!(err.contains("one contact group"), "{err}");
+    // with DFG
+    let err = Scene::from_text(&format!("{base}\n[dfg]\nself_contact = true\n"), None)
+        .expect_err("refused")
+        .to_string();
+    assert!(
+        err.contains("dfg") && err.contains("explicit cracks"),
+        "{err}"
+    );
+    // a 3D scene
+    let text3 = r#"
+[grid]
+cell_size = 0.002
+max = [0.02, 0.02, 0.02]
+[time]
+end = 1.0e-4
+[materials.m]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 1.0e8
+poissons_ratio = 0.3
+[[bodies]]
+shape = { type = "box", min = [0.004, 0.004, 0.004], max = [0.016, 0.016, 0.016] }
+material = "m"
+explicit_cracks = [{ points = [[0.005, 0.01, 0.01], [0.015, 0.01, 0.01]] }]
+"#;
+    let err = Scene::from_text(text3, None)
+        .expect_err("refused")
+        .to_string();
+    assert!(
+        err.contains("bodies[0].explicit_cracks") && err.contains("2D"),
+        "{err}"
+    );
+    // options without cracks
+    let plain = base.replace(line, "");
+    let err = Scene::from_text(&format!("{plain}\n[cramp]\n"), None)
+        .expect_err("refused")
+        .to_string();
+    assert!(err.contains("cramp"), "{err}");
+}
+
+/// The shipped centre-cracked plate (`scenes/cramp_center_crack.toml`):
+/// under the held 1 MPa the crack's centre opens as the static solution
+/// of a Griffith crack in a strip says, δ = 4σa/E′ · V(α), α = 2a/W,
+/// with the finite-width factor of Tada, Paris & Irwin's handbook (the
+/// centre-cracked strip's opening, V = −0.071 − 0.535α + 0.169α² + 0.02α³
+/// − 1.071 ln(1 − α)/α: 1.024 at α = 0.2), within 10 % on average over
+/// the hold (the loading is dynamic: the plate still rings). 15–35 s in
+/// release: `cargo test --release --test cracks -- --ignored`.
+#[test]
+#[ignore]
+fn the_centre_crack_opens_as_griffith_says() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cramp_center_crack.toml"
+    );
+    let scene = Scene::from_path(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = Simulation::new(&scene);
+    let (sigma, a, e, nu) = (1.0e6, 0.004, 1.0e9, 0.3);
+    let e_star = e / (1.0 - nu * nu);
+    let al: f64 = 0.2;
+    let v =
+        -0.071 - 0.535 * al + 0.169 * al * al + 0.02 * al.powi(3) - 1.071 * (1.0 - al).ln() / al;
+    let want = 4.0 * sigma * a / e_star * v;
+    let mut samples = Vec::new();
+    while sim.time() < 6.0e-4 * (1.0 - 1e-9) {
+        sim.step().unwrap_or_else(|e| panic!("{e}"));
+        if sim.time() > 4.2e-4 {
+            let cramp = sim.model::<Cramp>().expect("the crack model");
+            let crack = &cramp.cracks[0];
+            let mid = crack.plane.len() / 2;
+            samples.push(crack.opening(mid, 0.0));
+        }
+    }
+    let mean = samples.iter().sum::<f64>() / samples.len() as f64;
+    println!("centre opening: mean {mean:e} m over the hold, static {want:e} m");
+    assert!(
+        (mean / want - 1.0).abs() < 0.10,
+        "centre opening {mean:e} m, static {want:e} m"
+    );
+}
