@@ -40,7 +40,7 @@ pub fn p2g<
     let mom = SyncPtr::new(&mut grid.momentum);
     let force = SyncPtr::new(&mut grid.force);
     let mgrad = SyncPtr::new(&mut grid.mass_grad);
-    // inline(always) down to the node: the loop runs in `cpu::wide`'s copy
+    // inline(always) down to the node, as `scatter_coloured` asks
     scatter_coloured::<K, D, V>(
         geom,
         parts,
