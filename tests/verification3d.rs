@@ -300,13 +300,7 @@ snapshots = 0
 "#,
     );
     let go = |threads: usize| {
-        common::on_threads(threads, || {
-            let mut sim = Sim3::build(&s);
-            let mut rec = Recorder::default();
-            let summary = sim.run(&mut rec).expect("the sphere lands");
-            let rows: Vec<Vec<f64>> = rec.rows.iter().map(|r| r.values()).collect();
-            (rows, sim.particles().clone(), summary.contact_steps)
-        })
+        common::on_threads(threads, || common::run_bits::<3, 6>(&s, "the sphere lands"))
     };
     let (a, b) = (go(1), go(2));
     assert!(a.2 > 0, "the sphere touched the block");
@@ -364,17 +358,7 @@ stress_update = "musl""#,
         r#"scheme = "apic""#,
     ] {
         let s = cleave::scene::Scene::from_text(&text(transfer), None).expect("the 2D scene");
-        let go = || {
-            let mut sim = cleave::mpm::Simulation::<2, 3>::build(&s);
-            let mut rec = Recorder::default();
-            let summary = sim.run(&mut rec).expect("the disk lands");
-            let rows: Vec<Vec<u64>> = rec
-                .rows
-                .iter()
-                .map(|r| r.values().iter().map(|v| v.to_bits()).collect())
-                .collect();
-            (rows, sim.particles().clone(), summary.contact_steps)
-        };
+        let go = || common::run_bits::<2, 3>(&s, "the disk lands");
         let a = go();
         cleave::cpu::force(Some(cleave::cpu::Level::Baseline));
         let b = go();

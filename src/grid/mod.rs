@@ -540,6 +540,11 @@ pub fn particle_support<K: Kernel, const D: usize, const V: usize>(
 /// same colour (see [`crate::grid::TILE`]), so `scatter` may add into the
 /// nodes of the particle's support through a [`SyncPtr`], and the order of
 /// the additions at every node is the same for any number of threads.
+///
+/// A tile's loop runs in [`crate::cpu::wide`]'s copy, so callers mark
+/// `scatter` and every closure it passes on (the per-node one of
+/// [`Support::for_each`]) `#[inline(always)]`: only code inlined into that
+/// copy gets the wider instructions (see [`crate::cpu`]).
 pub fn scatter_coloured<K: Kernel, const D: usize, const V: usize>(
     geom: &GridGeom<D>,
     parts: &Particles<D, V>,

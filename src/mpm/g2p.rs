@@ -225,119 +225,38 @@ fn gather<
     dt: f64,
 ) -> G2pStats<D> {
     check_voigt::<D, V>();
-    let x_next = SyncPtr::new(x_next);
     let n = parts.len();
-    let gimp = !parts.half_size.is_empty();
-    let (vel, vel_old) = (&grid.vel, &grid.vel_old);
-    let x = SyncPtr::new(&mut parts.x);
-    let v = SyncPtr::new(&mut parts.v);
-    let vol = SyncPtr::new(&mut parts.vol);
-    let stress = SyncPtr::new(&mut parts.stress);
-    let strain = SyncPtr::new(&mut parts.strain);
-    let def_grad = SyncPtr::new(&mut parts.def_grad);
-    let affine = SyncPtr::new(&mut parts.affine);
-    let tile_of = SyncPtr::new(&mut bins.tile_of);
-    let (material, vol0, half_size) = (&parts.material, &parts.vol0, &parts.half_size);
-    let alpha = transfer.flip;
-    let dinv = K::APIC_DINV_H2.map(|d| d * geom.inv_h * geom.inv_h);
+    let pass = Gather {
+        up: Update {
+            geom,
+            mats,
+            dt,
+            material: &parts.material,
+            vol0: &parts.vol0,
+            vol: SyncPtr::new(&mut parts.vol),
+            stress: SyncPtr::new(&mut parts.stress),
+            strain: SyncPtr::new(&mut parts.strain),
+            def_grad: SyncPtr::new(&mut parts.def_grad),
+            tile_of: SyncPtr::new(&mut bins.tile_of),
+        },
+        slots,
+        vel: &grid.vel,
+        vel_old: &grid.vel_old,
+        half_size: &parts.half_size,
+        x: SyncPtr::new(&mut parts.x),
+        v: SyncPtr::new(&mut parts.v),
+        affine: SyncPtr::new(&mut parts.affine),
+        x_next: SyncPtr::new(x_next),
+        alpha: transfer.flip,
+        dinv: K::APIC_DINV_H2.map(|d| d * geom.inv_h * geom.inv_h),
+    };
     (0..n.div_ceil(CHUNK))
         .into_par_iter()
+        // SAFETY: the chunks are disjoint.
         .map(|c| {
             crate::cpu::wide(
                 #[inline(always)]
-                || {
-                    let mut st = G2pStats::default();
-                    for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                        // SAFETY: particle p belongs to this chunk only.
-                        let (xp, vp) = unsafe { (x.at(p), v.at(p)) };
-                        let lp = if gimp { half_size[p] } else { 0.0 };
-                        let sup = Support::<K, D>::new(geom, *xp, lp);
-                        let xi = sup.xi();
-                        let mut vpic = [0.0; D];
-                        let mut dflip = [0.0; D];
-                        let mut l = [[0.0; D]; D]; // ∂v_a/∂x_b
-                        let mut b = [[0.0; D]; D];
-                        sup.for_each(
-                            #[inline(always)]
-                            |n| {
-                                let s = slots.slot(n.node, p);
-                                let (w, g) = (n.w, n.grad);
-                                let vi = vel[s];
-                                for a in 0..D {
-                                    vpic[a] += w * vi[a];
-                                }
-                                if !APIC {
-                                    let vo = vel_old[s];
-                                    for a in 0..D {
-                                        dflip[a] += w * (vi[a] - vo[a]);
-                                    }
-                                } else if dinv.is_some() {
-                                    let mut d = [0.0; D];
-                                    for c in 0..D {
-                                        d[c] = n.at[c] as f64 - xi[c];
-                                    }
-                                    for a in 0..D {
-                                        let wv = w * vi[a];
-                                        for c in 0..D {
-                                            b[a][c] += wv * d[c];
-                                        }
-                                    }
-                                }
-                                for a in 0..D {
-                                    for c in 0..D {
-                                        l[a][c] += vi[a] * g[c];
-                                    }
-                                }
-                            },
-                        );
-                        // velocity and position
-                        let vnew = if APIC {
-                            // SAFETY: as above.
-                            let a = unsafe { affine.at(p) };
-                            *a = match dinv {
-                                // B is in cell units of distance: C = B h D⁻¹.
-                                Some(d) => {
-                                    let mut c = [[0.0; D]; D];
-                                    for r in 0..D {
-                                        for k in 0..D {
-                                            c[r][k] = b[r][k] * geom.h * d;
-                                        }
-                                    }
-                                    c
-                                }
-                                None => l,
-                            };
-                            vpic
-                        } else {
-                            let mut v = [0.0; D];
-                            for a in 0..D {
-                                v[a] = alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a];
-                            }
-                            v
-                        };
-                        *vp = vnew;
-                        let mut moved = [0.0; D];
-                        for a in 0..D {
-                            moved[a] = xp[a] + dt * vpic[a];
-                        }
-                        geom.keep_inside(&mut moved, vp);
-                        if VELOCITY_ONLY {
-                            // SAFETY: as above.
-                            unsafe { *x_next.at(p) = moved };
-                            continue;
-                        }
-                        *xp = moved;
-                        // constitutive update and guards
-                        let mat = &mats[material[p] as usize];
-                        // SAFETY: as above.
-                        let (sig, j_ratio) =
-                            unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
-                        unsafe { *stress.at(p) = sig };
-                        // SAFETY: as above.
-                        unsafe { finish(geom, p, *xp, vnew, sig, j_ratio, mat, tile_of, &mut st) };
-                    }
-                    st
-                },
+                || unsafe { gather_chunk::<K, S, APIC, VELOCITY_ONLY, D, V>(&pass, chunk(c, n)) },
             )
         })
         .reduce(G2pStats::default, G2pStats::merge)
@@ -359,52 +278,287 @@ pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
 ) -> G2pStats<D> {
     check_voigt::<D, V>();
     let n = parts.len();
-    let gimp = !parts.half_size.is_empty();
-    let vel = &grid.vel;
-    let x = SyncPtr::new(&mut parts.x);
-    let vol = SyncPtr::new(&mut parts.vol);
-    let stress = SyncPtr::new(&mut parts.stress);
-    let strain = SyncPtr::new(&mut parts.strain);
-    let def_grad = SyncPtr::new(&mut parts.def_grad);
-    let tile_of = SyncPtr::new(&mut bins.tile_of);
-    let (material, vol0, half_size, v) = (&parts.material, &parts.vol0, &parts.half_size, &parts.v);
+    let pass = Stress {
+        up: Update {
+            geom,
+            mats,
+            dt,
+            material: &parts.material,
+            vol0: &parts.vol0,
+            vol: SyncPtr::new(&mut parts.vol),
+            stress: SyncPtr::new(&mut parts.stress),
+            strain: SyncPtr::new(&mut parts.strain),
+            def_grad: SyncPtr::new(&mut parts.def_grad),
+            tile_of: SyncPtr::new(&mut bins.tile_of),
+        },
+        slots,
+        vel: &grid.vel,
+        half_size: &parts.half_size,
+        v: &parts.v,
+        x: SyncPtr::new(&mut parts.x),
+        x_next,
+    };
     (0..n.div_ceil(CHUNK))
         .into_par_iter()
+        // SAFETY: the chunks are disjoint.
         .map(|c| {
             crate::cpu::wide(
                 #[inline(always)]
-                || {
-                    let mut st = G2pStats::default();
-                    for p in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                        // SAFETY: particle p belongs to this chunk only.
-                        let xp = unsafe { x.at(p) };
-                        let lp = if gimp { half_size[p] } else { 0.0 };
-                        let mut l = [[0.0; D]; D];
-                        Support::<K, D>::new(geom, *xp, lp).for_each(
-                            #[inline(always)]
-                            |n| {
-                                let vi = vel[slots.slot(n.node, p)];
-                                for a in 0..D {
-                                    for c in 0..D {
-                                        l[a][c] += vi[a] * n.grad[c];
-                                    }
-                                }
-                            },
-                        );
-                        let mat = &mats[material[p] as usize];
-                        // SAFETY: as above.
-                        let (sig, j_ratio) =
-                            unsafe { constitutive(mat, l, dt, p, strain, def_grad, vol, vol0) };
-                        unsafe { *stress.at(p) = sig };
-                        *xp = x_next[p];
-                        // SAFETY: as above.
-                        unsafe { finish(geom, p, *xp, v[p], sig, j_ratio, mat, tile_of, &mut st) };
-                    }
-                    st
-                },
+                || unsafe { stress_chunk::<K, S, D, V>(&pass, chunk(c, n)) },
             )
         })
         .reduce(G2pStats::default, G2pStats::merge)
+}
+
+/// The particles of chunk `c` of `n` particles.
+#[inline(always)]
+fn chunk(c: usize, n: usize) -> std::ops::Range<usize> {
+    c * CHUNK..((c + 1) * CHUNK).min(n)
+}
+
+// The chunk functions below are `#[inline(always)]` down to the per-node
+// closures: each is called inside `cpu::wide`, and only code inlined into
+// its `#[target_feature]` copy runs with the wider instructions (see
+// `crate::cpu`).
+
+/// What both passes that end in the constitutive update share: the arrays
+/// it writes (each particle by the task of its chunk only) and reads.
+#[derive(Clone, Copy)]
+struct Update<'a, const D: usize, const V: usize> {
+    geom: &'a GridGeom<D>,
+    mats: &'a [Elastic],
+    dt: f64,
+    material: &'a [u16],
+    vol0: &'a [f64],
+    vol: SyncPtr<'a, f64>,
+    stress: SyncPtr<'a, [f64; V]>,
+    strain: SyncPtr<'a, [f64; V]>,
+    def_grad: SyncPtr<'a, [[f64; D]; D]>,
+    tile_of: SyncPtr<'a, u32>,
+}
+
+impl<const D: usize, const V: usize> Update<'_, D, V> {
+    /// The constitutive update of particle `p` with velocity gradient `l`,
+    /// its stress stored, then [`finish`] for the particle now at `x` with
+    /// velocity `v`.
+    ///
+    /// # Safety
+    /// Particle `p` is accessed by this task only.
+    #[inline(always)]
+    unsafe fn particle(
+        &self,
+        p: usize,
+        l: [[f64; D]; D],
+        x: [f64; D],
+        v: [f64; D],
+        st: &mut G2pStats<D>,
+    ) {
+        let mat = &self.mats[self.material[p] as usize];
+        let (sig, j_ratio) = unsafe {
+            constitutive(
+                mat,
+                l,
+                self.dt,
+                p,
+                self.strain,
+                self.def_grad,
+                self.vol,
+                self.vol0,
+            )
+        };
+        unsafe { *self.stress.at(p) = sig };
+        unsafe { finish(self.geom, p, x, v, sig, j_ratio, mat, self.tile_of, st) };
+    }
+}
+
+/// [`gather`]'s view of the particles and the grid.
+struct Gather<'a, S, const D: usize, const V: usize> {
+    up: Update<'a, D, V>,
+    slots: &'a S,
+    vel: &'a [[f64; D]],
+    vel_old: &'a [[f64; D]],
+    /// GIMP half-widths (empty: a point kernel).
+    half_size: &'a [f64],
+    x: SyncPtr<'a, [f64; D]>,
+    v: SyncPtr<'a, [f64; D]>,
+    affine: SyncPtr<'a, [[f64; D]; D]>,
+    x_next: SyncPtr<'a, [f64; D]>,
+    /// The FLIP fraction.
+    alpha: f64,
+    /// APIC's D⁻¹ (None: C = L, linear and GIMP kernels).
+    dinv: Option<f64>,
+}
+
+/// [`gather`] for the particles `range`.
+///
+/// # Safety
+/// No other task accesses the particles of `range`.
+#[inline(always)]
+unsafe fn gather_chunk<
+    K: Kernel,
+    S: FieldSlots,
+    const APIC: bool,
+    const VELOCITY_ONLY: bool,
+    const D: usize,
+    const V: usize,
+>(
+    g: &Gather<'_, S, D, V>,
+    range: std::ops::Range<usize>,
+) -> G2pStats<D> {
+    let Gather {
+        up,
+        slots,
+        vel,
+        vel_old,
+        half_size,
+        x,
+        v,
+        affine,
+        x_next,
+        alpha,
+        dinv,
+    } = *g;
+    let (geom, dt, gimp) = (up.geom, up.dt, !half_size.is_empty());
+    let mut st = G2pStats::default();
+    for p in range {
+        // SAFETY: particle p belongs to this chunk only.
+        let (xp, vp) = unsafe { (x.at(p), v.at(p)) };
+        let lp = if gimp { half_size[p] } else { 0.0 };
+        let sup = Support::<K, D>::new(geom, *xp, lp);
+        let xi = sup.xi();
+        let mut vpic = [0.0; D];
+        let mut dflip = [0.0; D];
+        let mut l = [[0.0; D]; D]; // ∂v_a/∂x_b
+        let mut b = [[0.0; D]; D];
+        sup.for_each(
+            #[inline(always)]
+            |n| {
+                let s = slots.slot(n.node, p);
+                let (w, g) = (n.w, n.grad);
+                let vi = vel[s];
+                for a in 0..D {
+                    vpic[a] += w * vi[a];
+                }
+                if !APIC {
+                    let vo = vel_old[s];
+                    for a in 0..D {
+                        dflip[a] += w * (vi[a] - vo[a]);
+                    }
+                } else if dinv.is_some() {
+                    let mut d = [0.0; D];
+                    for c in 0..D {
+                        d[c] = n.at[c] as f64 - xi[c];
+                    }
+                    for a in 0..D {
+                        let wv = w * vi[a];
+                        for c in 0..D {
+                            b[a][c] += wv * d[c];
+                        }
+                    }
+                }
+                for a in 0..D {
+                    for c in 0..D {
+                        l[a][c] += vi[a] * g[c];
+                    }
+                }
+            },
+        );
+        // velocity and position
+        let vnew = if APIC {
+            // SAFETY: as above.
+            let a = unsafe { affine.at(p) };
+            *a = match dinv {
+                // B is in cell units of distance: C = B h D⁻¹.
+                Some(d) => {
+                    let mut c = [[0.0; D]; D];
+                    for r in 0..D {
+                        for k in 0..D {
+                            c[r][k] = b[r][k] * geom.h * d;
+                        }
+                    }
+                    c
+                }
+                None => l,
+            };
+            vpic
+        } else {
+            let mut v = [0.0; D];
+            for a in 0..D {
+                v[a] = alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a];
+            }
+            v
+        };
+        *vp = vnew;
+        let mut moved = [0.0; D];
+        for a in 0..D {
+            moved[a] = xp[a] + dt * vpic[a];
+        }
+        geom.keep_inside(&mut moved, vp);
+        if VELOCITY_ONLY {
+            // SAFETY: as above.
+            unsafe { *x_next.at(p) = moved };
+            continue;
+        }
+        *xp = moved;
+        // SAFETY: as above.
+        unsafe { up.particle(p, l, *xp, vnew, &mut st) };
+    }
+    st
+}
+
+/// [`musl_stress`]'s view of the particles and the grid.
+struct Stress<'a, S, const D: usize, const V: usize> {
+    up: Update<'a, D, V>,
+    slots: &'a S,
+    vel: &'a [[f64; D]],
+    /// GIMP half-widths (empty: a point kernel).
+    half_size: &'a [f64],
+    v: &'a [[f64; D]],
+    x: SyncPtr<'a, [f64; D]>,
+    x_next: &'a [[f64; D]],
+}
+
+/// [`musl_stress`] for the particles `range`.
+///
+/// # Safety
+/// No other task accesses the particles of `range`.
+#[inline(always)]
+unsafe fn stress_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
+    s: &Stress<'_, S, D, V>,
+    range: std::ops::Range<usize>,
+) -> G2pStats<D> {
+    let Stress {
+        up,
+        slots,
+        vel,
+        half_size,
+        v,
+        x,
+        x_next,
+    } = *s;
+    let gimp = !half_size.is_empty();
+    let mut st = G2pStats::default();
+    for p in range {
+        // SAFETY: particle p belongs to this chunk only.
+        let xp = unsafe { x.at(p) };
+        let lp = if gimp { half_size[p] } else { 0.0 };
+        let mut l = [[0.0; D]; D];
+        Support::<K, D>::new(up.geom, *xp, lp).for_each(
+            #[inline(always)]
+            |n| {
+                let vi = vel[slots.slot(n.node, p)];
+                for a in 0..D {
+                    for c in 0..D {
+                        l[a][c] += vi[a] * n.grad[c];
+                    }
+                }
+            },
+        );
+        *xp = x_next[p];
+        // SAFETY: as above.
+        unsafe { up.particle(p, l, *xp, v[p], &mut st) };
+    }
+    st
 }
 
 /// Guards, CFL signal speed and tile bookkeeping after a particle's update.

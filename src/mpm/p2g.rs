@@ -40,7 +40,7 @@ pub fn p2g<
     let mom = SyncPtr::new(&mut grid.momentum);
     let force = SyncPtr::new(&mut grid.force);
     let mgrad = SyncPtr::new(&mut grid.mass_grad);
-    // inline(always) down to the node: the loop runs in `cpu::wide`'s copy
+    // inline(always) down to the node, as `scatter_coloured` asks
     scatter_coloured::<K, D, V>(
         geom,
         parts,
@@ -65,18 +65,7 @@ pub fn p2g<
                         *mass.at(slot) += wm;
                         let q = mom.at(slot);
                         if APIC {
-                            // N m (v + C (x_i − x_p)), the affine sum in axis order
-                            let mut d = [0.0; D];
-                            for a in 0..D {
-                                d[a] = (n.at[a] as f64 - xi[a]) * h;
-                            }
-                            for a in 0..D {
-                                let mut t = v[a];
-                                for b in 0..D {
-                                    t += c[a][b] * d[b];
-                                }
-                                q[a] += wm * t;
-                            }
+                            add_affine_momentum(q, wm, v, &c, n.at, xi, h);
                         } else {
                             for a in 0..D {
                                 q[a] += wm * v[a];
@@ -102,6 +91,34 @@ pub fn p2g<
             );
         },
     );
+}
+
+/// Adds a particle's APIC momentum at a node to `q`: N m (v + C (x_i − x_p))
+/// with `wm` = N m, the node at lattice position `at`, the particle at `xi`
+/// (both in cells) and cell size `h`; each component's affine sum in axis
+/// order. Inlined into the per-node closures of [`p2g`] and
+/// [`remap_velocities`] (they run in `cpu::wide`'s copy).
+#[inline(always)]
+fn add_affine_momentum<const D: usize>(
+    q: &mut [f64; D],
+    wm: f64,
+    v: [f64; D],
+    c: &[[f64; D]; D],
+    at: [isize; D],
+    xi: [f64; D],
+    h: f64,
+) {
+    let mut d = [0.0; D];
+    for a in 0..D {
+        d[a] = (at[a] as f64 - xi[a]) * h;
+    }
+    for a in 0..D {
+        let mut t = v[a];
+        for b in 0..D {
+            t += c[a][b] * d[b];
+        }
+        q[a] += wm * t;
+    }
 }
 
 /// Marks, for every node, which contact groups have particles whose support
@@ -180,17 +197,7 @@ pub fn remap_velocities<
                     // SAFETY: coloured scatter (see `scatter_coloured`).
                     let q = unsafe { mom.at(slots.slot(n.node, p)) };
                     // the remap always carries the affine term (zero without APIC)
-                    let mut d = [0.0; D];
-                    for a in 0..D {
-                        d[a] = (n.at[a] as f64 - xi[a]) * geom.h;
-                    }
-                    for a in 0..D {
-                        let mut t = v[a];
-                        for b in 0..D {
-                            t += c[a][b] * d[b];
-                        }
-                        q[a] += wm * t;
-                    }
+                    add_affine_momentum(q, wm, v, &c, n.at, xi, geom.h);
                 },
             );
         },

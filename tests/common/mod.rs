@@ -51,6 +51,33 @@ pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
         .install(f)
 }
 
+/// What [`run_bits`] keeps of a run: the series with every value as its
+/// bits (so that `==` compares them bitwise), the particles at the end,
+/// and the count of steps with contact.
+pub type RunBits<const D: usize, const V: usize> =
+    (Vec<Vec<u64>>, cleave::particles::Particles<D, V>, u64);
+
+/// `scene` run to its end in `D` dimensions, for the tests that compare
+/// two runs (thread counts, the baseline and the wide copies of
+/// `cleave::cpu`) to the bit. `what` names the run in a failure.
+pub fn run_bits<const D: usize, const V: usize>(
+    scene: &cleave::scene::Scene,
+    what: &str,
+) -> RunBits<D, V>
+where
+    cleave::particles::Particles<D, V>: cleave::mpm::Saved,
+{
+    let mut sim = cleave::mpm::Simulation::<D, V>::build(scene);
+    let mut rec = cleave::diagnostics::Recorder::default();
+    let summary = sim.run(&mut rec).unwrap_or_else(|e| panic!("{what}: {e}"));
+    let rows = rec
+        .rows
+        .iter()
+        .map(|r| r.values().iter().map(|v| v.to_bits()).collect())
+        .collect();
+    (rows, sim.particles().clone(), summary.contact_steps)
+}
+
 /// A small 3D impact: a stiff sphere at 60 m/s on a free beam, both with a
 /// 2nd-order phase field, solved directly (so that a resumed run repeats
 /// the straight one bit for bit, `tests/checkpoint.rs`); `tests/phase_field3d.rs`

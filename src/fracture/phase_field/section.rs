@@ -95,6 +95,8 @@ pub(crate) fn check(
                     pf.gamma.len()
                 ),
             ),
+            // no list: the 2nd order (g = 0), nothing to search
+            Some(_) if pf.gamma.is_empty() => {}
             Some(g) => {
                 if pf
                     .gamma

@@ -1583,17 +1583,10 @@ pub fn crack_density<const D: usize>(
     g: [f64; D],
     h: [f64; 6],
 ) -> f64 {
-    let quad: f64 = if D == 2 {
-        let m = p.gamma.voigt();
-        (0..3)
-            .map(|i| (0..3).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>())
-            .sum()
-    } else {
-        let m = &p.gamma3.m;
-        (0..6)
-            .map(|i| (0..6).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>())
-            .sum()
-    };
+    let (m, k) = (p.voigt6::<D>(), voigt_len(D));
+    let quad: f64 = (0..k)
+        .map(|i| (0..k).map(|j| h[i] * m[i][j] * h[j]).sum::<f64>())
+        .sum();
     let mut g2 = g[0] * g[0];
     for d in 1..D {
         g2 += g[d] * g[d];
