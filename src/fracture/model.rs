@@ -222,17 +222,18 @@ pub trait FractureModel<const D: usize = 2, const V: usize = 3>: Send + AsAny {
 }
 
 /// A model that splits the velocity fields at the nodes it cuts: there a
-/// contact group has two fields (two sides, which the contact law keeps
-/// from interpenetrating), and each particle–node pair maps to one of
-/// them. DFG partitioning does this (Homel & Herbold 2017), and explicit
-/// cracks will (a crack's two sides, Nairn's CRAMP). With a split the
-/// plan has contact, and the split's stages run before the scatter,
-/// because they decide the field slots the rest of the step uses. The
-/// slots borrow the model for the rest of the step, so its own
-/// [`FractureModel::run`] stages cannot run in that step: a model with
-/// both (moving crack particles after the gather, say) registers the two
-/// parts as two models, one whose slots read what the other's stages
-/// change (`tests/plan.rs` fails on a plan stage that did not run).
+/// contact group has several fields (two sides of a crack, which the
+/// contact law keeps from interpenetrating), and each particle–node pair
+/// maps to one of them. DFG partitioning does this (Homel & Herbold
+/// 2017), and explicit cracks (Nairn & Aimene's CRAMP: up to four fields
+/// for two cracks). With a split the plan has contact, and the split's
+/// stages run before the scatter, because they decide the field slots
+/// the rest of the step uses. The slots borrow the model (shared) for the
+/// rest of the step, so its own [`FractureModel::run`] stages cannot run
+/// in that step; what it must do meanwhile reads it shared
+/// ([`FieldSplit::contact`]), and what changes it runs after the slots
+/// are released ([`FieldSplit::after_slots`]: moving crack surfaces).
+/// `tests/plan.rs` fails on a plan stage that did not run.
 pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
     /// Coulomb friction between a group's two sides where they touch.
     fn self_friction(&self) -> f64;
