@@ -252,6 +252,12 @@ pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
     /// This step's field slots (after the partition).
     fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a, D>;
 
+    /// Whether the scatter sums the mass gradients Σ m_p ∇N per field (the
+    /// group law's contact normals); a split with its own normals says no.
+    fn mass_gradients(&self) -> bool {
+        true
+    }
+
     /// Contact between the split's fields by the split's own law (explicit
     /// cracks: each crack's normal and friction), in the `contact` stage;
     /// returns the nodes where it acted. None: the step's law between

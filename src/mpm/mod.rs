@@ -666,7 +666,8 @@ where
             let ran = 'stage: {
                 match t.stage {
                     Stage::P2g => {
-                        self.scatter::<K, S>(slots, multi, slots_n);
+                        let mgrad = multi.is_some() && split.is_none_or(|s| s.mass_gradients());
+                        self.scatter::<K, S>(slots, mgrad, slots_n);
                         true
                     }
                     // Tractions at mid-step: the impulse of a linear ramp is then exact
@@ -815,14 +816,9 @@ where
         Ok(())
     }
 
-    /// Clears the nodes the last scatter wrote, then P2G.
-    fn scatter<K: Kernel, S: FieldSlots>(
-        &mut self,
-        slots: &S,
-        multi: Option<&MultiField>,
-        slots_n: usize,
-    ) {
-        let contact = multi.is_some();
+    /// Clears the nodes the last scatter wrote, then P2G (with the mass
+    /// gradients of contact where `contact`).
+    fn scatter<K: Kernel, S: FieldSlots>(&mut self, slots: &S, contact: bool, slots_n: usize) {
         self.grid
             .reset(self.geom.node_count(), slots_n, contact, &self.written);
         self.written.clone_from(&self.bins.active);

@@ -33,7 +33,7 @@ pub mod model;
 pub mod section;
 
 use crate::grid::shape::Kernel;
-use crate::grid::{particle_support, FieldSlots, GridFields, GridGeom, MultiField, Support};
+use crate::grid::{particle_support, Bins, FieldSlots, GridFields, GridGeom, MultiField, Support};
 use crate::particles::Particles;
 use rayon::prelude::*;
 use section::SurfaceUpdate;
@@ -363,6 +363,8 @@ pub struct Cramp {
     /// Per cell (by its lower-left node), the cracks it sees (bit c).
     cell_cracks: Vec<u64>,
     marked: Vec<u32>,
+    /// The tiles that hold a cell that sees a crack.
+    tiles: Vec<u32>,
     /// Particles in cells that see a crack, and each one's entry.
     near: Vec<u32>,
     entry: Vec<u32>,
@@ -458,10 +460,13 @@ impl Cramp {
     /// The `field_partition` stage: every particle–node pair's crack
     /// velocity field and the nodes' fields (`multi`'s masks, bit j for
     /// field j; field 0 at every node), laid out; returns the slot count.
+    /// Only the particles of the tiles (`bins`) that hold a cell seeing a
+    /// crack are looked at; the fields are allocated in their tile order.
     pub fn partition<K: Kernel, const V: usize>(
         &mut self,
         geom: &GridGeom<2>,
         parts: &Particles<2, V>,
+        bins: &Bins,
         multi: &mut MultiField,
     ) -> usize {
         assert!(
@@ -484,14 +489,30 @@ impl Cramp {
             self.rec_of[r.node as usize] = NONE;
         }
         self.recs.clear();
-        // the particles whose cell sees a crack
+        // the particles whose cell sees a crack, from the tiles that hold
+        // such cells (in tile order: the same for any thread count)
+        self.tiles.clear();
+        self.tiles.extend(self.marked.iter().map(|&c| {
+            let at = geom.node_coords(c as usize);
+            geom.tile_of([at[0] as f64, at[1] as f64])
+        }));
+        self.tiles.sort_unstable();
+        self.tiles.dedup();
+        if self.entry.len() != parts.len() {
+            self.entry.clear();
+            self.entry.resize(parts.len(), NONE);
+        } else {
+            for &p in &self.near {
+                self.entry[p as usize] = NONE;
+            }
+        }
         self.near.clear();
-        self.entry.clear();
-        self.entry.resize(parts.len(), NONE);
-        for (p, &x) in parts.x.iter().enumerate() {
-            if self.seen(geom, x) != 0 {
-                self.entry[p] = self.near.len() as u32;
-                self.near.push(p as u32);
+        for &t in &self.tiles {
+            for &p in bins.particles_of(t) {
+                if self.seen(geom, parts.x[p as usize]) != 0 {
+                    self.entry[p as usize] = self.near.len() as u32;
+                    self.near.push(p);
+                }
             }
         }
         // their lines to their support nodes, traced in parallel

@@ -48,8 +48,8 @@ impl FieldSplit for Cramp {
     ) -> Option<usize> {
         match stage {
             Stage::FieldPartition => {
-                let (geom, parts) = (at.geom, at.parts);
-                Some(by_kernel!(at.kernel, K => self.partition::<K, 3>(geom, parts, multi)))
+                let (geom, parts, bins) = (at.geom, at.parts, at.bins);
+                Some(by_kernel!(at.kernel, K => self.partition::<K, 3>(geom, parts, bins, multi)))
             }
             _ => None,
         }
@@ -57,6 +57,12 @@ impl FieldSplit for Cramp {
 
     fn slots<'a>(&'a self, at: SlotContext<'a>) -> SplitSlots<'a> {
         SplitSlots::Cramp(self.slots(at.nodes, at.multi))
+    }
+
+    /// Crack contact takes its normals from the cracks: the scatter need
+    /// not sum mass gradients.
+    fn mass_gradients(&self) -> bool {
+        false
     }
 
     fn contact(&self, at: ContactContext<'_>) -> Option<usize> {
