@@ -1149,33 +1149,43 @@ impl<const D: usize> Dfg<D> {
         let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
         let (cut, normal) = (&self.cut, Self::normals_of(&self.normal, &self.normal0));
         let paper = normal.is_empty();
-        scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
-            let (gp, xp) = (grad[p], parts.x[p]);
-            let op = normal.get(p).copied().unwrap_or([0.0; D]);
-            let base = 2 * parts.group[p] as u32;
-            let m = parts.mass[p];
-            sup.for_each(|n| {
-                let node = n.node;
-                let gi = ngrad[node];
-                // (a node without a direction has everything on side 0)
-                let side = if gi == [0.0; D] {
-                    0
-                } else {
-                    side_at(paper, gp, op, gi, xp, cut[node]) as usize
-                };
-                // SAFETY: coloured scatter; every write is to `node`.
-                unsafe {
-                    *mask.at(node) |= 1 << (base + side as u32);
-                    if gi != [0.0; D] {
-                        let s = sums.at(node);
-                        let w = n.w * m;
-                        s.w[side] += w;
-                        s.wd[side] += w * d[p];
-                        s.dmax[side] = s.dmax[side].max(d[p]);
-                    }
-                }
-            });
-        });
+        // inline(always) down to the node: the loop runs in `cpu::wide`'s copy
+        scatter_coloured::<K, D, V>(
+            geom,
+            parts,
+            bins,
+            #[inline(always)]
+            |p, sup| {
+                let (gp, xp) = (grad[p], parts.x[p]);
+                let op = normal.get(p).copied().unwrap_or([0.0; D]);
+                let base = 2 * parts.group[p] as u32;
+                let m = parts.mass[p];
+                sup.for_each(
+                    #[inline(always)]
+                    |n| {
+                        let node = n.node;
+                        let gi = ngrad[node];
+                        // (a node without a direction has everything on side 0)
+                        let side = if gi == [0.0; D] {
+                            0
+                        } else {
+                            side_at(paper, gp, op, gi, xp, cut[node]) as usize
+                        };
+                        // SAFETY: coloured scatter; every write is to `node`.
+                        unsafe {
+                            *mask.at(node) |= 1 << (base + side as u32);
+                            if gi != [0.0; D] {
+                                let s = sums.at(node);
+                                let w = n.w * m;
+                                s.w[side] += w;
+                                s.wd[side] += w * d[p];
+                                s.dmax[side] = s.dmax[side].max(d[p]);
+                            }
+                        }
+                    },
+                );
+            },
+        );
         // Section 2.3: merge the sides of a group where not separable.
         let dmin = self.params.separability;
         let mut separated = 0u64;
