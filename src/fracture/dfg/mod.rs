@@ -388,8 +388,9 @@ fn scatter_hot<K: Kernel, const D: usize, const V: usize>(
 /// 3D self-contact: the direction in which surface particle p faces
 /// another surface, the kernel-weighted mean of the unit offsets x_q − x_p
 /// to the surface particles q within the radius that *face* p, each lying
-/// in front of the other's normal, (x_q − x_p)·n_p > 0 and (x_p − x_q)·n_q
-/// > 0 (by [`FACING_COS`] of the distance); zero where none does.
+/// in front of the other's normal, (x_q − x_p)·n_p > 0 and
+/// (x_p − x_q)·n_q > 0 (by [`FACING_COS`] of the distance); zero where
+/// none does.
 /// [`Dfg::balance`] uses it instead of p's normal. At the edges where a
 /// block's face meets a plane's face flush with it, the particles' normals
 /// are the two bodies' edge normals, (0, −0.71, 0.71) and (0, 0.71, 0.71),
@@ -1065,6 +1066,15 @@ impl<const D: usize> Dfg<D> {
     /// faces in contact, whose inner particles have no gradient and are
     /// placed by it; elsewhere it is the node. Leaves `node_grad` unit or
     /// zero.
+    ///
+    /// In 3D (docs/dfg.md, "Why it welds", items 6–8): a surface particle's
+    /// direction is its [`facing`] direction where it has one; a node
+    /// balances where its weaker side holds [`BALANCE_MIN_3D`] (0.1 %, so
+    /// that a body reaching the node only with its kernel's tail counts);
+    /// and at a balanced node the cut lies halfway between the innermost
+    /// surface particles of the two sides (normals within the cone of ±n_i)
+    /// where both are there, not at the centroid of d, which lay inside the
+    /// heavier body's surface band.
     fn balance<K: Kernel, const V: usize>(
         &mut self,
         geom: &GridGeom<D>,
