@@ -1214,7 +1214,10 @@ impl<const D: usize> Dfg<D> {
                         // 2–5 (max along n_i of side 0, min of side 1, and
                         // whether each has one)
                         if D == 3 {
-                            if let Some(u) = normal.get(p).copied().and_then(unit) {
+                            // (a surface particle, by the direction the
+                            // balance gave it: facing, else its normal)
+                            let surface = normal.get(p).is_some_and(|n| *n != [0.0; D]);
+                            if let Some(u) = direction(p).filter(|_| surface) {
                                 let c = dot(u, ng[node]);
                                 let (k, first) = if c > CONE_COS {
                                     (2, *dirs.at(base + 4) == 0.0)
