@@ -1072,7 +1072,8 @@ impl<const D: usize> Dfg<D> {
     /// balances where its weaker side holds [`BALANCE_MIN_3D`] (0.1 %, so
     /// that a body reaching the node only with its kernel's tail counts);
     /// and at a balanced node the cut lies halfway between the innermost
-    /// surface particles of the two sides (normals within the cone of ±n_i)
+    /// surface particles of the two sides (their directions, as above,
+    /// within the cone of ±n_i)
     /// where both are there, not at the centroid of d, which lay inside the
     /// heavier body's surface band.
     fn balance<K: Kernel, const V: usize>(
