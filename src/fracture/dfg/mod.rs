@@ -110,8 +110,28 @@ const SIDE_COS: f64 = 0.5;
 /// interior, so the block's edge particles had ∇D̄ pointing up into the
 /// block, like the plane's, and joined the plane's side (docs/dfg.md, "In
 /// 3D", has the measurement). 2D keeps ∇D̄ first, as measured there.
+///
+/// In 3D, at a node whose direction is balanced (`balanced`: two surfaces
+/// face each other there, [`Dfg::balance`]), a particle without a normal
+/// (inside its body) is placed by its position alone, against the cut
+/// between the two surfaces: its ∇D̄ points to the nearest band of any
+/// surface, and inside a plate 40 mm thick that is the plate's own bottom
+/// for the lower half, which put the plane's inner particles on the
+/// block's side at the nodes the block reaches with its kernel tail. 2D
+/// keeps ∇D̄ (its results are to stay as they were; these rules were
+/// measured only on the 3D incline).
 #[inline(always)]
-fn side<const D: usize>(gp: [f64; D], op: [f64; D], ni: [f64; D], xp: [f64; D], cut: f64) -> u32 {
+fn side<const D: usize>(
+    gp: [f64; D],
+    op: [f64; D],
+    ni: [f64; D],
+    xp: [f64; D],
+    cut: f64,
+    balanced: bool,
+) -> u32 {
+    if D == 3 && balanced && op == [0.0; D] {
+        return u32::from(dot(ni, xp) > cut);
+    }
     let clear = |g: [f64; D]| {
         let d = dot(g, ni);
         (d * d > SIDE_COS * SIDE_COS * dot(g, g)).then_some(d < 0.0)
@@ -138,11 +158,12 @@ fn side_at<const D: usize>(
     ni: [f64; D],
     xp: [f64; D],
     cut: f64,
+    balanced: bool,
 ) -> u32 {
     if paper {
         u32::from(dot(gp, ni) < 0.0)
     } else {
-        side(gp, op, ni, xp, cut)
+        side(gp, op, ni, xp, cut, balanced)
     }
 }
 
@@ -167,6 +188,17 @@ const CONE_COS: f64 = 0.9;
 /// least this fraction of the node's Σ N_ip m_p over the particles with a
 /// direction.
 const BALANCE_MIN: f64 = 0.01;
+
+/// [`BALANCE_MIN`] in 3D. Where a body reaches a node only with its
+/// kernel's tail (weight 1/32 per axis, the rows next to a contact plane,
+/// and less at the edges of a face), its share is below 1 %: the node then
+/// kept Algorithm 1's direction and both bodies one field there, which
+/// welded the block on the incline (docs/dfg.md, "Why it welds").
+const BALANCE_MIN_3D: f64 = 0.001;
+
+/// 3D: particles q count as facing p ([`facing`]) where each lies in front
+/// of the other's normal by at least this cosine (80°).
+const FACING_COS: f64 = 0.17;
 
 /// 2D: the candidates within [`CONE_COS`] of a direction, at most five.
 const CONE_K: usize = 5;
@@ -351,6 +383,52 @@ fn scatter_hot<K: Kernel, const D: usize, const V: usize>(
                 }
             });
     }
+}
+
+/// 3D self-contact: the direction in which surface particle p faces
+/// another surface, the kernel-weighted mean of the unit offsets x_q − x_p
+/// to the surface particles q within the radius that *face* p, each lying
+/// in front of the other's normal, (x_q − x_p)·n_p > 0 and
+/// (x_p − x_q)·n_q > 0 (by [`FACING_COS`] of the distance); zero where
+/// none does.
+/// [`Dfg::balance`] uses it instead of p's normal. At the edges where a
+/// block's face meets a plane's face flush with it, the particles' normals
+/// are the two bodies' edge normals, (0, −0.71, 0.71) and (0, 0.71, 0.71),
+/// 90° apart as the two faces of one body's convex corner are, so the
+/// balance's cone could not tell them from a corner and the edge nodes kept
+/// both bodies in one field; the particles of one convex corner lie behind
+/// each other's normals, the two bodies' edge particles in front, and
+/// their facing directions are −y and +y. (A concave corner of one body
+/// faces itself by this rule; not measured.)
+fn facing<const D: usize>(
+    p: usize,
+    x: &[[f64; D]],
+    normal: &[[f64; D]],
+    nb: &Neighbours<D>,
+    r: f64,
+) -> [f64; D] {
+    let Some(np) = normal.get(p).copied().and_then(unit) else {
+        return [0.0; D];
+    };
+    let mut c = [0.0; D];
+    for &q in nb.of(p) {
+        let q = q as usize;
+        let Some(nq) = normal.get(q).copied().and_then(unit) else {
+            continue;
+        };
+        let dx = sub(x[q], x[p]);
+        let l = dot(dx, dx).sqrt();
+        if l >= r || l == 0.0 {
+            continue;
+        }
+        if dot(dx, np) > FACING_COS * l && -dot(dx, nq) > FACING_COS * l {
+            let (w, _) = kernel(l / r, r);
+            for a in 0..D {
+                c[a] += w * dx[a] / l;
+            }
+        }
+    }
+    unit(c).unwrap_or([0.0; D])
 }
 
 /// The kernel of eq. 18 and its derivative factor: ω(r̄) and
@@ -637,9 +715,16 @@ pub struct Dfg<const D: usize = 2> {
     /// `shares[share_start[p]..share_start[p + 1]]`.
     share_start: Vec<u32>,
     shares: Vec<(u16, f64)>,
+    /// 3D: each surface particle's facing direction ([`facing`]), this
+    /// step (empty in 2D and without self-contact).
+    facing: Vec<[f64; D]>,
     /// Where the surface lies at each node, along its unit direction
     /// (n_i·x, m; see [`Dfg::balance`]).
     pub cut: Vec<f64>,
+    /// Nodes whose direction [`Dfg::balance`] turned towards opposing
+    /// surfaces (false without self-contact); [`side`] places the particles
+    /// without a normal by position there in 3D.
+    pub balanced: Vec<bool>,
     /// Particle positions at this step's partition: the side rule
     /// ([`side`]) must give the same field in P2G and G2P, and G2P moves
     /// the particles.
@@ -746,7 +831,9 @@ impl<const D: usize> Dfg<D> {
             dirs: Vec::new(),
             share_start: Vec::new(),
             shares: Vec::new(),
+            facing: Vec::new(),
             cut: vec![0.0; geom.node_count()],
+            balanced: vec![false; geom.node_count()],
             x_partition: Vec::with_capacity(n),
             sums: vec![SideSums::default(); geom.node_count()],
             written: Vec::new(),
@@ -919,6 +1006,7 @@ impl<const D: usize> Dfg<D> {
         for r in &self.written {
             self.node_grad[r.clone()].fill([0.0; D]);
             self.cut[r.clone()].fill(0.0);
+            self.balanced[r.clone()].fill(false);
             self.sums[r.clone()].fill(SideSums::default());
         }
         self.written.clone_from(&bins.active);
@@ -978,6 +1066,16 @@ impl<const D: usize> Dfg<D> {
     /// faces in contact, whose inner particles have no gradient and are
     /// placed by it; elsewhere it is the node. Leaves `node_grad` unit or
     /// zero.
+    ///
+    /// In 3D (docs/dfg.md, "Why it welds", items 6–8): a surface particle's
+    /// direction is its [`facing`] direction where it has one; a node
+    /// balances where its weaker side holds [`BALANCE_MIN_3D`] (0.1 %, so
+    /// that a body reaching the node only with its kernel's tail counts);
+    /// and at a balanced node the cut lies halfway between the innermost
+    /// surface particles of the two sides (their directions, as above,
+    /// within the cone of ±n_i)
+    /// where both are there, not at the centroid of d, which lay inside the
+    /// heavier body's surface band.
     fn balance<K: Kernel, const V: usize>(
         &mut self,
         geom: &GridGeom<D>,
@@ -1000,15 +1098,28 @@ impl<const D: usize> Dfg<D> {
             &self.normal
         };
         let (grad, hot, tile_of, cand) = (&self.grad, &self.hot, &bins.tile_of, &self.cand);
+        if D == 3 {
+            let (nb, r) = (&self.neighbours, self.params.radius);
+            self.facing.resize(parts.len(), [0.0; D]);
+            self.facing.par_iter_mut().enumerate().for_each(|(p, f)| {
+                *f = if hot[tile_of[p] as usize] {
+                    facing(p, &parts.x, normal, nb, r)
+                } else {
+                    [0.0; D]
+                };
+            });
+        }
+        let facing_dir = &self.facing;
         let direction = |p: usize| {
             if !hot[tile_of[p] as usize] {
                 return None;
             }
-            // 3D: a surface particle's own normal, for the reason given
-            // at `side`; 2D: ∇D̄, else the normal
+            // 3D: a surface particle's facing direction, else its own
+            // normal, for the reasons given at `facing` and `side`; 2D:
+            // ∇D̄, else the normal
             let own = normal.get(p).copied().and_then(unit);
             if D == 3 && own.is_some() {
-                return own;
+                return unit(facing_dir[p]).or(own);
             }
             unit(grad[p]).or(own)
         };
@@ -1062,7 +1173,8 @@ impl<const D: usize> Dfg<D> {
         for r in &self.written {
             for n in r.clone() {
                 let a = &mut self.dirs[n * stride..(n + 1) * stride];
-                let (mut best, mut best_k) = (BALANCE_MIN * a[2 * ncand], ncand);
+                let min = if D == 3 { BALANCE_MIN_3D } else { BALANCE_MIN };
+                let (mut best, mut best_k) = (min * a[2 * ncand], ncand);
                 for k in 0..ncand {
                     let weaker = a[2 * k].min(a[2 * k + 1]);
                     if weaker > best {
@@ -1071,6 +1183,7 @@ impl<const D: usize> Dfg<D> {
                 }
                 a.fill(0.0);
                 let g = &mut self.node_grad[n];
+                self.balanced[n] = best_k < ncand;
                 if best_k < ncand {
                     *g = self.cand.dir[best_k];
                     a[2 * ncand] = 1.0; // balanced: the second pass finds the cut
@@ -1094,8 +1207,37 @@ impl<const D: usize> Dfg<D> {
                 unsafe {
                     if *dirs.at(base + 2 * ncand) != 0.0 {
                         let w = w * d[p];
+                        let at = dot(ng[node], parts.x[p]);
                         *dirs.at(base) += w;
-                        *dirs.at(base + 1) += w * dot(ng[node], parts.x[p]);
+                        *dirs.at(base + 1) += w * at;
+                        // 3D: the innermost surface particles of the two
+                        // sides (normal within the cone of ±n_i), slots
+                        // 2–5 (max along n_i of side 0, min of side 1, and
+                        // whether each has one)
+                        if D == 3 {
+                            // (a surface particle, by the direction the
+                            // balance gave it: facing, else its normal)
+                            let surface = normal.get(p).is_some_and(|n| *n != [0.0; D]);
+                            if let Some(u) = direction(p).filter(|_| surface) {
+                                let c = dot(u, ng[node]);
+                                let (k, first) = if c > CONE_COS {
+                                    (2, *dirs.at(base + 4) == 0.0)
+                                } else if c < -CONE_COS {
+                                    (3, *dirs.at(base + 5) == 0.0)
+                                } else {
+                                    (0, false)
+                                };
+                                if k != 0 {
+                                    let e = dirs.at(base + k);
+                                    *e = match (first, k) {
+                                        (true, _) => at,
+                                        (false, 2) => e.max(at),
+                                        _ => e.min(at),
+                                    };
+                                    *dirs.at(base + k + 2) = 1.0;
+                                }
+                            }
+                        }
                     }
                 }
             },
@@ -1105,6 +1247,10 @@ impl<const D: usize> Dfg<D> {
                 let a = &mut self.dirs[n * stride..(n + 1) * stride];
                 if a[2 * ncand] != 0.0 && a[0] > 0.0 {
                     self.cut[n] = a[1] / a[0];
+                }
+                // 3D: halfway between the two surfaces where both are there
+                if D == 3 && a[2 * ncand] != 0.0 && a[4] != 0.0 && a[5] != 0.0 {
+                    self.cut[n] = 0.5 * (a[2] + a[3]);
                 }
                 a.fill(0.0);
             }
@@ -1148,34 +1294,45 @@ impl<const D: usize> Dfg<D> {
         let sums = SyncPtr::new(&mut self.sums);
         let (grad, ngrad, d) = (&self.grad, &self.node_grad, &self.d);
         let (cut, normal) = (&self.cut, Self::normals_of(&self.normal, &self.normal0));
+        let balanced = &self.balanced;
         let paper = normal.is_empty();
-        scatter_coloured::<K, D, V>(geom, parts, bins, |p, sup| {
-            let (gp, xp) = (grad[p], parts.x[p]);
-            let op = normal.get(p).copied().unwrap_or([0.0; D]);
-            let base = 2 * parts.group[p] as u32;
-            let m = parts.mass[p];
-            sup.for_each(|n| {
-                let node = n.node;
-                let gi = ngrad[node];
-                // (a node without a direction has everything on side 0)
-                let side = if gi == [0.0; D] {
-                    0
-                } else {
-                    side_at(paper, gp, op, gi, xp, cut[node]) as usize
-                };
-                // SAFETY: coloured scatter; every write is to `node`.
-                unsafe {
-                    *mask.at(node) |= 1 << (base + side as u32);
-                    if gi != [0.0; D] {
-                        let s = sums.at(node);
-                        let w = n.w * m;
-                        s.w[side] += w;
-                        s.wd[side] += w * d[p];
-                        s.dmax[side] = s.dmax[side].max(d[p]);
-                    }
-                }
-            });
-        });
+        // inline(always) down to the node: the loop runs in `cpu::wide`'s copy
+        scatter_coloured::<K, D, V>(
+            geom,
+            parts,
+            bins,
+            #[inline(always)]
+            |p, sup| {
+                let (gp, xp) = (grad[p], parts.x[p]);
+                let op = normal.get(p).copied().unwrap_or([0.0; D]);
+                let base = 2 * parts.group[p] as u32;
+                let m = parts.mass[p];
+                sup.for_each(
+                    #[inline(always)]
+                    |n| {
+                        let node = n.node;
+                        let gi = ngrad[node];
+                        // (a node without a direction has everything on side 0)
+                        let side = if gi == [0.0; D] {
+                            0
+                        } else {
+                            side_at(paper, gp, op, gi, xp, cut[node], balanced[node]) as usize
+                        };
+                        // SAFETY: coloured scatter; every write is to `node`.
+                        unsafe {
+                            *mask.at(node) |= 1 << (base + side as u32);
+                            if gi != [0.0; D] {
+                                let s = sums.at(node);
+                                let w = n.w * m;
+                                s.w[side] += w;
+                                s.wd[side] += w * d[p];
+                                s.dmax[side] = s.dmax[side].max(d[p]);
+                            }
+                        }
+                    },
+                );
+            },
+        );
         // Section 2.3: merge the sides of a group where not separable.
         let dmin = self.params.separability;
         let mut separated = 0u64;
@@ -1205,6 +1362,8 @@ pub struct DfgFields<'a, const D: usize = 2> {
     /// Particle positions at the partition ([`Dfg::x_partition`]).
     pub x: &'a [[f64; D]],
     pub cut: &'a [f64],
+    /// Nodes with a balanced direction ([`Dfg::balanced`]).
+    pub balanced: &'a [bool],
     /// Surface normals at the partition ([`Dfg::normals`]).
     pub normal: &'a [[f64; D]],
     pub nodes: usize,
@@ -1234,6 +1393,7 @@ impl<const D: usize> FieldSlots for DfgFields<'_, D> {
                         gi,
                         self.x[particle],
                         self.cut[node],
+                        self.balanced[node],
                     );
                 if self.multi.mask[node] & (1 << field) == 0 {
                     field ^= 1;

@@ -84,6 +84,7 @@ impl<const D: usize, const V: usize> FieldSplit<D, V> for Dfg<D> {
         SplitSlots::Dfg(DfgFields {
             x: &self.x_partition,
             cut: &self.cut,
+            balanced: &self.balanced,
             normal: self.normals(),
             nodes: at.nodes,
             multi: at.multi,
