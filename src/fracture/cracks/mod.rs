@@ -29,6 +29,7 @@
 //!    the fields on its own side (eq. 5) and moves by XPIC(1) (or FLIP);
 //!    the plane point moves by the mean of its two surfaces' moves.
 
+pub mod j_integral;
 pub mod model;
 pub mod section;
 
