@@ -195,22 +195,8 @@ fn block_slides_with_coulomb_friction() {
     let theta = 30f64.to_radians();
     let (g, mu) = (9.81, 0.3);
     let expected = g * (theta.sin() - mu * theta.cos());
-    let mut sim = Simulation::new(&scene);
-    let mut samples = Vec::new();
-    while sim.time() < scene.file.time.end * (1.0 - 1e-12) {
-        sim.step().expect("the block slides");
-        let p = sim.particles();
-        let (mut m, mut px) = (0.0, 0.0);
-        for k in 0..p.len() {
-            if p.body[k] == 1 {
-                m += p.mass[k];
-                px += p.mass[k] * p.v[k][0];
-            }
-        }
-        samples.push((sim.time(), px / m));
-    }
     // the slope of the block's velocity after the first 20 ms of settling
-    let a = common::slope_after(&samples, 0.02);
+    let a = common::body_acceleration_x::<2, 3>(&scene, 1, 0.02);
     println!(
         "sliding block: a = {a:.4} m/s^2 vs g(sin t - mu cos t) = {expected:.4} m/s^2 ({:+.2} %)",
         100.0 * (a / expected - 1.0)

@@ -242,22 +242,8 @@ snapshots = 0
     );
     let theta = 30f64.to_radians();
     let expected = 9.81 * (theta.sin() - 0.3 * theta.cos());
-    let mut sim = Sim3::build(&s);
-    let mut samples = Vec::new();
-    while sim.time() < s.file.time.end * (1.0 - 1e-12) {
-        sim.step().expect("the block slides");
-        let p = sim.particles();
-        let (mut m, mut px) = (0.0, 0.0);
-        for k in 0..p.len() {
-            if p.body[k] == 1 {
-                m += p.mass[k];
-                px += p.mass[k] * p.v[k][0];
-            }
-        }
-        samples.push((sim.time(), px / m));
-    }
     // the slope of the block's velocity after 20 ms of settling
-    let a = common::slope_after(&samples, 0.02);
+    let a = common::body_acceleration_x::<3, 6>(&s, 1, 0.02);
     println!(
         "3D sliding block: a = {a:.4} m/s² vs g(sin θ − μ cos θ) = {expected:.4} m/s² ({:+.2} %)",
         100.0 * (a / expected - 1.0)

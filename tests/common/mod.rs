@@ -16,6 +16,35 @@ pub fn slope_after(samples: &[(f64, f64)], after: f64) -> f64 {
     num / den
 }
 
+/// `scene` run to its end in `D` dimensions, sampling the mass-weighted
+/// mean x-velocity of body `body` after every step: the slope of those
+/// samples after `after` seconds, the acceleration of a block sliding
+/// down an incline (2D and 3D, with contact groups or DFG self-contact).
+pub fn body_acceleration_x<const D: usize, const V: usize>(
+    scene: &cleave::scene::Scene,
+    body: u16,
+    after: f64,
+) -> f64
+where
+    cleave::particles::Particles<D, V>: cleave::mpm::Saved,
+{
+    let mut sim = cleave::mpm::Simulation::<D, V>::build(scene);
+    let mut samples = Vec::new();
+    while sim.time() < scene.file.time.end * (1.0 - 1e-12) {
+        sim.step().expect("the block slides");
+        let p = sim.particles();
+        let (mut m, mut px) = (0.0, 0.0);
+        for k in 0..p.len() {
+            if p.body[k] == body {
+                m += p.mass[k];
+                px += p.mass[k] * p.v[k][0];
+            }
+        }
+        samples.push((sim.time(), px / m));
+    }
+    slope_after(&samples, after)
+}
+
 /// The mass-weighted mean x-velocity of the particles right of `x0`: how
 /// much of its motion the right half of a bar pulled apart keeps.
 pub fn mean_vx_right_of<const D: usize, const V: usize>(
