@@ -8,6 +8,14 @@ use cleave::fracture::cracks::Cramp;
 use cleave::mpm::Simulation;
 use cleave::scene::{Scene, Stage};
 
+/// The soft elastic material every scene here is made of.
+const SOFT: &str = r#"[materials.m]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 1.0e8
+poissons_ratio = 0.3
+"#;
+
 fn parse(text: &str) -> Scene {
     Scene::from_text(text, None).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -32,12 +40,7 @@ plane = "plane_strain"
 [time]
 end = 1.0e-4
 cfl = 0.3
-[materials.m]
-model = "linear_elastic"
-density = 1000.0
-youngs_modulus = 1.0e8
-poissons_ratio = 0.3
-[[bodies]]
+{SOFT}[[bodies]]
 name = "bottom"
 shape = {{ type = "box", min = [0.005, 0.005], max = [0.025, 0.0151] }}
 material = "m"
@@ -199,7 +202,8 @@ fn a_frictionless_crack_lets_the_faces_slide() {
 /// A cracked plate that translates: its crack moves with it, exactly.
 #[test]
 fn a_crack_in_a_translating_body_moves_with_it() {
-    let text = r#"
+    let text = format!(
+        r#"
 [grid]
 cell_size = 0.001
 max = [0.04, 0.03]
@@ -208,17 +212,13 @@ plane = "plane_strain"
 [time]
 end = 2.0e-4
 cfl = 0.3
-[materials.m]
-model = "linear_elastic"
-density = 1000.0
-youngs_modulus = 1.0e8
-poissons_ratio = 0.3
-[[bodies]]
-shape = { type = "box", min = [0.005, 0.005], max = [0.025, 0.025] }
+{SOFT}[[bodies]]
+shape = {{ type = "box", min = [0.005, 0.005], max = [0.025, 0.025] }}
 material = "m"
 velocity = [20.0, 10.0]
-explicit_cracks = [{ points = [[0.0101, 0.0143], [0.0152, 0.0151], [0.0198, 0.0162]] }]
-"#;
+explicit_cracks = [{{ points = [[0.0101, 0.0143], [0.0152, 0.0151], [0.0198, 0.0162]] }}]
+"#
+    );
     for update in ["xpic1", "flip"] {
         let scene = parse(&format!("{text}\n[cramp]\nsurface_update = \"{update}\"\n"));
         let (sim, _) = run(&scene);
@@ -296,23 +296,20 @@ fn bad_cracks_are_refused_naming_the_field() {
         "{err}"
     );
     // a 3D scene
-    let text3 = r#"
+    let text3 = format!(
+        r#"
 [grid]
 cell_size = 0.002
 max = [0.02, 0.02, 0.02]
 [time]
 end = 1.0e-4
-[materials.m]
-model = "linear_elastic"
-density = 1000.0
-youngs_modulus = 1.0e8
-poissons_ratio = 0.3
-[[bodies]]
-shape = { type = "box", min = [0.004, 0.004, 0.004], max = [0.016, 0.016, 0.016] }
+{SOFT}[[bodies]]
+shape = {{ type = "box", min = [0.004, 0.004, 0.004], max = [0.016, 0.016, 0.016] }}
 material = "m"
-explicit_cracks = [{ points = [[0.005, 0.01, 0.01], [0.015, 0.01, 0.01]] }]
-"#;
-    let err = Scene::from_text(text3, None)
+explicit_cracks = [{{ points = [[0.005, 0.01, 0.01], [0.015, 0.01, 0.01]] }}]
+"#
+    );
+    let err = Scene::from_text(&text3, None)
         .expect_err("refused")
         .to_string();
     assert!(
