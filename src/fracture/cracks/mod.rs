@@ -518,29 +518,34 @@ impl Cramp {
         }
         // their lines to their support nodes, traced in parallel
         let len = Support::<K, 2>::LEN;
+        // (and each support's first node)
         let mut cross = std::mem::take(&mut self.cross);
         cross.clear();
         cross.resize(self.near.len() * len, PairCross::default());
+        let mut node0 = std::mem::take(&mut self.node0);
+        node0.clear();
+        node0.resize(self.near.len(), 0);
         let me = &*self;
         cross
             .par_chunks_mut(len)
+            .zip(node0.par_iter_mut())
             .zip(me.near.par_iter())
-            .for_each(|(out, &p)| {
+            .for_each(|((out, first), &p)| {
                 let p = p as usize;
                 let x = parts.x[p];
                 let seen = me.seen(geom, x);
-                particle_support::<K, 2, V>(geom, parts, p).for_each(|sn| {
+                let sup = particle_support::<K, 2, V>(geom, parts, p);
+                *first = sup.first_node() as u32;
+                sup.for_each(|sn| {
                     out[sn.a] = me.trace(seen, None, x, geom.node_position(sn.node));
                 });
             });
+        self.node0 = node0;
         // the fields, first come first served in particle order (serial)
-        self.node0.clear();
         self.fields.clear();
         let mut warn = self.warnings;
-        for (e, &p) in self.near.iter().enumerate() {
-            let sup = particle_support::<K, 2, V>(geom, parts, p as usize);
-            let first = sup.first_node();
-            self.node0.push(first as u32);
+        for e in 0..self.near.len() {
+            let first = self.node0[e] as usize;
             let mut f = [0u8; MAX_LEN];
             for a in 0..len {
                 let pc = &cross[e * len + a];
@@ -674,7 +679,8 @@ impl Cramp {
     }
 
     /// The velocity field of node `node` that crack `c`'s surface on side
-    /// `side` at `x` takes its velocity from (the appendix's v(s, i)):
+    /// `side` at `x` (whose cell sees the cracks `seen`) takes its velocity
+    /// from (the appendix's v(s, i)):
     /// across its own crack by the side of the node's field of that crack
     /// (by the node's side of the crack's nearest segment `k` where the
     /// node has none), across other cracks by tracing. None where the node
@@ -683,7 +689,7 @@ impl Cramp {
         &self,
         geom: &GridGeom<2>,
         (c, k, side): (usize, usize, u8),
-        x: [f64; 2],
+        (x, seen): ([f64; 2], u64),
         node: usize,
     ) -> Option<u32> {
         let xn = geom.node_position(node);
@@ -708,7 +714,7 @@ impl Cramp {
             set[0] = (c as u8, side);
             n = 1;
         }
-        let others = self.trace(self.seen(geom, x), Some(c), x, xn);
+        let others = self.trace(seen, Some(c), x, xn);
         for q in 0..others.n as usize {
             if n < 2 {
                 set[n] = (others.crack[q], others.at[q].map_or(0, |a| a.side));
@@ -750,11 +756,13 @@ impl Cramp {
                         (crack.below[k], crack.v_below[k])
                     };
                     let (mut mw, mut pv, mut pv0) = (0.0, [0.0; 2], [0.0; 2]);
+                    let seen = self.seen(geom, x);
                     Support::<K, 2>::new(geom, x, 0.0).for_each(|sn| {
                         if sn.w <= 0.0 {
                             return;
                         }
-                        let Some(j) = self.surface_field(geom, (c, k, side), x, sn.node) else {
+                        let Some(j) = self.surface_field(geom, (c, k, side), (x, seen), sn.node)
+                        else {
                             return;
                         };
                         if multi.mask.get(sn.node).is_none_or(|m| m >> j & 1 == 0) {
