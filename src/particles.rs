@@ -62,6 +62,12 @@ pub struct Particles<const D: usize = 2, const V: usize = 3> {
     /// Tensile strength σ_f of the particle, Pa (Weibull-distributed where
     /// asked; ∞ for materials without damage); empty unless damage.
     pub strength: Vec<f64>,
+    /// Displacement gradient ∂u_a/∂x_b = ∫ L dt (row-major), summed in the
+    /// constitutive update with the velocity gradient of the particle's
+    /// own velocity field; empty unless the scene has explicit cracks,
+    /// whose J integral needs it (the rotation as well as the strain:
+    /// Nairn & Aimene, eq. 9).
+    pub grad_u: Vec<[[f64; D]; D]>,
 }
 
 impl<const D: usize, const V: usize> Particles<D, V> {
@@ -97,5 +103,6 @@ impl<const D: usize, const V: usize> Particles<D, V> {
             + b(&self.history)
             + b(&self.damage)
             + b(&self.strength)
+            + b(&self.grad_u)
     }
 }

@@ -324,43 +324,70 @@ explicit_cracks = [{{ points = [[0.005, 0.01, 0.01], [0.015, 0.01, 0.01]] }}]
     assert!(err.contains("cramp"), "{err}");
 }
 
-/// The shipped centre-cracked plate (`scenes/cramp_center_crack.toml`):
-/// under the held 1 MPa the crack's centre opens as the static solution
-/// of a Griffith crack in a strip says, δ = 4σa/E′ · V(α), α = 2a/W,
-/// with the finite-width factor of Tada, Paris & Irwin's handbook (the
-/// centre-cracked strip's opening, V = −0.071 − 0.535α + 0.169α² + 0.02α³
-/// − 1.071 ln(1 − α)/α: 1.024 at α = 0.2), within 10 % on average over
-/// the hold (the loading is dynamic: the plate still rings). 15–35 s in
-/// release: `cargo test --release --test cracks -- --ignored`.
+/// The shipped centre-cracked plate (`scenes/cramp_center_crack.toml`,
+/// the traction raised smoothly to 1 MPa over 1.5 ms, then held to 2 ms),
+/// against the static solution of a centre crack 2a in a strip of width
+/// W (2a/W = 0.2): over the hold (1.5–2 ms, 26 rows) the mean J of both
+/// tips on the 4- and 8-cell contours (PIJC: no other crack crosses them)
+/// equals K²/E′, K = σ√(πa)·√(sec(πa/W)) = 1.1496e5 Pa√m, 12.03 J/m²,
+/// within 3 % (the figure), K_I equals K within 1.5 % and K_II is
+/// below 1 % of it; at the end the crack's centre opens by
+/// δ = 4σa/E′ · V(2a/W) (Tada, Paris & Irwin's centre-cracked strip,
+/// V = −0.071 − 0.535α + 0.169α² + 0.02α³ − 1.071 ln(1 − α)/α: 1.024 at
+/// α = 0.2; 14.91 µm) within 5 %. About 80 s in release:
+/// `cargo test --release --test cracks -- --ignored --nocapture`.
 #[test]
 #[ignore]
-fn the_centre_crack_opens_as_griffith_says() {
+fn the_centre_crack_gives_griffiths_opening_and_j() {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/cramp_center_crack.toml"
     );
     let scene = Scene::from_path(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"));
-    let mut sim = Simulation::new(&scene);
-    let (sigma, a, e, nu) = (1.0e6, 0.004, 1.0e9, 0.3);
+    let (sim, rec) = run(&scene);
+    let (sigma, a, w, e, nu) = (1.0e6, 0.004, 0.04, 1.0e9, 0.3);
     let e_star = e / (1.0 - nu * nu);
-    let al: f64 = 0.2;
+    let pi = std::f64::consts::PI;
+    let al = 2.0 * a / w;
     let v =
         -0.071 - 0.535 * al + 0.169 * al * al + 0.02 * al.powi(3) - 1.071 * (1.0 - al).ln() / al;
     let want = 4.0 * sigma * a / e_star * v;
-    let mut samples = Vec::new();
-    while sim.time() < 6.0e-4 * (1.0 - 1e-9) {
-        sim.step().unwrap_or_else(|e| panic!("{e}"));
-        if sim.time() > 4.2e-4 {
-            let cramp = sim.model::<Cramp>().expect("the crack model");
-            let crack = &cramp.cracks[0];
-            let mid = crack.plane.len() / 2;
-            samples.push(crack.opening(mid, 0.0));
-        }
-    }
-    let mean = samples.iter().sum::<f64>() / samples.len() as f64;
-    println!("centre opening: mean {mean:e} m over the hold, static {want:e} m");
+    let crack = &sim.model::<Cramp>().expect("the crack model").cracks[0];
+    let opening = crack.opening(crack.plane.len() / 2, 0.0);
+    println!("centre opening {opening:e} m at 2 ms, static {want:e} m");
     assert!(
-        (mean / want - 1.0).abs() < 0.10,
-        "centre opening {mean:e} m, static {want:e} m"
+        (opening / want - 1.0).abs() < 0.05,
+        "centre opening {opening:e} m, static {want:e} m"
     );
+    let k = sigma * (pi * a).sqrt() * (1.0 / (pi * a / w).cos()).sqrt();
+    let j_static = k * k / e_star;
+    let hold: Vec<_> = rec
+        .rows
+        .iter()
+        .filter(|r| r.time > 1.5e-3 * (1.0 - 1e-9))
+        .collect();
+    assert!(hold.len() >= 25, "{} rows in the hold", hold.len());
+    let mean = |name: &str| {
+        hold.iter()
+            .map(|r| r.get(&rec.columns, name).expect(name))
+            .sum::<f64>()
+            / hold.len() as f64
+    };
+    for end in ["start", "end"] {
+        for col in ["J", "J8"] {
+            let j = mean(&format!("crack0_{end}_{col}"));
+            println!("{end} {col}: {j:.4} J/m² over the hold, K²/E′ = {j_static:.4}");
+            assert!(
+                (j / j_static - 1.0).abs() < 0.03,
+                "{end} {col} {j} against {j_static}"
+            );
+        }
+        let (k1, k2) = (
+            mean(&format!("crack0_{end}_KI")),
+            mean(&format!("crack0_{end}_KII")),
+        );
+        println!("{end}: K_I {k1:.5e}, K_II {k2:.3e} Pa√m, K = {k:.5e}");
+        assert!((k1 / k - 1.0).abs() < 0.015, "{end} K_I {k1} against {k}");
+        assert!(k2.abs() < 0.01 * k, "{end} K_II {k2}");
+    }
 }

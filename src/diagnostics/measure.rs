@@ -12,6 +12,35 @@ use rayon::prelude::*;
 
 const CHUNK: usize = 4096;
 
+/// Particle `p`'s strain energy density ψ, J/m³, and the volume it is
+/// per: the current volume for the linear model (small strain: V ≈ V₀),
+/// the reference volume for neo-Hookean.
+pub(crate) fn strain_energy_density<const D: usize, const V: usize>(
+    mats: &[Elastic],
+    parts: &Particles<D, V>,
+    p: usize,
+) -> (f64, f64) {
+    let mat = &mats[parts.material[p] as usize];
+    match (mat.model, D) {
+        (MaterialModel::LinearElastic, 2) => (
+            Elastic::energy_linear(resize(parts.stress[p]), resize(parts.strain[p])),
+            parts.vol[p],
+        ),
+        (MaterialModel::LinearElastic, _) => (
+            Elastic::energy_linear_3d(resize(parts.stress[p]), resize(parts.strain[p])),
+            parts.vol[p],
+        ),
+        (MaterialModel::NeoHookean, 2) => (
+            mat.energy_neo_hookean(resize_mat(parts.def_grad[p])),
+            parts.vol0[p],
+        ),
+        (MaterialModel::NeoHookean, _) => (
+            mat.energy_neo_hookean_3d(resize_mat(parts.def_grad[p])),
+            parts.vol0[p],
+        ),
+    }
+}
+
 /// Integral quantities of the particles.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Measures {
@@ -65,27 +94,7 @@ pub fn measure<const D: usize, const V: usize>(
                         }
                     }
                 }
-                let mat = &mats[parts.material[p] as usize];
-                let psi = match (mat.model, D) {
-                    (MaterialModel::LinearElastic, 2) => {
-                        Elastic::energy_linear(resize(parts.stress[p]), resize(parts.strain[p]))
-                    }
-                    (MaterialModel::LinearElastic, _) => {
-                        Elastic::energy_linear_3d(resize(parts.stress[p]), resize(parts.strain[p]))
-                    }
-                    (MaterialModel::NeoHookean, 2) => {
-                        mat.energy_neo_hookean(resize_mat(parts.def_grad[p]))
-                    }
-                    (MaterialModel::NeoHookean, _) => {
-                        mat.energy_neo_hookean_3d(resize_mat(parts.def_grad[p]))
-                    }
-                };
-                // ψ is per current volume for the linear model (small strain:
-                // V ≈ V₀) and per reference volume for neo-Hookean.
-                let v_ref = match mat.model {
-                    MaterialModel::LinearElastic => parts.vol[p],
-                    MaterialModel::NeoHookean => parts.vol0[p],
-                };
+                let (psi, v_ref) = strain_energy_density(mats, parts, p);
                 m.strain += v_ref * psi;
             }
             m

@@ -53,6 +53,7 @@ pub struct StepContext<'a, const D: usize = 2, const V: usize = 3> {
 pub struct RowContext<'a, const D: usize = 2, const V: usize = 3> {
     pub geom: &'a GridGeom<D>,
     pub parts: &'a Particles<D, V>,
+    pub mats: &'a [Elastic],
     pub kernel: ShapeFunctionKind,
     pub step: u64,
     pub time: f64,
@@ -330,6 +331,10 @@ pub struct ScatterContext<'a, const D: usize = 2, const V: usize = 3> {
     pub parts: &'a Particles<D, V>,
     pub bins: &'a Bins,
     pub kernel: ShapeFunctionKind,
+    /// The step's Δt, s.
+    pub dt: f64,
+    /// The step ends on a series row.
+    pub row_due: bool,
 }
 
 /// What the field slots map through: the grid's node count, the field

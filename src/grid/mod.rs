@@ -600,6 +600,12 @@ impl<'a, T> SyncPtr<'a, T> {
         }
     }
 
+    /// The slice has no elements (an optional particle array not in use).
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
     /// Element `i`.
     ///
     /// # Safety

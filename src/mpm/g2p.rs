@@ -237,6 +237,7 @@ fn gather<
             stress: SyncPtr::new(&mut parts.stress),
             strain: SyncPtr::new(&mut parts.strain),
             def_grad: SyncPtr::new(&mut parts.def_grad),
+            grad_u: SyncPtr::new(&mut parts.grad_u),
             tile_of: SyncPtr::new(&mut bins.tile_of),
         },
         slots,
@@ -289,6 +290,7 @@ pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
             stress: SyncPtr::new(&mut parts.stress),
             strain: SyncPtr::new(&mut parts.strain),
             def_grad: SyncPtr::new(&mut parts.def_grad),
+            grad_u: SyncPtr::new(&mut parts.grad_u),
             tile_of: SyncPtr::new(&mut bins.tile_of),
         },
         slots,
@@ -334,6 +336,8 @@ struct Update<'a, const D: usize, const V: usize> {
     stress: SyncPtr<'a, [f64; V]>,
     strain: SyncPtr<'a, [f64; V]>,
     def_grad: SyncPtr<'a, [[f64; D]; D]>,
+    /// ∫ L dt per particle, or empty (`Particles::grad_u`).
+    grad_u: SyncPtr<'a, [[f64; D]; D]>,
     tile_of: SyncPtr<'a, u32>,
 }
 
@@ -367,6 +371,14 @@ impl<const D: usize, const V: usize> Update<'_, D, V> {
             )
         };
         unsafe { *self.stress.at(p) = sig };
+        if !self.grad_u.is_empty() {
+            let g = unsafe { self.grad_u.at(p) };
+            for (row, lr) in g.iter_mut().zip(&l) {
+                for (v, lv) in row.iter_mut().zip(lr) {
+                    *v += self.dt * lv;
+                }
+            }
+        }
         unsafe { finish(self.geom, p, x, v, sig, j_ratio, mat, self.tile_of, st) };
     }
 }

@@ -274,6 +274,7 @@ where
             scene,
             geom,
             parts,
+            mats,
             models,
             step,
             time,
@@ -284,6 +285,7 @@ where
         let at = RowContext {
             geom,
             parts,
+            mats,
             kernel: scene.file.grid.shape_function,
             step: *step,
             time: *time,
@@ -529,6 +531,8 @@ where
                 parts: &self.parts,
                 bins: &self.bins,
                 kernel: self.scene.file.grid.shape_function,
+                dt,
+                row_due: self.row_due,
             };
             let by_model = split
                 .as_mut()

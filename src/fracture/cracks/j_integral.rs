@@ -117,14 +117,14 @@ pub fn hoop_k(k1: f64, k2: f64, theta: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use std::f64::consts::PI;
 
     /// Williams' near-tip field of a crack along −x with its tip at the
     /// origin, modes I and II, plane strain (Anderson, Fracture Mechanics,
     /// tables 2.1–2.2): stress and displacement at `x`.
-    fn williams(k1: f64, k2: f64, e: f64, nu: f64, x: [f64; 2]) -> ([f64; 3], [f64; 2]) {
+    pub(crate) fn williams(k1: f64, k2: f64, e: f64, nu: f64, x: [f64; 2]) -> ([f64; 3], [f64; 2]) {
         let r = (x[0] * x[0] + x[1] * x[1]).sqrt();
         let t = x[1].atan2(x[0]);
         let (s2, c2) = (0.5 * t).sin_cos();
@@ -143,7 +143,7 @@ mod tests {
         ([sxx, syy, sxy], [ux, uy])
     }
 
-    fn point(k1: f64, k2: f64, e: f64, nu: f64, x: [f64; 2]) -> ContourPoint {
+    pub(crate) fn point(k1: f64, k2: f64, e: f64, nu: f64, x: [f64; 2]) -> ContourPoint {
         let (s, _) = williams(k1, k2, e, nu, x);
         let h = 1e-7;
         let mut grad_u = [[0.0; 2]; 2];

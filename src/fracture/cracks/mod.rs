@@ -29,6 +29,7 @@
 //!    the fields on its own side (eq. 5) and moves by XPIC(1) (or FLIP);
 //!    the plane point moves by the mean of its two surfaces' moves.
 
+pub mod contour;
 pub mod j_integral;
 pub mod model;
 pub mod section;
@@ -358,6 +359,14 @@ const CROSS0: Crossing = Crossing {
 pub struct Cramp {
     pub cracks: Vec<Crack>,
     pub update: SurfaceUpdate,
+    /// The sides of the J contours, cells (`[cramp] j_contours`).
+    pub j_contours: Vec<u32>,
+    /// The particles' velocities and ∇u at the start of a step that ends
+    /// on a series row, and its Δt: the accelerations and velocity
+    /// gradients of J's volume term (eq. 9). Taken by the row.
+    before_row: Option<contour::BeforeRow>,
+    /// The 2D thickness, m (`analysis.thickness`).
+    pub thickness: f64,
     /// The surfaces have moved at least once (their velocities are set).
     pub started: bool,
     pub warnings: Warnings,
@@ -383,10 +392,11 @@ pub struct Cramp {
 }
 
 impl Cramp {
-    pub fn new(cracks: Vec<Crack>, update: SurfaceUpdate) -> Cramp {
+    pub fn new(cracks: Vec<Crack>, update: SurfaceUpdate, j_contours: Vec<u32>) -> Cramp {
         Cramp {
             cracks,
             update,
+            j_contours,
             ..Cramp::default()
         }
     }

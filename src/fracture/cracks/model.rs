@@ -4,6 +4,7 @@
 //! after the step's slots are released, all through its [`FieldSplit`].
 //! 2D only (validation refuses explicit cracks in a 3D scene).
 
+use super::contour::{tip_j, End};
 use super::{Crack, Cramp, Warnings};
 use crate::fracture::model::{
     decode, encode, AfterContext, ContactContext, FieldSplit, FractureModel, RestoreContext,
@@ -25,12 +26,12 @@ pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>
     if cracks.is_empty() {
         return None;
     }
-    let update = file
-        .cramp
-        .as_ref()
-        .map(|c| c.surface_update)
-        .unwrap_or_default();
-    Some(Box::new(Cramp::new(cracks, update)))
+    let spec = file.cramp.clone().unwrap_or_default();
+    // the J integral's ∇u, summed by the step's constitutive update
+    at.parts.grad_u = vec![[[0.0; 2]; 2]; at.parts.len()];
+    let mut cramp = Cramp::new(cracks, spec.surface_update, spec.j_contours);
+    cramp.thickness = file.analysis.thickness;
+    Some(Box::new(cramp))
 }
 
 impl FieldSplit for Cramp {
@@ -49,6 +50,9 @@ impl FieldSplit for Cramp {
         match stage {
             Stage::FieldPartition => {
                 let (geom, parts, bins) = (at.geom, at.parts, at.bins);
+                if at.row_due {
+                    self.keep_before_row(parts, at.dt);
+                }
                 Some(by_kernel!(at.kernel, K => self.partition::<K, 3>(geom, parts, bins, multi)))
             }
             _ => None,
@@ -105,8 +109,14 @@ impl FractureModel for Cramp {
 
     /// Per crack c (in the order of the bodies and their lists), its two
     /// ends' positions, `crack{c}_start_x`, `_start_y`, `crack{c}_end_x`,
-    /// `_end_y` (m), and its length along the plane, `crack{c}_length`.
-    fn series(&mut self, _at: &RowContext<'_>, out: &mut SeriesOut) {
+    /// `_end_y` (m), and its length along the plane, `crack{c}_length`;
+    /// then per end its J on the first contour of `j_contours` (eq. 10,
+    /// J/m²) and K_I, K_II from it (Pa·√m), `crack{c}_{end}_J`, `_KI`,
+    /// `_KII`, and J on each further contour of N cells,
+    /// `crack{c}_{end}_J{N}`. An end outside the material (an edge
+    /// crack's mouth), or one whose contour leaves the grid or meets more
+    /// than PIJC handles, has NaN there.
+    fn series(&mut self, at: &RowContext<'_>, out: &mut SeriesOut) {
         for (c, crack) in self.cracks.iter().enumerate() {
             let ends = [
                 ("start", crack.plane[0]),
@@ -117,6 +127,30 @@ impl FractureModel for Cramp {
                 out.push(&format!("crack{c}_{end}_y"), x[1]);
             }
             out.push(&format!("crack{c}_length"), crack.length());
+        }
+        for c in 0..self.cracks.len() {
+            for end in End::BOTH {
+                let js = if out.declaring() {
+                    Vec::new()
+                } else {
+                    let (geom, parts, mats, sides) = (at.geom, at.parts, at.mats, &self.j_contours);
+                    let tip = (c, end);
+                    let before = self.before_row.as_ref();
+                    by_kernel!(at.kernel, K => tip_j::<K, 3>(geom, parts, mats, &self.cracks, before, tip, sides))
+                };
+                let got = |k: usize| js.get(k).and_then(|r| r.ok());
+                let name = format!("crack{c}_{}", end.name());
+                let first = got(0);
+                out.push(&format!("{name}_J"), first.map_or(f64::NAN, |t| t.j));
+                out.push(&format!("{name}_KI"), first.map_or(f64::NAN, |t| t.k1));
+                out.push(&format!("{name}_KII"), first.map_or(f64::NAN, |t| t.k2));
+                for (k, side) in self.j_contours.iter().enumerate().skip(1) {
+                    out.push(&format!("{name}_J{side}"), got(k).map_or(f64::NAN, |t| t.j));
+                }
+            }
+        }
+        if !out.declaring() {
+            self.before_row = None;
         }
     }
 

@@ -53,12 +53,35 @@ pub enum SurfaceUpdate {
 
 /// Options of the explicit-crack model (the `[cramp]` table; all have
 /// defaults, and the table may be left out).
-#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CrampSpec {
     /// How the crack surfaces move.
     #[serde(default)]
     pub surface_update: SurfaceUpdate,
+    /// The J contours about each crack tip, by their side in cells (even,
+    /// 2 to 64: a square of ±N/2 cells about the node nearest the tip,
+    /// Nairn & Aimene's "N-cell contours"). The first gives the series'
+    /// `_J`, `_KI`, `_KII` columns; each further one a `_J{N}` column.
+    #[serde(default = "default_j_contours")]
+    pub j_contours: Vec<u32>,
+}
+
+fn default_j_contours() -> Vec<u32> {
+    vec![DEFAULT_J_CONTOUR]
+}
+
+/// The J contour when the scene names none: 4 cells, the smallest of the
+/// paper's Table 1 (a contour 2 cells from the tip each way).
+pub const DEFAULT_J_CONTOUR: u32 = 4;
+
+impl Default for CrampSpec {
+    fn default() -> CrampSpec {
+        CrampSpec {
+            surface_update: SurfaceUpdate::default(),
+            j_contours: default_j_contours(),
+        }
+    }
 }
 
 /// Checks every body's `explicit_cracks` and the `[cramp]` table: 2D
@@ -84,6 +107,9 @@ pub(crate) fn check(
             );
         }
         return;
+    }
+    if let Some(spec) = cramp {
+        check_contours(c, &spec.j_contours);
     }
     if dim == 3 {
         let at = bodies.iter().position(|(_, c)| !c.is_empty()).unwrap_or(0);
@@ -186,6 +212,30 @@ pub(crate) fn check(
         }
     }
     check_crowding(c, &all, lo, h);
+}
+
+/// `[cramp] j_contours`: one or more distinct even sides, 2 to 64 cells.
+fn check_contours(c: &mut Checker, sides: &[u32]) {
+    if sides.is_empty() {
+        c.err(
+            "cramp.j_contours",
+            "needs at least one contour size (cells, even), e.g. [4, 8]",
+        );
+    }
+    for (k, &n) in sides.iter().enumerate() {
+        let at = format!("cramp.j_contours[{k}]");
+        if !(2..=64).contains(&n) || n % 2 != 0 {
+            c.err(
+                &at,
+                format!(
+                    "a J contour's side is an even number of cells from 2 to 64 (a square \
+                     centred on the node nearest the tip), got {n}"
+                ),
+            );
+        } else if sides[..k].contains(&n) {
+            c.err(&at, format!("the contour of {n} cells is listed twice"));
+        }
+    }
 }
 
 /// No node may see more than two cracks at the start: a node sees a crack

@@ -67,6 +67,7 @@ impl<const D: usize, const V: usize> FieldSplit<D, V> for Dfg<D> {
             parts,
             bins,
             kernel,
+            ..
         } = at;
         match stage {
             Stage::DamageField => {
