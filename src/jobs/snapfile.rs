@@ -324,6 +324,7 @@ impl SnapshotReader {
             positions,
             fields,
             grid,
+            lines: Vec::new(),
         })
     }
 }
@@ -362,6 +363,7 @@ mod tests {
                     data: FieldData::F64(vec![0.5, 0.25]),
                 }],
             }),
+            lines: Vec::new(),
         };
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("s.bin");
@@ -405,6 +407,7 @@ mod tests {
                     data: FieldData::F64(vec![1.0; 6]),
                 }],
             }),
+            lines: Vec::new(),
         };
         write(&p, &snap).unwrap();
         let r = SnapshotReader::open(&p).unwrap();
