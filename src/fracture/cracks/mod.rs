@@ -32,6 +32,7 @@
 pub mod j_integral;
 pub mod model;
 pub mod section;
+pub mod snapshot;
 
 use crate::grid::shape::Kernel;
 use crate::grid::{particle_support, Bins, FieldSlots, GridFields, GridGeom, MultiField, Support};
