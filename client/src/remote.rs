@@ -484,6 +484,7 @@ async fn fetch_snapshot(
         positions,
         fields,
         grid,
+        lines: Vec::new(),
     })
 }
 

@@ -213,6 +213,7 @@ pub fn snapshot<const D: usize, const V: usize>(
         .chain((!parts.damage.is_empty()).then(|| f64_field("damage", 1, parts.damage.clone())))
         .collect(),
         grid,
+        lines: Vec::new(),
     }
 }
 

@@ -178,6 +178,49 @@ pub struct Snapshot {
     /// body_id, particle_id, ...
     pub fields: Vec<Field>,
     pub grid: Option<GridSnapshot>,
+    /// Polylines a fracture model draws (explicit cracks' planes and
+    /// surfaces), in the models' order; empty for a scene without them,
+    /// which then writes no line files.
+    pub lines: Vec<Polyline>,
+}
+
+/// A polyline of a snapshot, with integer values that label it as a whole
+/// (VTK cell data: an explicit crack's `crack` index and its `surface`),
+/// so that ParaView can colour or pick the lines by them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Polyline {
+    /// Its points in order, m (x, y, z; z = 0 in 2D).
+    pub points: Vec<[f64; 3]>,
+    /// Named values of the line. Lines of one snapshot may name different
+    /// values: a writer gives a line [`Polyline::MISSING`] for a name it
+    /// lacks.
+    pub cell_data: Vec<(String, u32)>,
+}
+
+impl Polyline {
+    /// The value written for a name a line does not give (and read back
+    /// as absent).
+    pub const MISSING: u32 = u32::MAX;
+
+    /// The value of `name`, if the line gives it.
+    pub fn value(&self, name: &str) -> Option<u32> {
+        self.cell_data
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|&(_, v)| v)
+    }
+}
+
+/// The names of the values `lines` give, in the order they first appear:
+/// the cell-data arrays of a file of these lines.
+pub fn line_value_names(lines: &[Polyline]) -> Vec<&str> {
+    let mut names: Vec<&str> = Vec::new();
+    for (n, _) in lines.iter().flat_map(|l| &l.cell_data) {
+        if !names.contains(&n.as_str()) {
+            names.push(n);
+        }
+    }
+    names
 }
 
 impl Snapshot {

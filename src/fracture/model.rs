@@ -4,14 +4,14 @@
 //! in [`crate::fracture::MODELS`]); it runs the plan stages it owns
 //! ([`FractureModel::stages`]), adds its series columns and their values
 //! in one function ([`FractureModel::series`], so the header and the rows
-//! cannot drift apart), its snapshot fields, its part of the summary and
+//! cannot drift apart), its snapshot fields and lines, its part of the summary and
 //! its checkpoint state. A model that splits the velocity fields at the
 //! nodes it cuts (DFG partitioning; explicit cracks to come) also offers
 //! a [`FieldSplit`]. The step, the run loop, the series, the snapshots,
 //! the summary and the checkpoints call models only through these traits.
 
 use crate::diagnostics::crack::CrackTip;
-use crate::diagnostics::Field;
+use crate::diagnostics::{Field, Polyline};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, MultiField};
 use crate::material::Elastic;
 use crate::particles::Particles;
@@ -195,6 +195,12 @@ pub trait FractureModel<const D: usize = 2, const V: usize = 3>: Send + AsAny {
 
     /// Adds this model's per-particle fields to a snapshot.
     fn snapshot(&mut self, _at: &RowContext<'_, D, V>, _fields: &mut Vec<Field>) {}
+
+    /// Adds the polylines this model draws to a snapshot (explicit cracks:
+    /// each crack's plane and surfaces), which the writers put beside the
+    /// particles. Most models draw none, and a snapshot without lines
+    /// writes no line files, so the default adds nothing.
+    fn snapshot_lines(&self, _out: &mut Vec<Polyline>) {}
 
     /// This model's part of the run summary (its counters and times), as
     /// JSON.

@@ -5,11 +5,15 @@
 //! b"CLEAVESNAP1\n"  u64 header length  header (JSON)  arrays...
 //! ```
 //! Particle arrays come first (`position` as 2 components in 2D, 3 in 3D,
-//! then the snapshot's fields in order), then the grid's. The grid's
+//! then the snapshot's fields in order), then the grid's, then those of
+//! the snapshot's polylines (explicit cracks: [`LinesInfo`]). The grid's
 //! `origin` and `dims` have one entry per dimension, so that a 2D file is
-//! byte for byte what it was before 3D runs wrote snapshots.
+//! byte for byte what it was before 3D runs wrote snapshots; the header
+//! names `lines` only when there are some, so that a file without them is
+//! what it was before lines were stored, and one written before reads as
+//! having none.
 
-use crate::diagnostics::{Field, FieldData, GridSnapshot, Snapshot};
+use crate::diagnostics::{line_value_names, Field, FieldData, GridSnapshot, Polyline, Snapshot};
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::Path;
@@ -80,6 +84,20 @@ impl GridInfo {
     }
 }
 
+/// The polylines of a stored snapshot (explicit cracks' planes and
+/// surfaces).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LinesInfo {
+    /// Points of each line, in order.
+    pub counts: Vec<usize>,
+    /// `position`: every line's points, line after line, one component per
+    /// dimension.
+    pub points: ArrayInfo,
+    /// Each value the lines give, one per line (`crack`, `surface`);
+    /// [`Polyline::MISSING`] where a line lacks it.
+    pub values: Vec<ArrayInfo>,
+}
+
 /// The header of a stored snapshot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SnapshotHeader {
@@ -90,6 +108,9 @@ pub struct SnapshotHeader {
     /// `position` first, then the particle fields.
     pub fields: Vec<ArrayInfo>,
     pub grid: Option<GridInfo>,
+    /// Absent when the snapshot has no lines.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lines: Option<LinesInfo>,
 }
 
 impl SnapshotHeader {
@@ -114,6 +135,23 @@ impl SnapshotHeader {
                     "the grid has {} origin and {} dims entries in a {d}D snapshot",
                     g.origin.len(),
                     g.dims.len()
+                ));
+            }
+        }
+        if let Some(l) = &self.lines {
+            let points: usize = l.counts.iter().sum();
+            if l.points.components != d || l.points.len != points * d {
+                return Err(format!(
+                    "the lines' {} position values are not their {points} points in {d}D",
+                    l.points.len
+                ));
+            }
+            if let Some(a) = l.values.iter().find(|a| a.len != l.counts.len()) {
+                return Err(format!(
+                    "the lines' {} has {} values for {} lines",
+                    a.name,
+                    a.len,
+                    l.counts.len()
                 ));
             }
         }
@@ -166,6 +204,15 @@ pub fn write(path: &Path, snap: &Snapshot) -> Result<(), String> {
             .map(|f| info(&f.name, &f.data, f.components))
             .collect(),
     });
+    let (line_points, line_values) = line_arrays(&snap.lines, d);
+    let lines = (!snap.lines.is_empty()).then(|| LinesInfo {
+        counts: snap.lines.iter().map(|l| l.points.len()).collect(),
+        points: info("position", &line_points, d),
+        values: line_values
+            .iter()
+            .map(|(name, v)| info(name, v, 1))
+            .collect(),
+    });
     let header = SnapshotHeader {
         index: snap.index,
         step: snap.step,
@@ -173,6 +220,7 @@ pub fn write(path: &Path, snap: &Snapshot) -> Result<(), String> {
         particles: snap.positions.len(),
         fields,
         grid,
+        lines,
     };
     let json = serde_json::to_vec(&header).map_err(|e| e.to_string())?;
     let arrays = std::iter::once(&positions)
@@ -181,6 +229,12 @@ pub fn write(path: &Path, snap: &Snapshot) -> Result<(), String> {
             snap.grid
                 .iter()
                 .flat_map(|g| g.fields.iter().map(|f| &f.data)),
+        )
+        .chain(
+            (!snap.lines.is_empty())
+                .then_some(&line_points)
+                .into_iter()
+                .chain(line_values.iter().map(|(_, v)| v)),
         );
     crate::output::write_atomic(path, |w| {
         w.write_all(MAGIC)?;
@@ -195,6 +249,28 @@ pub fn write(path: &Path, snap: &Snapshot) -> Result<(), String> {
         Ok(())
     })
     .map_err(|e| e.to_string())
+}
+
+/// The arrays of a snapshot's lines: their points (`d` components each)
+/// and each named value, one per line ([`Polyline::MISSING`] where a line
+/// lacks it).
+fn line_arrays(lines: &[Polyline], d: usize) -> (FieldData, Vec<(String, FieldData)>) {
+    let points = lines
+        .iter()
+        .flat_map(|l| &l.points)
+        .flat_map(|p| p.iter().copied().take(d))
+        .collect();
+    let values = line_value_names(lines)
+        .into_iter()
+        .map(|name| {
+            let v = lines
+                .iter()
+                .map(|l| l.value(name).unwrap_or(Polyline::MISSING))
+                .collect();
+            (name.to_string(), FieldData::U32(v))
+        })
+        .collect();
+    (FieldData::F64(points), values)
 }
 
 /// An open snapshot file.
@@ -316,6 +392,10 @@ impl SnapshotReader {
             }
             None => None,
         };
+        let lines = match &h.lines {
+            Some(l) => self.read_lines(l, d)?,
+            None => Vec::new(),
+        };
         Ok(Snapshot {
             index: h.index,
             step: h.step,
@@ -324,7 +404,51 @@ impl SnapshotReader {
             positions,
             fields,
             grid,
+            lines,
         })
+    }
+
+    /// The polylines of a header's [`LinesInfo`] (checked on open: the
+    /// counts add up to the points, one value per line).
+    fn read_lines(&mut self, l: &LinesInfo, d: usize) -> Result<Vec<Polyline>, String> {
+        let FieldData::F64(xy) = self.read_array(&l.points)? else {
+            return Err(format!(
+                "{}: line points are not numbers",
+                self.path.display()
+            ));
+        };
+        let mut values = Vec::new();
+        for a in &l.values {
+            match self.read_array(a)? {
+                FieldData::U32(v) => values.push((a.name.clone(), v)),
+                FieldData::F64(_) => {
+                    return Err(format!(
+                        "{}: line value {} is not integers",
+                        self.path.display(),
+                        a.name
+                    ))
+                }
+            }
+        }
+        let mut points = xy.chunks_exact(d).map(|c| {
+            let mut x = [0.0; 3];
+            x[..d].copy_from_slice(c);
+            x
+        });
+        Ok(l.counts
+            .iter()
+            .enumerate()
+            .map(|(k, &n)| Polyline {
+                points: points.by_ref().take(n).collect(),
+                cell_data: values
+                    .iter()
+                    .filter_map(|(name, v)| {
+                        let x = *v.get(k)?;
+                        (x != Polyline::MISSING).then(|| (name.clone(), x))
+                    })
+                    .collect(),
+            })
+            .collect())
     }
 }
 
@@ -362,6 +486,7 @@ mod tests {
                     data: FieldData::F64(vec![0.5, 0.25]),
                 }],
             }),
+            lines: Vec::new(),
         };
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("s.bin");
@@ -378,6 +503,64 @@ mod tests {
         assert_eq!(back.fields[1], snap.fields[1]);
         std::fs::write(&p, b"not a snapshot at all").unwrap();
         assert!(SnapshotReader::open(&p).is_err());
+    }
+
+    /// Lines round-trip exactly after the grid's arrays (a line without
+    /// one of the values reads back without it); a snapshot without lines
+    /// names none in its header, and a header that does not count its
+    /// lines' points right is refused as corrupt.
+    #[test]
+    fn lines_round_trip_and_are_absent_without_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.bin");
+        let mut snap = Snapshot {
+            index: 1,
+            step: 4,
+            time: 2e-6,
+            dimension: 2,
+            positions: vec![[0.5, 0.5, 0.0]],
+            fields: vec![Field {
+                name: "mass".into(),
+                components: 1,
+                data: FieldData::F64(vec![1.0]),
+            }],
+            grid: Some(GridSnapshot {
+                origin: [0.0, 0.0, 0.0],
+                spacing: 1.0,
+                dims: [1, 1, 1],
+                fields: vec![Field {
+                    name: "mass".into(),
+                    components: 1,
+                    data: FieldData::F64(vec![3.0]),
+                }],
+            }),
+            lines: Vec::new(),
+        };
+        write(&p, &snap).unwrap();
+        assert!(!String::from_utf8_lossy(&std::fs::read(&p).unwrap()).contains("lines"));
+        snap.lines = vec![
+            Polyline {
+                points: vec![[0.1, 0.2, 0.0], [0.3, 1e-300, 0.0], [0.7, 0.8, 0.0]],
+                cell_data: vec![("crack".into(), 0), ("surface".into(), 2)],
+            },
+            Polyline {
+                points: vec![[1.0, 2.0, 0.0], [3.0, 4.0, 0.0]],
+                cell_data: vec![("crack".into(), 1)],
+            },
+        ];
+        write(&p, &snap).unwrap();
+        let r = SnapshotReader::open(&p).unwrap();
+        assert_eq!(r.header.lines.as_ref().unwrap().counts, [3, 2]);
+        assert_eq!({ r }.read_all().unwrap(), snap);
+
+        let bytes = std::fs::read(&p).unwrap();
+        let key = b"\"counts\":[3,2]";
+        let at = bytes.windows(key.len()).position(|w| w == key).unwrap();
+        let mut bad = bytes.clone();
+        bad[at + key.len() - 2] = b'3';
+        std::fs::write(&p, bad).unwrap();
+        let e = SnapshotReader::open(&p).err().unwrap();
+        assert!(e.contains("corrupt header") && e.contains("lines"), "{e}");
     }
 
     /// A 2D snapshot's header keeps the two-entry grid it always had (so
@@ -405,6 +588,7 @@ mod tests {
                     data: FieldData::F64(vec![1.0; 6]),
                 }],
             }),
+            lines: Vec::new(),
         };
         write(&p, &snap).unwrap();
         let r = SnapshotReader::open(&p).unwrap();

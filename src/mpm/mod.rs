@@ -1037,7 +1037,7 @@ where
 
     /// A snapshot to `obs`: the particles (and the grid, with
     /// `output.grid_fields`) in the run's dimension, and what the fracture
-    /// models add.
+    /// models add (fields, and lines such as explicit cracks).
     fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
         let t0 = Instant::now();
         let grid = if self.scene.file.output.grid_fields && self.grid_valid {
@@ -1060,6 +1060,7 @@ where
         let (at, models) = self.reporting(0.0);
         for model in models {
             model.snapshot(&at, &mut snap.fields);
+            model.snapshot_lines(&mut snap.lines);
         }
         self.snapshot_index += 1;
         self.times.diagnostics += t0.elapsed().as_secs_f64();

@@ -1,5 +1,6 @@
 //! Results on disk: `series.csv`, VTK snapshots (`.vtp` particles, `.vti`
-//! grid, `.pvd` collections that ParaView opens as a time series), with
+//! grid, `cracks_NNNN.vtp` polylines when a model draws lines, `.pvd`
+//! collections that ParaView opens as a time series), with
 //! damage a `fragments_NNNN.csv` per snapshot, and a PNG plot of the
 //! energies.
 //!
@@ -14,7 +15,7 @@ mod vtk;
 pub use plot::{
     plot_crack, plot_energies, plot_log_x, plot_pareto, plot_particle_field, plot_polar, Panel,
 };
-pub use vtk::{write_grid_vti, write_particles_vtp, write_pvd};
+pub use vtk::{write_grid_vti, write_lines_vtp, write_particles_vtp, write_pvd};
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::diagnostics::{Observer, SeriesRow, Snapshot};
@@ -50,10 +51,16 @@ pub struct OutputPaths {
     pub series_csv: PathBuf,
     pub particles_pvd: Option<PathBuf>,
     pub grid_pvd: Option<PathBuf>,
+    /// `cracks.pvd`, for runs whose snapshots have lines (explicit cracks);
+    /// left out of the JSON without them, so a run without cracks reports
+    /// what it always did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cracks_pvd: Option<PathBuf>,
     pub energy_plot: Option<PathBuf>,
     /// `crack.png`, for series with a crack tip.
     pub crack_plot: Option<PathBuf>,
-    /// Snapshot files in the order written (particles, then grid).
+    /// Snapshot files in the order written (particles, then grid, then
+    /// cracks).
     pub snapshots: Vec<PathBuf>,
 }
 
@@ -118,6 +125,11 @@ pub struct OutputWriter {
     rows: Vec<SeriesRow>,
     particle_entries: Vec<(f64, String)>,
     grid_entries: Vec<(f64, String)>,
+    /// `cracks_NNNN.vtp` files for `cracks.pvd`. Not in [`WriterState`]
+    /// (which would change the checkpoint's format): a resumed writer
+    /// finds them again from the particle entries and the files written
+    /// ([`crack_entries`]).
+    crack_entries: Vec<(f64, String)>,
     snapshots: Vec<PathBuf>,
     plots: Pictures,
 }
@@ -138,6 +150,7 @@ impl OutputWriter {
             rows: Vec::new(),
             particle_entries: Vec::new(),
             grid_entries: Vec::new(),
+            crack_entries: Vec::new(),
             snapshots: Vec::new(),
             plots: Pictures::default(),
         })
@@ -198,6 +211,7 @@ impl OutputWriter {
         let s: WriterState = postcard::from_bytes(state)
             .map_err(|e| bad(format!("the checkpoint's output state: {e}")))?;
         let file = reopen_series(&series_path, s.series_bytes)?;
+        let crack_entries = crack_entries(&s.particle_entries, &s.snapshots);
         Ok(OutputWriter {
             dir: dir.to_path_buf(),
             series: BufWriter::new(file),
@@ -206,6 +220,7 @@ impl OutputWriter {
             rows: s.rows,
             particle_entries: s.particle_entries,
             grid_entries: s.grid_entries,
+            crack_entries,
             snapshots: s.snapshots,
             plots: Pictures::default(),
         })
@@ -240,6 +255,11 @@ impl OutputWriter {
             let p = self.dir.join("grid.pvd");
             write_pvd(&p, &self.grid_entries)?;
             paths.grid_pvd = Some(p);
+        }
+        if !self.crack_entries.is_empty() {
+            let p = self.dir.join("cracks.pvd");
+            write_pvd(&p, &self.crack_entries)?;
+            paths.cracks_pvd = Some(p);
         }
         let p = self.dir.join("energies.png");
         if self.plots.draw(&p, || plot_energies(&p, &self.rows)) {
@@ -362,8 +382,40 @@ impl Observer for OutputWriter {
             self.grid_entries.push((snap.time, name));
             self.snapshots.push(path);
         }
+        if !snap.lines.is_empty() {
+            let name = crack_file(snap.index);
+            let path = self.dir.join(&name);
+            write_lines_vtp(&path, &snap.lines).map_err(|e| e.to_string())?;
+            self.crack_entries.push((snap.time, name));
+            self.snapshots.push(path);
+        }
         Ok(())
     }
+}
+
+/// The lines' file of snapshot `index`, beside its `particles_NNNN.vtp`.
+fn crack_file(index: u32) -> String {
+    format!("cracks_{index:04}.vtp")
+}
+
+/// The `cracks.pvd` entries of a writer resumed from a checkpoint: a
+/// snapshot with lines wrote its `cracks_NNNN.vtp` beside its particles, at
+/// the particles' time, and listed it among the files written; so the
+/// snapshots whose crack file is listed are the entries, in their order.
+/// File names are compared, not paths, so that a run moved to another
+/// directory between its checkpoint and its resume keeps them.
+fn crack_entries(particles: &[(f64, String)], written: &[PathBuf]) -> Vec<(f64, String)> {
+    let written: std::collections::BTreeSet<&std::ffi::OsStr> =
+        written.iter().filter_map(|p| p.file_name()).collect();
+    particles
+        .iter()
+        .filter_map(|(t, name)| {
+            let crack = format!("cracks_{}", name.strip_prefix("particles_")?);
+            written
+                .contains(std::ffi::OsStr::new(&crack))
+                .then_some((*t, crack))
+        })
+        .collect()
 }
 
 /// The energy balance error of a series' last row (`energy_error`, an
@@ -527,6 +579,7 @@ mod tests {
                 data: FieldData::F64(vec![1.0, 0.5, 0.0, 1.0]),
             }],
             grid: None,
+            lines: Vec::new(),
         }
     }
 
@@ -568,6 +621,34 @@ mod tests {
             let name = e.unwrap().file_name();
             assert!(!name.to_string_lossy().contains(".tmp"), "{name:?} left");
         }
+    }
+
+    /// A resumed writer's crack entries: the snapshots whose crack file
+    /// was written, at their particles' times, by file name (the run may
+    /// have moved since).
+    #[test]
+    fn crack_entries_come_back_from_the_files_written() {
+        let particles = [
+            (0.0, "particles_0000.vtp".to_string()),
+            (1e-5, "particles_0001.vtp".to_string()),
+            (2e-5, "particles_0002.vtp".to_string()),
+        ];
+        let written = [
+            PathBuf::from("/old/particles_0000.vtp"),
+            PathBuf::from("/old/cracks_0000.vtp"),
+            PathBuf::from("/old/particles_0001.vtp"),
+            PathBuf::from("/old/particles_0002.vtp"),
+            PathBuf::from("/old/grid_0002.vti"),
+            PathBuf::from("/old/cracks_0002.vtp"),
+        ];
+        assert_eq!(
+            crack_entries(&particles, &written),
+            [
+                (0.0, "cracks_0000.vtp".to_string()),
+                (2e-5, "cracks_0002.vtp".to_string())
+            ]
+        );
+        assert_eq!(crack_entries(&particles, &written[2..5]), []);
     }
 
     #[test]

@@ -805,6 +805,7 @@ mod tests {
                 },
             ],
             grid: None,
+            lines: Vec::new(),
         };
         let mm: Vec<[f64; 2]> = snap
             .positions

@@ -1,5 +1,6 @@
-//! VTK XML writers: PolyData (`.vtp`) for particles, ImageData (`.vti`)
-//! for the grid, Collection (`.pvd`) for the time series. Arrays go in one
+//! VTK XML writers: PolyData (`.vtp`) for particles and for a snapshot's
+//! polylines (explicit cracks), ImageData (`.vti`) for the grid,
+//! Collection (`.pvd`) for the time series. Arrays go in one
 //! raw appended block (`header_type="UInt64"`, little endian): each array is
 //! its byte count as a UInt64 followed by its values, and `offset` counts
 //! from the byte after the `_` that opens the block.
@@ -14,7 +15,7 @@
 //! direction.
 
 use super::{write_atomic, OutputError};
-use crate::diagnostics::{Field, FieldData, GridSnapshot, Snapshot};
+use crate::diagnostics::{line_value_names, Field, FieldData, GridSnapshot, Polyline, Snapshot};
 use std::fmt::Write as _;
 use std::io::Write;
 use std::path::Path;
@@ -28,6 +29,7 @@ enum Values<'a> {
     /// order (xx, yy, zz, xy, yz, xz) with yz = xz = 0.
     SymTensor2(&'a [f64]),
     U32(&'a [u32]),
+    I64(&'a [i64]),
     Points(&'a [[f64; 3]]),
     Iota(usize),
     IotaFrom1(usize),
@@ -40,6 +42,7 @@ impl Values<'_> {
             Values::Vector2(v) => 24 * (v.len() / 2) as u64,
             Values::SymTensor2(v) => 48 * (v.len() / 4) as u64,
             Values::U32(v) => 4 * v.len() as u64,
+            Values::I64(v) => 8 * v.len() as u64,
             Values::Points(p) => 24 * p.len() as u64,
             Values::Iota(n) | Values::IotaFrom1(n) => 8 * *n as u64,
         }
@@ -61,6 +64,7 @@ impl Values<'_> {
                     .try_for_each(|x| w.write_all(&x.to_le_bytes()))
             }),
             Values::U32(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
+            Values::I64(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())),
             Values::Points(p) => p
                 .iter()
                 .flatten()
@@ -169,6 +173,66 @@ pub fn write_particles_vtp(path: &Path, snap: &Snapshot) -> Result<(), OutputErr
     app.write(path, xml)
 }
 
+/// Polylines as VTK PolyData: the lines' points in order, one `<Lines>`
+/// cell per polyline, and each value the lines give ([`Polyline`]'s
+/// `cell_data`: an explicit crack's `crack` and `surface`) as a UInt32
+/// cell-data array, [`Polyline::MISSING`] where a line lacks it. A
+/// separate file from the particles', because VTK keeps one set of point
+/// arrays per piece: crack points have none of the particles' fields.
+pub fn write_lines_vtp(path: &Path, lines: &[Polyline]) -> Result<(), OutputError> {
+    let points: Vec<[f64; 3]> = lines
+        .iter()
+        .flat_map(|l| l.points.iter().copied())
+        .collect();
+    let (n, cells) = (points.len(), lines.len());
+    let offsets: Vec<i64> = lines
+        .iter()
+        .scan(0i64, |end, l| {
+            *end += l.points.len() as i64;
+            Some(*end)
+        })
+        .collect();
+    let names = line_value_names(lines);
+    let values: Vec<Vec<u32>> = names
+        .iter()
+        .map(|name| {
+            lines
+                .iter()
+                .map(|l| l.value(name).unwrap_or(Polyline::MISSING))
+                .collect()
+        })
+        .collect();
+    let mut xml = String::from(HEADER);
+    let _ = writeln!(xml, "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">");
+    let _ = writeln!(xml, "  <PolyData>");
+    let _ = writeln!(
+        xml,
+        "    <Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"0\" NumberOfLines=\"{cells}\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
+    );
+    let mut app = Appended::new();
+    let _ = writeln!(xml, "      <CellData>");
+    for (name, v) in names.iter().zip(&values) {
+        app.array(&mut xml, "UInt32", Some(name), 1, Values::U32(v));
+    }
+    let _ = writeln!(xml, "      </CellData>");
+    let _ = writeln!(xml, "      <Points>");
+    app.array(
+        &mut xml,
+        "Float64",
+        Some("position"),
+        3,
+        Values::Points(&points),
+    );
+    let _ = writeln!(xml, "      </Points>");
+    let _ = writeln!(xml, "      <Lines>");
+    app.array(&mut xml, "Int64", Some("connectivity"), 1, Values::Iota(n));
+    app.array(&mut xml, "Int64", Some("offsets"), 1, Values::I64(&offsets));
+    let _ = writeln!(xml, "      </Lines>");
+    let _ = writeln!(xml, "    </Piece>");
+    let _ = writeln!(xml, "  </PolyData>");
+    app.write(path, xml)
+}
+
 /// Grid nodes as VTK ImageData with the nodal fields as point data.
 pub fn write_grid_vti(path: &Path, grid: &GridSnapshot) -> Result<(), OutputError> {
     let [nx, ny, nz] = grid.dims;
@@ -251,6 +315,7 @@ mod tests {
                     data: FieldData::F64(vec![0.0, 1.0, 2.0, 3.0]),
                 }],
             }),
+            lines: Vec::new(),
         }
     }
 
@@ -387,6 +452,7 @@ mod tests {
                     data: FieldData::F64((0..24).map(f64::from).collect()),
                 }],
             }),
+            lines: Vec::new(),
         };
         let p = dir.path().join("p.vtp");
         write_particles_vtp(&p, &snap).unwrap();
@@ -404,6 +470,54 @@ mod tests {
         let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("WholeExtent=\"0 1 0 2 0 3\" Origin=\"-0.2 -0.1 0.5\""));
         assert_eq!(f64s(&blocks(&bytes)[0]).len(), 24);
+    }
+
+    /// Two lines, the second without one of the first's values: the
+    /// points line after line, one cell each, the values as cell data with
+    /// the missing one marked, and the same bytes every time.
+    #[test]
+    fn lines_go_out_as_cells_with_their_values() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("c.vtp");
+        let lines = [
+            Polyline {
+                points: vec![[0.0, 0.0, 0.0], [1.0, 0.5, 0.0], [2.0, 1e-300, 0.0]],
+                cell_data: vec![("crack".into(), 0), ("surface".into(), 1)],
+            },
+            Polyline {
+                points: vec![[3.0, 4.0, 0.0], [5.0, 6.0, 0.0]],
+                cell_data: vec![("crack".into(), 1)],
+            },
+        ];
+        write_lines_vtp(&p, &lines).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
+        assert!(text.contains("NumberOfPoints=\"5\" NumberOfVerts=\"0\" NumberOfLines=\"2\""));
+        assert!(text.contains("<CellData>\n        <DataArray type=\"UInt32\" Name=\"crack\""));
+        assert!(text.contains("<Lines>"));
+        let b = blocks(&bytes);
+        assert_eq!(b.len(), 5);
+        let u32s = |b: &[u8]| -> Vec<u32> {
+            b.chunks(4)
+                .map(|c| u32::from_le_bytes(c.try_into().unwrap()))
+                .collect()
+        };
+        let i64s = |b: &[u8]| -> Vec<i64> {
+            b.chunks(8)
+                .map(|c| i64::from_le_bytes(c.try_into().unwrap()))
+                .collect()
+        };
+        assert_eq!(u32s(&b[0]), [0, 1]);
+        assert_eq!(u32s(&b[1]), [1, Polyline::MISSING]);
+        assert_eq!(
+            f64s(&b[2]),
+            [0.0, 0.0, 0.0, 1.0, 0.5, 0.0, 2.0, 1e-300, 0.0, 3.0, 4.0, 0.0, 5.0, 6.0, 0.0]
+        );
+        assert_eq!(i64s(&b[3]), [0, 1, 2, 3, 4]);
+        assert_eq!(i64s(&b[4]), [3, 5]);
+        let q = dir.path().join("d.vtp");
+        write_lines_vtp(&q, &lines).unwrap();
+        assert_eq!(bytes, std::fs::read(&q).unwrap());
     }
 
     #[test]

@@ -33,6 +33,7 @@ pub mod contour;
 pub mod j_integral;
 pub mod model;
 pub mod section;
+pub mod snapshot;
 
 use crate::grid::shape::Kernel;
 use crate::grid::{particle_support, Bins, FieldSlots, GridFields, GridGeom, MultiField, Support};

@@ -189,4 +189,8 @@ impl FractureModel for Cramp {
     fn field_split(&mut self) -> Option<&mut dyn FieldSplit> {
         Some(self)
     }
+
+    fn snapshot_lines(&self, out: &mut Vec<crate::diagnostics::Polyline>) {
+        self.polylines(out) // plane, above, below per crack: snapshot.rs
+    }
 }
