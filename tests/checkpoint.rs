@@ -207,18 +207,21 @@ fn a_resumed_damage_run_with_dfg_and_contact_repeats_the_straight_one_bit_for_bi
 #[test]
 fn a_resumed_run_with_explicit_cracks_repeats_the_straight_one_bit_for_bit() {
     // the centre-cracked plate to 0.1 ms, resumed at step 300: the crack
-    // surfaces, their velocities (XPIC(1) reads them) and the plane travel
-    // in the checkpoint; the series has the crack's ends and length
+    // surfaces, their velocities (XPIC(1) reads them), the plane and the
+    // particles' ∇u travel in the checkpoint; the series has the crack's
+    // ends and length and the tips' J (whose volume term reads the step
+    // before each row)
     let text = scene_text(
         "cramp_center_crack.toml",
         &[
-            ("end = 6.0e-4", "end = 1.0e-4"),
-            ("series_rows = 61", "series_rows = 11"),
+            ("end = 2.0e-3", "end = 1.0e-4"),
+            ("series_rows = 101", "series_rows = 11"),
             ("snapshots = 7", "snapshots = 3"),
         ],
     );
     let (a, b) = straight_and_resumed(&text, 300, 40);
     assert!(a.series.contains("crack0_length"), "no crack column");
+    assert!(a.series.contains("crack0_end_J8"), "no J column");
     assert_same(&a, &b);
 }
 

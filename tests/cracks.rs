@@ -3,6 +3,8 @@
 //! faces from interpenetrating, the crack surfaces follow the material,
 //! and bad crack input is refused naming the field.
 
+mod common;
+
 use cleave::diagnostics::Recorder;
 use cleave::fracture::cracks::Cramp;
 use cleave::mpm::Simulation;
@@ -82,7 +84,17 @@ fn a_crack_lets_the_sides_separate_freely() {
     assert!(scene.plan.has(Stage::FieldPartition));
     assert!(scene.plan.has(Stage::Contact));
     assert!(scene.plan.has(Stage::CrackSurfaces));
-    let (sim, _) = run(&scene);
+    let (sim, rec) = run(&scene);
+    // both ends lie outside the blocks: no tips, no J
+    for end in ["start", "end"] {
+        for col in ["J", "KI", "KII"] {
+            let v = common::last_value(&rec, &rec.columns, &format!("crack0_{end}_{col}"));
+            assert!(
+                v.is_nan(),
+                "crack0_{end}_{col} = {v} at an end outside the material"
+            );
+        }
+    }
     let t = sim.time();
     let cramp = sim.model::<Cramp>().expect("the crack model");
     assert_eq!(cramp.warnings, Default::default());
@@ -316,6 +328,18 @@ explicit_cracks = [{{ points = [[0.005, 0.01, 0.01], [0.015, 0.01, 0.01]] }}]
         err.contains("bodies[0].explicit_cracks") && err.contains("2D"),
         "{err}"
     );
+    // J contours that are not an even number of cells, or twice the same
+    for (list, at, why) in [
+        ("[3]", "cramp.j_contours[0]", "even number of cells"),
+        ("[4, 70]", "cramp.j_contours[1]", "even number of cells"),
+        ("[4, 4]", "cramp.j_contours[1]", "twice"),
+        ("[]", "cramp.j_contours", "at least one"),
+    ] {
+        let err = Scene::from_text(&format!("{base}\n[cramp]\nj_contours = {list}\n"), None)
+            .expect_err("refused")
+            .to_string();
+        assert!(err.contains(at) && err.contains(why), "{list}: {err}");
+    }
     // options without cracks
     let plain = base.replace(line, "");
     let err = Scene::from_text(&format!("{plain}\n[cramp]\n"), None)
@@ -345,7 +369,7 @@ fn the_centre_crack_gives_griffiths_opening_and_j() {
     );
     let scene = Scene::from_path(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"));
     let (sim, rec) = run(&scene);
-    let (sigma, a, w, e, nu) = (1.0e6, 0.004, 0.04, 1.0e9, 0.3);
+    let (sigma, a, w, e, nu): (f64, f64, f64, f64, f64) = (1.0e6, 0.004, 0.04, 1.0e9, 0.3);
     let e_star = e / (1.0 - nu * nu);
     let pi = std::f64::consts::PI;
     let al = 2.0 * a / w;
@@ -389,5 +413,78 @@ fn the_centre_crack_gives_griffiths_opening_and_j() {
         println!("{end}: K_I {k1:.5e}, K_II {k2:.3e} Pa√m, K = {k:.5e}");
         assert!((k1 / k - 1.0).abs() < 0.015, "{end} K_I {k1} against {k}");
         assert!(k2.abs() < 0.01 * k, "{end} K_II {k2}");
+    }
+}
+
+/// A mixed-mode case (`scenes/cramp_inclined_crack.toml`: the centre
+/// crack turned by β = 30°), against the inclined Griffith crack of an
+/// infinite plate, K_I = σ√(πa)cos²β, K_II = σ√(πa)sinβcosβ: over the
+/// hold, J of both tips within 8 % of cos²β·K²/E′ with the straight
+/// crack's finite-width factor (sec(πa/W) at the crack's projected
+/// half-width a·cosβ), and K_II/K_I of both tips within 10 % of tan β.
+/// Prints the crack's opening profile (δ_t/δ_n per crack point, which
+/// is tan β all along an inclined Griffith crack). About 80 s in release:
+/// `cargo test --release --test cracks -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn an_inclined_crack_splits_j_into_both_modes() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cramp_inclined_crack.toml"
+    );
+    let scene = Scene::from_path(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"));
+    let (sim, rec) = run(&scene);
+    let (sigma, a, w, e, nu): (f64, f64, f64, f64, f64) = (1.0e6, 0.004, 0.04, 1.0e9, 0.3);
+    let beta = 30f64.to_radians();
+    let pi = std::f64::consts::PI;
+    let e_star = e / (1.0 - nu * nu);
+    let k0 = sigma * (pi * a).sqrt() * (1.0 / (pi * a * beta.cos() / w).cos()).sqrt();
+    let want = beta.cos().powi(2) * k0 * k0 / e_star;
+    let crack = &sim.model::<Cramp>().expect("the crack model").cracks[0];
+    let n = crack.plane.len();
+    let t = {
+        let (p, q) = (crack.plane[0], crack.plane[n - 1]);
+        let l = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)).sqrt();
+        [(q[0] - p[0]) / l, (q[1] - p[1]) / l]
+    };
+    let nrm = [-t[1], t[0]];
+    let profile: Vec<String> = (0..n)
+        .map(|k| {
+            let d = [
+                crack.above[k][0] - crack.below[k][0],
+                crack.above[k][1] - crack.below[k][1],
+            ];
+            let (dn, dt) = (d[0] * nrm[0] + d[1] * nrm[1], d[0] * t[0] + d[1] * t[1]);
+            format!("{k}: δn {dn:.3e} δt/δn {:.3}", dt / dn)
+        })
+        .collect();
+    println!("opening profile at 2 ms:\n{}", profile.join("\n"));
+    let hold: Vec<_> = rec.rows.iter().filter(|r| r.time > 1.5e-3 * (1.0 - 1e-9)).collect();
+    let mean = |name: &str| {
+        hold.iter()
+            .map(|r| r.get(&rec.columns, name).expect(name))
+            .sum::<f64>()
+            / hold.len() as f64
+    };
+    for end in ["start", "end"] {
+        let j = mean(&format!("crack0_{end}_J"));
+        let (k1, k2) = (
+            mean(&format!("crack0_{end}_KI")),
+            mean(&format!("crack0_{end}_KII")),
+        );
+        println!(
+            "{end}: J {j:.4} J/m² (J8 {:.4}), expected about {want:.4}; K_I {k1:.4e}, K_II {k2:.4e}, \
+             K_II/K_I {:.3} (tan β {:.3})",
+            mean(&format!("crack0_{end}_J8")),
+            k2 / k1,
+            beta.tan()
+        );
+        assert!((j / want - 1.0).abs() < 0.08, "{end}: J {j} against {want}");
+        assert!(
+            ((k2 / k1).abs() / beta.tan() - 1.0).abs() < 0.10,
+            "{end}: K_II/K_I {} against tan β {}",
+            k2 / k1,
+            beta.tan()
+        );
     }
 }

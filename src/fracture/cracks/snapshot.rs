@@ -54,7 +54,7 @@ mod tests {
         a.above[1] = [1.0, 0.25];
         a.below[1] = [1.0, -0.25];
         let b = Crack::new(1, 0.3, vec![[5.0, 5.0], [6.0, 6.0]]);
-        let cramp = Cramp::new(vec![a.clone(), b], SurfaceUpdate::default());
+        let cramp = Cramp::new(vec![a.clone(), b], SurfaceUpdate::default(), vec![4]);
         let mut out = Vec::new();
         cramp.polylines(&mut out);
         assert_eq!(out.len(), 6);
