@@ -879,3 +879,53 @@ pub fn print_job_details(j: &proto::Job) {
 pub fn job_value(j: &proto::Job) -> serde_json::Value {
     job_json(j)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn field(name: &str, data: FieldData) -> Field {
+        Field {
+            name: name.into(),
+            components: 1,
+            data,
+        }
+    }
+
+    /// Lines rebuild in order with their values (a MISSING value is one
+    /// the line lacks); a server whose arrays do not fit its counts gets
+    /// an error, not a panic or lines cut anywhere.
+    #[test]
+    fn polylines_rebuild_and_refuse_arrays_that_do_not_fit() {
+        let xy = || {
+            field(
+                "position",
+                FieldData::F64(vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]),
+            )
+        };
+        let crack = || field("crack", FieldData::U32(vec![0, Polyline::MISSING]));
+        let lines = polylines(&[2, 1], vec![xy(), crack()], 2).unwrap();
+        assert_eq!(
+            lines,
+            [
+                Polyline {
+                    points: vec![[0.0, 1.0, 0.0], [2.0, 3.0, 0.0]],
+                    cell_data: vec![("crack".into(), 0)],
+                },
+                Polyline {
+                    points: vec![[4.0, 5.0, 0.0]],
+                    cell_data: vec![],
+                },
+            ]
+        );
+        for (counts, fields) in [
+            (vec![2, 2], vec![xy(), crack()]),
+            (vec![u64::MAX, 4], vec![xy(), crack()]),
+            (vec![2, 1], vec![xy(), xy(), crack()]),
+            (vec![2, 1], vec![crack()]),
+            (vec![3], vec![xy(), crack()]),
+        ] {
+            assert!(polylines(&counts, fields, 2).is_err(), "{counts:?}");
+        }
+    }
+}
