@@ -747,9 +747,17 @@ fn plot(series: &Path, out: Option<&Path>) -> anyhow::Result<()> {
             "crack.png",
             cleave::output::plot_crack(&dir.join("crack.png"), &columns, &rows)?,
         ),
+        (
+            "j_integral.png",
+            cleave::output::plot_j_integral(&dir.join("j_integral.png"), &columns, &rows)?,
+        ),
     ] {
+        // no word about a j_integral.png not drawn: a series without
+        // explicit cracks prints what it always did
         if drawn {
             println!("wrote {}", dir.join(name).display());
+        } else if name == "j_integral.png" {
+            continue;
         } else if rows.len() < 2 {
             println!("no {name}: the series has fewer than two rows");
         } else if name == "crack.png" {

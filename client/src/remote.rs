@@ -1,6 +1,8 @@
 //! The client side of the gRPC service: connect, submit, watch, fetch.
 
-use cleave::diagnostics::{Field, FieldData, GridSnapshot, Observer, SeriesRow, Snapshot};
+use cleave::diagnostics::{
+    Field, FieldData, GridSnapshot, Observer, Polyline, SeriesRow, Snapshot,
+};
 use cleave::output::{OutputPaths, OutputWriter};
 use cleave::service::proto::{self, cleave_client::CleaveClient, job_event::Event};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -476,6 +478,17 @@ async fn fetch_snapshot(
         }
         _ => None,
     };
+    // only a server that stores lines sets `lines`, and only for a
+    // snapshot that has some: an older server or a scene without cracks
+    // costs no call
+    let lines = match &info.lines {
+        Some(l) => {
+            let (_, lf) = fetch_location(client, id, index, proto::Location::Lines).await?;
+            polylines(&l.counts, lf, dimension)
+                .map_err(|e| RemoteError::new(EXIT_FAILED, format!("snapshot {index}: {e}")))?
+        }
+        None => Vec::new(),
+    };
     Ok(Snapshot {
         index: info.index,
         step: info.step,
@@ -484,8 +497,61 @@ async fn fetch_snapshot(
         positions,
         fields,
         grid,
-        lines: Vec::new(),
+        lines,
     })
+}
+
+/// The polylines of a snapshot from its `LinesInfo` counts and the
+/// fetched `LOCATION_LINES` fields (`position`, then one value per line),
+/// as the server's snapshot-file reader rebuilds them: a value of
+/// [`Polyline::MISSING`] is one the line lacks. An Err says the server
+/// sent arrays that do not fit the counts (never trusted to index by).
+fn polylines(counts: &[u64], fields: Vec<Field>, d: usize) -> Result<Vec<Polyline>, String> {
+    let mut xy = None;
+    let mut values = Vec::new();
+    for Field { name, data, .. } in fields {
+        match data {
+            FieldData::F64(v) if name == "position" && xy.is_none() => xy = Some(v),
+            FieldData::U32(v) if v.len() == counts.len() => values.push((name, v)),
+            _ => {
+                return Err(format!(
+                    "the lines' {name} is neither their position nor {} integers, one per line",
+                    counts.len()
+                ))
+            }
+        }
+    }
+    let xy = xy.ok_or("the lines came without their position")?;
+    let total = counts
+        .iter()
+        .try_fold(0u64, |a, &n| a.checked_add(n))
+        .and_then(|n| usize::try_from(n).ok())
+        .and_then(|n| n.checked_mul(d));
+    if total != Some(xy.len()) {
+        return Err(format!(
+            "the lines' {} position values are not their counted points in {d}D",
+            xy.len()
+        ));
+    }
+    let mut points = xy.chunks_exact(d).map(|c| {
+        let mut x = [0.0; 3];
+        x[..d].copy_from_slice(c);
+        x
+    });
+    Ok(counts
+        .iter()
+        .enumerate()
+        .map(|(k, &n)| Polyline {
+            points: points.by_ref().take(n as usize).collect(),
+            cell_data: values
+                .iter()
+                .filter_map(|(name, v)| {
+                    let x = *v.get(k)?;
+                    (x != Polyline::MISSING).then(|| (name.clone(), x))
+                })
+                .collect(),
+        })
+        .collect())
 }
 
 /// All fields of one location of a snapshot, rebuilt from the chunks.
@@ -812,4 +878,54 @@ pub fn print_job_details(j: &proto::Job) {
 
 pub fn job_value(j: &proto::Job) -> serde_json::Value {
     job_json(j)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn field(name: &str, data: FieldData) -> Field {
+        Field {
+            name: name.into(),
+            components: 1,
+            data,
+        }
+    }
+
+    /// Lines rebuild in order with their values (a MISSING value is one
+    /// the line lacks); a server whose arrays do not fit its counts gets
+    /// an error, not a panic or lines cut anywhere.
+    #[test]
+    fn polylines_rebuild_and_refuse_arrays_that_do_not_fit() {
+        let xy = || {
+            field(
+                "position",
+                FieldData::F64(vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]),
+            )
+        };
+        let crack = || field("crack", FieldData::U32(vec![0, Polyline::MISSING]));
+        let lines = polylines(&[2, 1], vec![xy(), crack()], 2).unwrap();
+        assert_eq!(
+            lines,
+            [
+                Polyline {
+                    points: vec![[0.0, 1.0, 0.0], [2.0, 3.0, 0.0]],
+                    cell_data: vec![("crack".into(), 0)],
+                },
+                Polyline {
+                    points: vec![[4.0, 5.0, 0.0]],
+                    cell_data: vec![],
+                },
+            ]
+        );
+        for (counts, fields) in [
+            (vec![2, 2], vec![xy(), crack()]),
+            (vec![u64::MAX, 4], vec![xy(), crack()]),
+            (vec![2, 1], vec![xy(), xy(), crack()]),
+            (vec![2, 1], vec![crack()]),
+            (vec![3], vec![xy(), crack()]),
+        ] {
+            assert!(polylines(&counts, fields, 2).is_err(), "{counts:?}");
+        }
+    }
 }

@@ -13,7 +13,8 @@ mod plot;
 mod vtk;
 
 pub use plot::{
-    plot_crack, plot_energies, plot_log_x, plot_pareto, plot_particle_field, plot_polar, Panel,
+    plot_crack, plot_energies, plot_j_integral, plot_log_x, plot_pareto, plot_particle_field,
+    plot_polar, Panel,
 };
 pub use vtk::{write_grid_vti, write_lines_vtp, write_particles_vtp, write_pvd};
 
@@ -59,6 +60,11 @@ pub struct OutputPaths {
     pub energy_plot: Option<PathBuf>,
     /// `crack.png`, for series with a crack tip.
     pub crack_plot: Option<PathBuf>,
+    /// `j_integral.png`, for series with an explicit crack's tip J; left
+    /// out of the JSON without one, so a run without cracks reports what
+    /// it always did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub j_plot: Option<PathBuf>,
     /// Snapshot files in the order written (particles, then grid, then
     /// cracks).
     pub snapshots: Vec<PathBuf>,
@@ -271,6 +277,13 @@ impl OutputWriter {
             .draw(&p, || plot_crack(&p, &self.columns, &self.rows))
         {
             paths.crack_plot = Some(p);
+        }
+        let p = self.dir.join("j_integral.png");
+        if self
+            .plots
+            .draw(&p, || plot_j_integral(&p, &self.columns, &self.rows))
+        {
+            paths.j_plot = Some(p);
         }
         self.plots.summarize();
         Ok(paths)

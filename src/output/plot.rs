@@ -430,6 +430,65 @@ pub fn plot_crack(
     Ok(true)
 }
 
+/// The crack tips whose J the series gives on the first contour: each
+/// `crack{c}_{start|end}_J` column with its legend, `crack{c} {end}`
+/// (the further contours' `…_J{N}` columns are left to the series).
+fn j_columns(columns: &[String]) -> Vec<(&str, String)> {
+    columns
+        .iter()
+        .filter_map(|name| {
+            let rest = name.strip_prefix("crack")?.strip_suffix("_J")?;
+            let (c, end) = rest.split_once('_')?;
+            let numbered = !c.is_empty() && c.bytes().all(|b| b.is_ascii_digit());
+            (numbered && (end == "start" || end == "end"))
+                .then(|| (name.as_str(), format!("crack{c} {end}")))
+        })
+        .collect()
+}
+
+/// Draws `j_integral.png` from the series of a scene with explicit
+/// cracks: J (J/m², on each tip's first contour) against time, one line
+/// per tip that has a finite J in some row; the rows where a tip's J is
+/// NaN (an end that is not a tip, a contour off the grid) are left out
+/// of its line rather than breaking the plot. Returns Ok(false) and
+/// writes nothing without such a tip or with fewer than two rows, so a
+/// scene without cracks gets no file.
+pub fn plot_j_integral(
+    path: &Path,
+    columns: &[String],
+    rows: &[SeriesRow],
+) -> Result<bool, OutputError> {
+    let lines = j_lines(columns, rows);
+    if rows.len() < 2 || lines.is_empty() {
+        return Ok(false);
+    }
+    draw(
+        path,
+        &[("J integral at the crack tips", "J in J/m²", lines)],
+    )?;
+    Ok(true)
+}
+
+/// The lines of [`plot_j_integral`]: per tip of [`j_columns`] with a
+/// finite J somewhere, its finite (time, J) points.
+fn j_lines(columns: &[String], rows: &[SeriesRow]) -> Vec<Line> {
+    let colours = [BLUE_, ORANGE, GREEN_, PURPLE, GREY];
+    j_columns(columns)
+        .into_iter()
+        .map(|(col, label)| {
+            let points: Vec<(f64, f64)> = rows
+                .iter()
+                .filter_map(|r| Some((r.time, r.get(columns, col)?)))
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .collect();
+            (label, points)
+        })
+        .filter(|(_, points)| !points.is_empty())
+        .enumerate()
+        .map(|(k, (label, points))| (label, colours[k % colours.len()], points))
+        .collect()
+}
+
 /// A polar plot of r(θ) (degrees) as a closed curve, one panel per series,
 /// side by side, equal axes.
 pub fn plot_polar(path: &Path, panels: &[(&str, Vec<(f64, f64)>)]) -> Result<(), OutputError> {
@@ -824,6 +883,86 @@ mod tests {
         let p = dir.path().join("d.png");
         assert!(plot_particle_field(&p, &snap, "damage", 0.0, 1.0).unwrap());
         assert!(std::fs::metadata(&p).unwrap().len() > 1000);
+    }
+
+    /// Only the first contour's `crack{c}_{end}_J` columns make lines,
+    /// one per tip with a finite J (a tip that is NaN throughout has
+    /// none); NaN rows do not stop the picture; a series without such a
+    /// column, or with one that is never finite, draws nothing.
+    #[test]
+    fn j_is_drawn_per_tip_with_a_finite_j() {
+        let columns: Vec<String> = SeriesRow::COLUMNS
+            .iter()
+            .map(|c| c.to_string())
+            .chain(
+                [
+                    "crack0_start_J",
+                    "crack0_start_KI",
+                    "crack0_end_J",
+                    "crack0_end_J8",
+                    "crack12_end_J",
+                    "crack_length",
+                    "crackx_end_J",
+                ]
+                .map(String::from),
+            )
+            .collect();
+        assert_eq!(
+            j_columns(&columns),
+            [
+                ("crack0_start_J", "crack0 start".to_string()),
+                ("crack0_end_J", "crack0 end".to_string()),
+                ("crack12_end_J", "crack12 end".to_string()),
+            ]
+        );
+        let nan = f64::NAN;
+        let rows: Vec<SeriesRow> = (0..4)
+            .map(|k| SeriesRow {
+                time: [0.0, 1e-6, 2e-6, 3e-6][k],
+                // start never a tip, end NaN at t = 0, crack 12's end a
+                // tip in one row only
+                extra: vec![
+                    nan,
+                    1.0,
+                    [nan, 3.0, 5.0, 4.0][k],
+                    2.0,
+                    [nan, nan, 7.0, nan][k],
+                    0.5,
+                    0.0,
+                ],
+                ..SeriesRow::default()
+            })
+            .collect();
+        let lines = j_lines(&columns, &rows);
+        let got: Vec<(&str, &[(f64, f64)])> = lines
+            .iter()
+            .map(|(name, _, points)| (name.as_str(), points.as_slice()))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                ("crack0 end", &[(1e-6, 3.0), (2e-6, 5.0), (3e-6, 4.0)][..]),
+                ("crack12 end", &[(2e-6, 7.0)][..]),
+            ]
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("j_integral.png");
+        assert!(plot_j_integral(&p, &columns, &rows).unwrap());
+        assert!(std::fs::metadata(&p).unwrap().len() > 1000);
+
+        let never: Vec<SeriesRow> = rows
+            .iter()
+            .map(|r| SeriesRow {
+                extra: vec![nan; 7],
+                ..r.clone()
+            })
+            .collect();
+        let q = dir.path().join("none.png");
+        assert!(!plot_j_integral(&q, &columns, &never).unwrap());
+        let core = &columns[..SeriesRow::COLUMNS.len()];
+        assert!(!plot_j_integral(&q, core, &rows).unwrap());
+        assert!(!plot_j_integral(&q, &columns, &rows[..1]).unwrap());
+        assert!(!q.exists());
     }
 
     #[test]

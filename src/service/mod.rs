@@ -221,6 +221,15 @@ fn snapshot_to_proto(h: &jobs::SnapshotHeader) -> proto::SnapshotInfo {
             }
         }),
         dimension: h.dimension() as u32,
+        // only for snapshots that have lines, so that a scene without
+        // explicit cracks answers what it always did
+        lines: h.lines.as_ref().map(|l| proto::LinesInfo {
+            counts: l.counts.iter().map(|&n| n as u64).collect(),
+            fields: std::iter::once(&l.points)
+                .chain(&l.values)
+                .map(field_info)
+                .collect(),
+        }),
     }
 }
 
@@ -372,19 +381,18 @@ impl Cleave for CleaveService {
         req: Request<proto::FetchFieldsRequest>,
     ) -> Result<Response<ChunkStream>, Status> {
         let r = req.into_inner();
-        let grid = match proto::Location::try_from(r.location) {
-            Ok(proto::Location::Particles) => false,
-            Ok(proto::Location::Grid) => true,
+        let location = match proto::Location::try_from(r.location) {
             Ok(proto::Location::Unspecified) => {
                 return Err(Status::invalid_argument(
-                    "location: required (LOCATION_PARTICLES or LOCATION_GRID)",
+                    "location: required (LOCATION_PARTICLES, LOCATION_GRID or LOCATION_LINES)",
                 ))
             }
+            Ok(l) => l,
             Err(_) => {
                 return Err(unknown_enum(
                     "location",
                     r.location,
-                    &["LOCATION_PARTICLES", "LOCATION_GRID"],
+                    &["LOCATION_PARTICLES", "LOCATION_GRID", "LOCATION_LINES"],
                 ))
             }
         };
@@ -407,17 +415,30 @@ impl Cleave for CleaveService {
         })
         .await?;
         let header = reader.header.clone();
-        let available: Vec<jobs::snapfile::ArrayInfo> = if grid {
-            match &header.grid {
+        let available: Vec<jobs::snapfile::ArrayInfo> = match location {
+            proto::Location::Grid => match &header.grid {
                 Some(g) => g.fields.clone(),
                 None => {
                     return Err(Status::failed_precondition(format!(
                         "snapshot {index} of {id} has no grid fields"
                     )))
                 }
-            }
-        } else {
-            header.fields.clone()
+            },
+            // the points, then each per-line value: the order of
+            // SnapshotInfo.lines.fields
+            proto::Location::Lines => match &header.lines {
+                Some(l) => std::iter::once(&l.points)
+                    .chain(&l.values)
+                    .cloned()
+                    .collect(),
+                None => {
+                    return Err(Status::failed_precondition(format!(
+                        "snapshot {index} of {id} has no lines (its scene has no explicit cracks)"
+                    )))
+                }
+            },
+            // the particles (an unspecified location was refused above)
+            _ => header.fields.clone(),
         };
         let chosen: Vec<_> = if r.fields.is_empty() {
             available
