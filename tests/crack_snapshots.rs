@@ -31,48 +31,19 @@ fn points(p: &[[f64; 2]]) -> String {
     format!("[{}]", xy.join(", "))
 }
 
-/// The scene, with its two cracks or without; five snapshots over 0.1 ms.
+/// The scene (`tests/data/stacked_cracks.toml`), with its two cracks or
+/// without; five snapshots over 0.1 ms.
 fn scene(cracks: bool) -> Scene {
-    let (bottom, top) = if cracks {
-        (
-            format!("explicit_cracks = [{{ points = {} }}]", points(&INTERFACE)),
-            format!("explicit_cracks = [{{ points = {} }}]", points(&INSIDE)),
-        )
-    } else {
-        (String::new(), String::new())
-    };
-    let text = format!(
-        r#"
-[grid]
-cell_size = 0.001
-max = [0.03, 0.03]
-shape_function = "quadratic_bspline"
-[analysis]
-plane = "plane_strain"
-[time]
-end = 1.0e-4
-cfl = 0.3
-[materials.m]
-model = "linear_elastic"
-density = 1000.0
-youngs_modulus = 1.0e8
-poissons_ratio = 0.3
-[[bodies]]
-name = "bottom"
-shape = {{ type = "box", min = [0.005, 0.005], max = [0.025, 0.0151] }}
-material = "m"
-{bottom}
-[[bodies]]
-name = "top"
-shape = {{ type = "box", min = [0.005, 0.0151], max = [0.025, 0.025] }}
-material = "m"
-velocity = [0.0, 1.0]
-{top}
-[output]
-series_rows = 5
-snapshots = 5
-"#
-    );
+    let text = include_str!("data/stacked_cracks.toml");
+    // the expected points below are the file's
+    for c in [&INTERFACE[..], &INSIDE[..]] {
+        assert!(text.contains(&format!("points = {} }}", points(c))));
+    }
+    let text: String = text
+        .lines()
+        .filter(|l| cracks || !l.starts_with("explicit_cracks"))
+        .map(|l| format!("{l}\n"))
+        .collect();
     Scene::from_text(&text, None).unwrap_or_else(|e| panic!("{e}"))
 }
 

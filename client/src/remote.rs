@@ -533,25 +533,12 @@ fn polylines(counts: &[u64], fields: Vec<Field>, d: usize) -> Result<Vec<Polylin
             xy.len()
         ));
     }
-    let mut points = xy.chunks_exact(d).map(|c| {
-        let mut x = [0.0; 3];
-        x[..d].copy_from_slice(c);
-        x
-    });
-    Ok(counts
-        .iter()
-        .enumerate()
-        .map(|(k, &n)| Polyline {
-            points: points.by_ref().take(n as usize).collect(),
-            cell_data: values
-                .iter()
-                .filter_map(|(name, v)| {
-                    let x = *v.get(k)?;
-                    (x != Polyline::MISSING).then(|| (name.clone(), x))
-                })
-                .collect(),
-        })
-        .collect())
+    Ok(Polyline::from_parts(
+        counts.iter().map(|&n| n as usize),
+        &xy,
+        d,
+        &values,
+    ))
 }
 
 /// All fields of one location of a snapshot, rebuilt from the chunks.

@@ -15,53 +15,17 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-/// The stacked blocks of `tests/crack_snapshots.rs`, the top one pulled
-/// away: with an interface crack through both edges and a crack inside
-/// the top block (whose ends are tips, so the series has a finite J), or
-/// without cracks; three snapshots over 0.1 ms.
+/// The stacked blocks of `tests/crack_snapshots.rs`
+/// (`tests/data/stacked_cracks.toml`), the top one pulled away: with an
+/// interface crack through both edges and a crack inside the top block
+/// (whose ends are tips, so the series has a finite J), or without
+/// cracks; five snapshots over 0.1 ms.
 fn scene(cracks: bool) -> String {
-    let (bottom, top) = if cracks {
-        (
-            "explicit_cracks = [{ points = [[0.0021, 0.0151], [0.0101, 0.0151], \
-             [0.0203, 0.0151], [0.0279, 0.0151]] }]",
-            "explicit_cracks = [{ points = [[0.0101, 0.0201], [0.0152, 0.0203], \
-             [0.0199, 0.0201]] }]",
-        )
-    } else {
-        ("", "")
-    };
-    format!(
-        r#"
-[grid]
-cell_size = 0.001
-max = [0.03, 0.03]
-shape_function = "quadratic_bspline"
-[analysis]
-plane = "plane_strain"
-[time]
-end = 1.0e-4
-cfl = 0.3
-[materials.m]
-model = "linear_elastic"
-density = 1000.0
-youngs_modulus = 1.0e8
-poissons_ratio = 0.3
-[[bodies]]
-name = "bottom"
-shape = {{ type = "box", min = [0.005, 0.005], max = [0.025, 0.0151] }}
-material = "m"
-{bottom}
-[[bodies]]
-name = "top"
-shape = {{ type = "box", min = [0.005, 0.0151], max = [0.025, 0.025] }}
-material = "m"
-velocity = [0.0, 1.0]
-{top}
-[output]
-series_rows = 5
-snapshots = 3
-"#
-    )
+    include_str!("../../tests/data/stacked_cracks.toml")
+        .lines()
+        .filter(|l| cracks || !l.starts_with("explicit_cracks"))
+        .map(|l| format!("{l}\n"))
+        .collect()
 }
 
 /// A server on a free loopback port inside this process, with its data
@@ -246,7 +210,7 @@ fn a_crack_job_fetches_its_crack_files() {
     let id = server.run_job(&text);
 
     let snaps = server.snapshots(&id);
-    assert_eq!(snaps.len(), 3);
+    assert_eq!(snaps.len(), 5);
     for s in &snaps {
         let l = s.lines.as_ref().expect("a crack snapshot's lines");
         assert_eq!(l.counts, [4, 4, 4, 3, 3, 3]);
@@ -305,7 +269,7 @@ fn a_job_without_cracks_fetches_as_before() {
     let text = scene(false);
     let id = server.run_job(&text);
     let snaps = server.snapshots(&id);
-    assert_eq!(snaps.len(), 3);
+    assert_eq!(snaps.len(), 5);
     assert!(snaps.iter().all(|s| s.lines.is_none()));
 
     let mut c = server.client();

@@ -202,6 +202,38 @@ impl Polyline {
     /// as absent).
     pub const MISSING: u32 = u32::MAX;
 
+    /// Lines rebuilt from flat arrays (what a snapshot file and the API
+    /// store): `counts[k]` points of line k, taken in order from `xy`
+    /// (`d` components a point), and per named array one value a line,
+    /// [`Polyline::MISSING`] read as absent. The caller has checked that
+    /// the counts add up to the points.
+    pub fn from_parts(
+        counts: impl IntoIterator<Item = usize>,
+        xy: &[f64],
+        d: usize,
+        values: &[(String, Vec<u32>)],
+    ) -> Vec<Polyline> {
+        let mut points = xy.chunks_exact(d).map(|c| {
+            let mut x = [0.0; 3];
+            x[..d].copy_from_slice(c);
+            x
+        });
+        counts
+            .into_iter()
+            .enumerate()
+            .map(|(k, n)| Polyline {
+                points: points.by_ref().take(n).collect(),
+                cell_data: values
+                    .iter()
+                    .filter_map(|(name, v)| {
+                        let x = *v.get(k)?;
+                        (x != Polyline::MISSING).then(|| (name.clone(), x))
+                    })
+                    .collect(),
+            })
+            .collect()
+    }
+
     /// The value of `name`, if the line gives it.
     pub fn value(&self, name: &str) -> Option<u32> {
         self.cell_data

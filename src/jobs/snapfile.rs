@@ -430,25 +430,12 @@ impl SnapshotReader {
                 }
             }
         }
-        let mut points = xy.chunks_exact(d).map(|c| {
-            let mut x = [0.0; 3];
-            x[..d].copy_from_slice(c);
-            x
-        });
-        Ok(l.counts
-            .iter()
-            .enumerate()
-            .map(|(k, &n)| Polyline {
-                points: points.by_ref().take(n).collect(),
-                cell_data: values
-                    .iter()
-                    .filter_map(|(name, v)| {
-                        let x = *v.get(k)?;
-                        (x != Polyline::MISSING).then(|| (name.clone(), x))
-                    })
-                    .collect(),
-            })
-            .collect())
+        Ok(Polyline::from_parts(
+            l.counts.iter().copied(),
+            &xy,
+            d,
+            &values,
+        ))
     }
 }
 

@@ -205,6 +205,26 @@ pub fn musl_velocities<
     gather::<K, S, APIC, true, D, V>(geom, parts, bins, x_next, slots, grid, mats, transfer, dt);
 }
 
+/// The [`Update`] of `parts` (a macro rather than a function so that the
+/// pass may still borrow the particles' other arrays beside it).
+macro_rules! update {
+    ($geom:expr, $mats:expr, $dt:expr, $parts:expr, $bins:expr) => {
+        Update {
+            geom: $geom,
+            mats: $mats,
+            dt: $dt,
+            material: &$parts.material,
+            vol0: &$parts.vol0,
+            vol: SyncPtr::new(&mut $parts.vol),
+            stress: SyncPtr::new(&mut $parts.stress),
+            strain: SyncPtr::new(&mut $parts.strain),
+            def_grad: SyncPtr::new(&mut $parts.def_grad),
+            grad_u: SyncPtr::new(&mut $parts.grad_u),
+            tile_of: SyncPtr::new(&mut $bins.tile_of),
+        }
+    };
+}
+
 #[allow(clippy::too_many_arguments)]
 fn gather<
     K: Kernel,
@@ -227,19 +247,7 @@ fn gather<
     check_voigt::<D, V>();
     let n = parts.len();
     let pass = Gather {
-        up: Update {
-            geom,
-            mats,
-            dt,
-            material: &parts.material,
-            vol0: &parts.vol0,
-            vol: SyncPtr::new(&mut parts.vol),
-            stress: SyncPtr::new(&mut parts.stress),
-            strain: SyncPtr::new(&mut parts.strain),
-            def_grad: SyncPtr::new(&mut parts.def_grad),
-            grad_u: SyncPtr::new(&mut parts.grad_u),
-            tile_of: SyncPtr::new(&mut bins.tile_of),
-        },
+        up: update!(geom, mats, dt, parts, bins),
         slots,
         vel: &grid.vel,
         vel_old: &grid.vel_old,
@@ -280,19 +288,7 @@ pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
     check_voigt::<D, V>();
     let n = parts.len();
     let pass = Stress {
-        up: Update {
-            geom,
-            mats,
-            dt,
-            material: &parts.material,
-            vol0: &parts.vol0,
-            vol: SyncPtr::new(&mut parts.vol),
-            stress: SyncPtr::new(&mut parts.stress),
-            strain: SyncPtr::new(&mut parts.strain),
-            def_grad: SyncPtr::new(&mut parts.def_grad),
-            grad_u: SyncPtr::new(&mut parts.grad_u),
-            tile_of: SyncPtr::new(&mut bins.tile_of),
-        },
+        up: update!(geom, mats, dt, parts, bins),
         slots,
         vel: &grid.vel,
         half_size: &parts.half_size,
