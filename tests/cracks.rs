@@ -66,6 +66,24 @@ fn run(scene: &Scene) -> (Simulation, Recorder) {
     (sim, rec)
 }
 
+/// The number of series rows from `t0` on (the load's hold) and the mean
+/// of a column over them.
+fn hold_means(rec: &Recorder, t0: f64) -> (usize, impl Fn(&str) -> f64 + '_) {
+    let hold: Vec<_> = rec
+        .rows
+        .iter()
+        .filter(|r| r.time > t0 * (1.0 - 1e-9))
+        .collect();
+    let n = hold.len();
+    let mean = move |name: &str| {
+        hold.iter()
+            .map(|r| r.get(&rec.columns, name).expect(name))
+            .sum::<f64>()
+            / n as f64
+    };
+    (n, mean)
+}
+
 fn body_velocities(sim: &Simulation, body: u16) -> Vec<[f64; 2]> {
     let p = sim.particles();
     (0..p.len())
@@ -340,6 +358,27 @@ explicit_cracks = [{{ points = [[0.005, 0.01, 0.01], [0.015, 0.01, 0.01]] }}]
             .to_string();
         assert!(err.contains(at) && err.contains(why), "{list}: {err}");
     }
+    // growth with no toughness, with two, with a bad one or segment
+    for (table, at, why) in [
+        ("{}", "cramp.growth", "needs the toughness"),
+        (
+            "{ j_ic = 1.0, k_ic = 1.0 }",
+            "cramp.growth",
+            "both j_ic and k_ic",
+        ),
+        ("{ j_ic = -1.0 }", "cramp.growth.j_ic", "> 0"),
+        ("{ k_ic = 0.0 }", "cramp.growth.k_ic", "> 0"),
+        (
+            "{ j_ic = 1.0, segment = 2.0 }",
+            "cramp.growth.segment",
+            "[0.1, 1]",
+        ),
+    ] {
+        let err = Scene::from_text(&format!("{base}\n[cramp]\ngrowth = {table}\n"), None)
+            .expect_err("refused")
+            .to_string();
+        assert!(err.contains(at) && err.contains(why), "{table}: {err}");
+    }
     // options without cracks
     let plain = base.replace(line, "");
     let err = Scene::from_text(&format!("{plain}\n[cramp]\n"), None)
@@ -385,18 +424,8 @@ fn the_centre_crack_gives_griffiths_opening_and_j() {
     );
     let k = sigma * (pi * a).sqrt() * (1.0 / (pi * a / w).cos()).sqrt();
     let j_static = k * k / e_star;
-    let hold: Vec<_> = rec
-        .rows
-        .iter()
-        .filter(|r| r.time > 1.5e-3 * (1.0 - 1e-9))
-        .collect();
-    assert!(hold.len() >= 25, "{} rows in the hold", hold.len());
-    let mean = |name: &str| {
-        hold.iter()
-            .map(|r| r.get(&rec.columns, name).expect(name))
-            .sum::<f64>()
-            / hold.len() as f64
-    };
+    let (rows, mean) = hold_means(&rec, 1.5e-3);
+    assert!(rows >= 25, "{rows} rows in the hold");
     for end in ["start", "end"] {
         for col in ["J", "J8"] {
             let j = mean(&format!("crack0_{end}_{col}"));
@@ -463,17 +492,7 @@ fn an_inclined_crack_splits_j_into_both_modes() {
         })
         .collect();
     println!("opening profile at 2 ms:\n{}", profile.join("\n"));
-    let hold: Vec<_> = rec
-        .rows
-        .iter()
-        .filter(|r| r.time > 1.5e-3 * (1.0 - 1e-9))
-        .collect();
-    let mean = |name: &str| {
-        hold.iter()
-            .map(|r| r.get(&rec.columns, name).expect(name))
-            .sum::<f64>()
-            / hold.len() as f64
-    };
+    let (_, mean) = hold_means(&rec, 1.5e-3);
     for end in ["start", "end"] {
         let j = mean(&format!("crack0_{end}_J"));
         let (k1, k2) = (
@@ -495,4 +514,102 @@ fn an_inclined_crack_splits_j_into_both_modes() {
             beta.tan()
         );
     }
+}
+
+/// The growing edge crack of `scenes/cramp_edge_growth.toml` (a 20 × 30
+/// mm plate of the soft material, the crack 5 mm into its left edge at
+/// mid-height, pulled at top and bottom by a traction rising linearly to
+/// 1 MPa over 0.6 ms), with J_Ic = `j_ic` and `extra` after the crack in
+/// the body's list (a second crack).
+fn edge_cracked(j_ic: f64, extra: &str) -> String {
+    let text = include_str!("../scenes/cramp_edge_growth.toml");
+    let crack = "[0.005, 0.0151]] }";
+    let tough = "growth = { j_ic = 100.0 }";
+    assert!(text.contains(crack) && text.contains(tough));
+    text.replace(crack, &format!("{crack}{extra}"))
+        .replace(tough, &format!("growth = {{ j_ic = {j_ic:?} }}"))
+}
+
+/// Mode I growth: the edge crack of [`edge_cracked`] (J_Ic = 100 J/m²,
+/// K_Ic = √(J_Ic E*) = 1.05e5 Pa√m, reached near 0.55 MPa by the
+/// handbook's K = 1.50 σ√(πa)) keeps its length while its J is below
+/// J_Ic, then runs straight across the ligament (every new point within
+/// a quarter cell of the crack's line) in half-cell segments until it
+/// leaves the plate. As tough as J_Ic = 10⁶ J/m², it never grows.
+#[test]
+fn an_edge_crack_grows_straight_once_j_reaches_the_toughness() {
+    let j_ic = 100.0;
+    let scene = parse(&edge_cracked(j_ic, ""));
+    assert!(scene.plan.has(Stage::CrackGrowth));
+    let (sim, rec) = run(&scene);
+    let crack = &sim.model::<Cramp>().expect("the crack model").cracks[0];
+    let y0 = 0.0151;
+    let grown = &crack.plane[7..];
+    println!(
+        "{} points grown, tip at {:?}",
+        grown.len(),
+        crack.plane.last()
+    );
+    assert!(grown.len() >= 20, "{} points grown", grown.len());
+    for p in grown {
+        assert!(
+            (p[1] - y0).abs() < 0.25e-3,
+            "a grown point off the line: {p:?}"
+        );
+    }
+    // half-cell segments (each new one 0.5 mm; the plate has stretched
+    // them since by under a tenth)
+    for w in crack.plane[6..crack.plane.len() - 1].windows(2) {
+        let l = ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt();
+        assert!((l / 0.5e-3 - 1.0).abs() < 0.1, "a segment of {l} m");
+    }
+    assert!(
+        crack.plane.last().unwrap()[0] > 0.0195,
+        "{:?}",
+        crack.plane.last()
+    );
+    // before the first growth, J stayed below J_Ic and came close to it
+    let get = |r: &cleave::diagnostics::SeriesRow, name: &str| r.get(&rec.columns, name).unwrap();
+    let len0 = get(&rec.rows[0], "crack0_length");
+    let before: Vec<f64> = rec
+        .rows
+        .iter()
+        .take_while(|r| get(r, "crack0_length") < len0 + 0.25e-3)
+        .map(|r| get(r, "crack0_end_J"))
+        .filter(|j| j.is_finite())
+        .collect();
+    let top = before.iter().copied().fold(0.0, f64::max);
+    println!(
+        "J before growth up to {top:.2} J/m² ({} rows)",
+        before.len()
+    );
+    assert!(
+        top < 1.02 * j_ic && top > 0.8 * j_ic,
+        "J up to {top} before growth"
+    );
+    // a tough plate keeps its crack
+    let (sim, _) = run(&parse(&edge_cracked(1e6, "")));
+    assert_eq!(
+        sim.model::<Cramp>().expect("the crack model").cracks[0]
+            .plane
+            .len(),
+        7
+    );
+}
+
+/// A crack that grows toward another stops at it: the edge crack of
+/// [`edge_cracked`] runs toward an interior crack across its path
+/// (x = 12.05 mm, 8 mm long), comes within 1.5 cells of it and no point
+/// of it passes that crack. (It stops 0.7 mm short: within two cells the
+/// 4-cell contour is crossed by the other crack, and J by PIJC drops;
+/// Nairn & Aimene's FIJC corrects that.)
+#[test]
+fn a_growing_crack_stops_at_the_crack_it_meets() {
+    let wall = ", { points = [[0.01205, 0.0111], [0.01205, 0.0151], [0.01205, 0.0191]] }";
+    let (sim, _) = run(&parse(&edge_cracked(100.0, wall)));
+    let cracks = &sim.model::<Cramp>().expect("the crack model").cracks;
+    let tip = *cracks[0].plane.last().unwrap();
+    println!("tip at {tip:?}, {} points", cracks[0].plane.len());
+    assert!(tip[0] > 0.01205 - 1.5e-3, "it stopped at {tip:?}");
+    assert!(cracks[0].plane.iter().all(|p| p[0] < 0.01205), "{tip:?}");
 }

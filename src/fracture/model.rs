@@ -296,6 +296,7 @@ pub struct ContactContext<'a, const D: usize = 2> {
 pub struct AfterContext<'a, const D: usize = 2, const V: usize = 3> {
     pub geom: &'a GridGeom<D>,
     pub parts: &'a Particles<D, V>,
+    pub mats: &'a [Elastic],
     pub grid: &'a GridFields<D>,
     pub multi: &'a MultiField,
     pub kernel: ShapeFunctionKind,

@@ -592,6 +592,7 @@ where
                 let at = AfterContext {
                     geom: &self.geom,
                     parts: &self.parts,
+                    mats: &self.mats,
                     grid: &self.grid,
                     multi: &multi,
                     kernel: self.scene.file.grid.shape_function,
@@ -777,7 +778,10 @@ where
                         true
                     }
                     // these run before the scatter and after the slots (`execute`)
-                    Stage::DamageField | Stage::FieldPartition | Stage::CrackSurfaces => false,
+                    Stage::DamageField
+                    | Stage::FieldPartition
+                    | Stage::CrackSurfaces
+                    | Stage::CrackGrowth => false,
                     // the fracture models' own stages
                     stage => {
                         let ctx = StepContext {

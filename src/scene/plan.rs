@@ -66,12 +66,17 @@ pub enum Stage {
     /// Aimene, eqs. 3–6). Runs after the step's field slots are released,
     /// on the nodal fields the step left.
     CrackSurfaces,
+    /// Explicit cracks that grow: each tip's J, K_I, K_II on its first
+    /// contour, and a new segment in the maximum-hoop-stress direction
+    /// where K_I^max reaches K_Ic (Nairn & Aimene, section 3.5). Only in
+    /// a scene with `[cramp] growth`.
+    CrackGrowth,
 }
 
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 16] = [
+    pub const ALL: [Stage; 17] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -88,6 +93,7 @@ impl Stage {
         Stage::Rebin,
         Stage::PhaseFieldStagger,
         Stage::CrackSurfaces,
+        Stage::CrackGrowth,
     ];
 
     /// The stage of a [`name`](Stage::name).
@@ -113,6 +119,7 @@ impl Stage {
             Stage::Rebin => "rebin",
             Stage::PhaseFieldStagger => "phase_field_stagger",
             Stage::CrackSurfaces => "crack_surfaces",
+            Stage::CrackGrowth => "crack_growth",
         }
     }
 
@@ -134,7 +141,7 @@ impl Stage {
     /// the step's field slots are released, on the nodal fields the step
     /// left (they come last in the plan).
     pub fn after_slots(self) -> bool {
-        matches!(self, Stage::CrackSurfaces)
+        matches!(self, Stage::CrackSurfaces | Stage::CrackGrowth)
     }
 }
 
@@ -175,6 +182,7 @@ impl Plan {
         let dfg = file.dfg.is_some();
         let cracks = file.bodies.iter().any(|b| !b.explicit_cracks.is_empty());
         let contact = contact_groups.len() > 1 || dfg || cracks;
+        let growth = cracks && file.cramp.as_ref().is_some_and(|c| c.growth.is_some());
         let uses = |f: fn(&super::schema::MaterialSpec) -> bool| {
             file.bodies
                 .iter()
@@ -198,6 +206,7 @@ impl Plan {
                 Stage::G2pVelocity | Stage::Remap | Stage::G2pStress => musl,
                 Stage::Damage => damage,
                 Stage::CrackSurfaces => cracks,
+                Stage::CrackGrowth => growth,
             })
             .collect();
         Plan { stages }

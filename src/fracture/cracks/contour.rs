@@ -55,10 +55,14 @@ pub struct TipJ {
     /// K_I and K_II, Pa·√m.
     pub k1: f64,
     pub k2: f64,
+    /// The effective modulus E* of the material at the tip, Pa (what
+    /// splits J into K_I, K_II, and turns a J_Ic into K_Ic).
+    pub e_star: f64,
 }
 
 /// The particles' velocities and displacement gradients at the start of
-/// the step that ends on a row, and that step's Δt: with the row's, they
+/// a step whose end needs J (one that ends on a row; with growth, every
+/// step), and that step's Δt: with the step's end, they
 /// give each particle's acceleration (v − v₀)/Δt and velocity gradient
 /// (∇u − ∇u₀)/Δt (exactly the L the step's update summed into ∇u), which
 /// the volume term of eq. 9 needs.
@@ -72,7 +76,8 @@ pub struct BeforeRow {
 }
 
 impl super::Cramp {
-    /// Keeps what the next row's J volume term needs ([`BeforeRow`]).
+    /// Keeps what J's volume term at the end of this step needs
+    /// ([`BeforeRow`]).
     pub fn keep_before_row<const V: usize>(&mut self, parts: &Particles<2, V>, dt: f64) {
         let mut b = self.before_row.take().unwrap_or_default();
         b.v.clone_from(&parts.v);
@@ -325,7 +330,7 @@ pub fn tip_j<K: Kernel, const V: usize>(
     let Some(&first) = body else {
         return sides.iter().map(|_| Err(NoJ::NotATip)).collect();
     };
-    let mat = &mats[parts.material[first as usize] as usize];
+    let e_star = e_star(&mats[parts.material[first as usize] as usize]);
     let (cod_n, cod_t) = tip_opening(crack, end, (h, 3.0 * h));
     sides
         .iter()
@@ -337,8 +342,14 @@ pub fn tip_j<K: Kernel, const V: usize>(
                 j12 = [j12[0] + v[0], j12[1] + v[1]];
             }
             let j = along(j12, dir[1].atan2(dir[0]));
-            let (k1, k2) = decompose(j, e_star(mat), cod_n, cod_t);
-            Ok(TipJ { j12, j, k1, k2 })
+            let (k1, k2) = decompose(j, e_star, cod_n, cod_t);
+            Ok(TipJ {
+                j12,
+                j,
+                k1,
+                k2,
+                e_star,
+            })
         })
         .collect()
 }

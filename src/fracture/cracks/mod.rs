@@ -28,8 +28,12 @@
 //!    eqs. 3–6): each surface point takes the mass-weighted velocity of
 //!    the fields on its own side (eq. 5) and moves by XPIC(1) (or FLIP);
 //!    the plane point moves by the mean of its two surfaces' moves.
+//! 5. **Growth** (`crack_growth`, only with `[cramp] growth`,
+//!    [`Cramp::grow`], section 3.5): each tip's J and K_I, K_II; a new
+//!    segment in the maximum-hoop-stress direction where K_I^max ≥ K_Ic.
 
 pub mod contour;
+pub mod growth;
 pub mod j_integral;
 pub mod model;
 pub mod section;
@@ -362,12 +366,18 @@ pub struct Cramp {
     pub update: SurfaceUpdate,
     /// The sides of the J contours, cells (`[cramp] j_contours`).
     pub j_contours: Vec<u32>,
-    /// The particles' velocities and ∇u at the start of a step that ends
-    /// on a series row, and its Δt: the accelerations and velocity
-    /// gradients of J's volume term (eq. 9). Taken by the row.
+    /// The particles' velocities and ∇u at the start of a step whose end
+    /// needs J (on a series row; with growth, every step), and its Δt:
+    /// the accelerations and velocity gradients of J's volume term
+    /// (eq. 9). None in other steps.
     before_row: Option<contour::BeforeRow>,
     /// The 2D thickness, m (`analysis.thickness`).
     pub thickness: f64,
+    /// Crack growth (`[cramp] growth`), if the scene asks for it.
+    pub growth: Option<section::GrowthSpec>,
+    /// The scene's crack points (those beyond them were grown).
+    initial_points: usize,
+
     /// The surfaces have moved at least once (their velocities are set).
     pub started: bool,
     pub warnings: Warnings,
@@ -395,6 +405,7 @@ pub struct Cramp {
 impl Cramp {
     pub fn new(cracks: Vec<Crack>, update: SurfaceUpdate, j_contours: Vec<u32>) -> Cramp {
         Cramp {
+            initial_points: cracks.iter().map(|c| c.plane.len()).sum(),
             cracks,
             update,
             j_contours,

@@ -31,6 +31,7 @@ pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>
     at.parts.grad_u = vec![[[0.0; 2]; 2]; at.parts.len()];
     let mut cramp = Cramp::new(cracks, spec.surface_update, spec.j_contours);
     cramp.thickness = file.analysis.thickness;
+    cramp.growth = spec.growth;
     Some(Box::new(cramp))
 }
 
@@ -50,8 +51,12 @@ impl FieldSplit for Cramp {
         match stage {
             Stage::FieldPartition => {
                 let (geom, parts, bins) = (at.geom, at.parts, at.bins);
-                if at.row_due {
+                // J's volume term needs the step's start where J is due:
+                // on a row, and after every step of a growing crack
+                if at.row_due || self.growth.is_some() {
                     self.keep_before_row(parts, at.dt);
+                } else {
+                    self.before_row = None;
                 }
                 Some(by_kernel!(at.kernel, K => self.partition::<K, 3>(geom, parts, bins, multi)))
             }
@@ -77,6 +82,11 @@ impl FieldSplit for Cramp {
         match stage {
             Stage::CrackSurfaces => {
                 by_kernel!(at.kernel, K => self.move_surfaces::<K>(at.geom, at.grid, at.multi, at.dt));
+                true
+            }
+            Stage::CrackGrowth => {
+                let (geom, parts, mats) = (at.geom, at.parts, at.mats);
+                by_kernel!(at.kernel, K => self.grow::<K, 3>(geom, parts, mats));
                 true
             }
             _ => false,
@@ -149,15 +159,14 @@ impl FractureModel for Cramp {
                 }
             }
         }
-        if !out.declaring() {
-            self.before_row = None;
-        }
     }
 
     fn summary(&self) -> serde_json::Value {
         serde_json::json!({
             "cracks": self.cracks.len(),
             "crack_points": self.cracks.iter().map(|c| c.plane.len()).sum::<usize>(),
+            "crack_points_grown": self.cracks.iter().map(|c| c.plane.len()).sum::<usize>()
+                - self.initial_points,
             "warnings_wrong_side": self.warnings.wrong_side,
             "warnings_third_crack": self.warnings.third_crack,
         })

@@ -65,6 +65,35 @@ pub struct CrampSpec {
     /// `_J`, `_KI`, `_KII` columns; each further one a `_J{N}` column.
     #[serde(default = "default_j_contours")]
     pub j_contours: Vec<u32>,
+    /// Crack growth by the maximum hoop stress against a toughness; left
+    /// out, the cracks keep their length (J is still reported).
+    #[serde(default)]
+    pub growth: Option<GrowthSpec>,
+}
+
+/// Crack growth (Nairn & Aimene, section 3.5): after every step each
+/// crack tip's J on the first of `j_contours` is split into K_I, K_II; a
+/// tip grows by one segment in the maximum-hoop-stress direction when
+/// K_I^max there reaches K_Ic. Give the toughness as `j_ic` (then
+/// K_Ic = √(J_Ic E*) with the tip's material) or as `k_ic`, not both.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct GrowthSpec {
+    /// Mode I toughness as a critical energy release rate, J/m².
+    #[serde(default)]
+    pub j_ic: Option<f64>,
+    /// Mode I toughness as a critical stress intensity factor, Pa·√m.
+    #[serde(default)]
+    pub k_ic: Option<f64>,
+    /// The length of a segment added by one growth event, cells (the
+    /// paper: about a material point's diameter, half a cell with 2 × 2
+    /// particles a cell).
+    #[serde(default = "default_segment")]
+    pub segment: f64,
+}
+
+fn default_segment() -> f64 {
+    0.5
 }
 
 fn default_j_contours() -> Vec<u32> {
@@ -80,6 +109,7 @@ impl Default for CrampSpec {
         CrampSpec {
             surface_update: SurfaceUpdate::default(),
             j_contours: default_j_contours(),
+            growth: None,
         }
     }
 }
@@ -110,6 +140,9 @@ pub(crate) fn check(
     }
     if let Some(spec) = cramp {
         check_contours(c, &spec.j_contours);
+        if let Some(g) = &spec.growth {
+            check_growth(c, g);
+        }
     }
     if dim == 3 {
         let at = bodies.iter().position(|(_, c)| !c.is_empty()).unwrap_or(0);
@@ -236,6 +269,29 @@ fn check_contours(c: &mut Checker, sides: &[u32]) {
             c.err(&at, format!("the contour of {n} cells is listed twice"));
         }
     }
+}
+
+/// `[cramp] growth`: exactly one positive toughness, a segment of a
+/// tenth of a cell to one cell (a longer one would step past the J
+/// contour's tip cell; a shorter one is lost in the surfaces' noise).
+fn check_growth(c: &mut Checker, g: &GrowthSpec) {
+    match (g.j_ic, g.k_ic) {
+        (Some(_), Some(_)) => c.err(
+            "cramp.growth",
+            "gives both j_ic and k_ic: the toughness is one of them (K_Ic = √(J_Ic E*))",
+        ),
+        (None, None) => c.err(
+            "cramp.growth",
+            "needs the toughness: j_ic (J/m²) or k_ic (Pa·√m)",
+        ),
+        (Some(j), None) => {
+            c.positive("cramp.growth.j_ic", j);
+        }
+        (None, Some(k)) => {
+            c.positive("cramp.growth.k_ic", k);
+        }
+    }
+    c.in_range("cramp.growth.segment", g.segment, 0.1, 1.0);
 }
 
 /// No node may see more than two cracks at the start: a node sees a crack

@@ -1,0 +1,219 @@
+//! Crack growth (Nairn & Aimene, section 3.5): after every step, each crack
+//! tip's J on the first contour of `j_contours`, split into K_I and K_II;
+//! the maximum-hoop-stress direction θ and K_I^max there (Erdogan & Sih,
+//! the paper's equations for cos θ, sin θ and K_I^(max)); where
+//! K_I^max ≥ K_Ic a new crack point ahead of the tip, one segment (about a
+//! material point's diameter) along θ.
+//!
+//! Every tip is judged on the state the step left, before any tip grows;
+//! the new segments are then added crack by crack, start before end, so
+//! the result is the same for any thread count. A new segment stops
+//! short of any crack it would cross (another crack, or its own away from
+//! the tip): the tip then sits on that crack and, with nothing left to
+//! grow into, stays there (the paper's cracks "stopped propagating" where
+//! they met another). A tip that leaves its body (an edge reached) is no
+//! longer a tip and grows no more.
+
+use super::contour::{tip_j, tip_of, End};
+use super::j_integral::{hoop_direction, hoop_k};
+use super::section::GrowthSpec;
+use super::{Crack, Cramp};
+use crate::grid::shape::Kernel;
+use crate::grid::GridGeom;
+use crate::material::Elastic;
+use crate::particles::Particles;
+
+/// The part of a cell a new segment must keep from any crack it stops at,
+/// and the shortest segment still added (a tip against another crack adds
+/// nothing).
+const GAP: f64 = 1e-3;
+const SHORTEST: f64 = 0.05;
+
+impl GrowthSpec {
+    /// K_Ic, Pa·√m, for a material of effective modulus `e_star`
+    /// (K_Ic = √(J_Ic E*) when the toughness is given as J_Ic).
+    pub fn k_ic(&self, e_star: f64) -> f64 {
+        match (self.k_ic, self.j_ic) {
+            (Some(k), _) => k,
+            (None, Some(j)) => (j * e_star).sqrt(),
+            (None, None) => f64::INFINITY,
+        }
+    }
+}
+
+/// One tip that grows this step: its crack, end and direction (radians
+/// from the grid's x axis).
+#[derive(Debug, Clone, Copy)]
+struct Event {
+    crack: usize,
+    end: End,
+    angle: f64,
+}
+
+impl Cramp {
+    /// The `crack_growth` stage: judges every tip and adds the segments;
+    /// returns how many it added.
+    pub fn grow<K: Kernel, const V: usize>(
+        &mut self,
+        geom: &GridGeom<2>,
+        parts: &Particles<2, V>,
+        mats: &[Elastic],
+    ) -> usize {
+        let Some(growth) = self.growth.clone() else {
+            return 0;
+        };
+        let first = [self.j_contours[0]];
+        let mut events = Vec::new();
+        for c in 0..self.cracks.len() {
+            for end in End::BOTH {
+                let before = self.before_row.as_ref();
+                let tip = (c, end);
+                let js = tip_j::<K, V>(geom, parts, mats, &self.cracks, before, tip, &first);
+                let Some(Ok(t)) = js.first() else {
+                    continue;
+                };
+                let theta = hoop_direction(t.k1, t.k2);
+                let k_ic = growth.k_ic(t.e_star);
+                if hoop_k(t.k1, t.k2, theta) >= k_ic {
+                    let (_, dir) = tip_of(&self.cracks[c], end);
+                    events.push(Event {
+                        crack: c,
+                        end,
+                        angle: dir[1].atan2(dir[0]) + theta,
+                    });
+                }
+            }
+        }
+        let step = growth.segment * geom.h;
+        let mut added = 0;
+        for e in events {
+            let (tip, _) = tip_of(&self.cracks[e.crack], e.end);
+            let d = [e.angle.cos(), e.angle.sin()];
+            let mut q = [tip[0] + step * d[0], tip[1] + step * d[1]];
+            // stop short of the first crack the segment would cross
+            let hit = self
+                .cracks
+                .iter()
+                .enumerate()
+                .filter_map(|(c, crack)| {
+                    let skip = (c == e.crack).then_some(e.end);
+                    first_hit(crack, skip, tip, q)
+                })
+                .fold(1.0, f64::min);
+            let len = (hit * step - GAP * geom.h).min(step);
+            if len < SHORTEST * geom.h {
+                continue;
+            }
+            q = [tip[0] + len * d[0], tip[1] + len * d[1]];
+            // keep the crack two cells inside the grid (its hash and the
+            // particles' supports)
+            let xi = geom.xi(q);
+            let inside = (0..2).all(|a| xi[a] >= 2.0 && xi[a] <= (geom.nodes[a] - 3) as f64);
+            if !inside {
+                continue;
+            }
+            self.cracks[e.crack].extend(e.end, q);
+            added += 1;
+        }
+        added
+    }
+}
+
+impl Crack {
+    /// A new crack point `q` beyond the tip at `end`, its surfaces closed
+    /// there and moving with the old tip's mean surface velocity.
+    pub fn extend(&mut self, end: End, q: [f64; 2]) {
+        let k = match end {
+            End::Start => 0,
+            End::End => self.plane.len() - 1,
+        };
+        let v = [0, 1].map(|a| 0.5 * (self.v_above[k][a] + self.v_below[k][a]));
+        let at = match end {
+            End::Start => 0,
+            End::End => self.plane.len(),
+        };
+        self.plane.insert(at, q);
+        self.above.insert(at, q);
+        self.below.insert(at, q);
+        self.v_above.insert(at, v);
+        self.v_below.insert(at, v);
+    }
+}
+
+/// The first place, as a fraction of the way from `p` to `q`, where the
+/// segment crosses a segment of `crack`'s plane, leaving out the segment
+/// at its `skip` end (the tip's own segment, which `p` lies on).
+fn first_hit(crack: &Crack, skip: Option<End>, p: [f64; 2], q: [f64; 2]) -> Option<f64> {
+    let n = crack.plane.len();
+    let segs = match skip {
+        None => 0..n - 1,
+        Some(End::Start) => 1..n - 1,
+        Some(End::End) => 0..n - 2,
+    };
+    let e = [q[0] - p[0], q[1] - p[1]];
+    let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
+    segs.filter_map(|k| {
+        let (a, b) = (crack.plane[k], crack.plane[k + 1]);
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let den = cross(e, d);
+        if den == 0.0 {
+            return None;
+        }
+        let ap = [a[0] - p[0], a[1] - p[1]];
+        let s = cross(ap, d) / den; // along p → q
+        let u = cross(ap, e) / den; // along a → b
+        ((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&u)).then_some(s)
+    })
+    .reduce(f64::min)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn crack(points: Vec<[f64; 2]>) -> Crack {
+        Crack::new(0, 0.0, points)
+    }
+
+    #[test]
+    fn a_new_segment_is_stopped_by_the_crack_it_meets() {
+        let wall = crack(vec![[1.0, -1.0], [1.0, 1.0]]);
+        assert_eq!(first_hit(&wall, None, [0.0, 0.0], [2.0, 0.0]), Some(0.5));
+        assert_eq!(first_hit(&wall, None, [0.0, 0.0], [0.5, 0.0]), None);
+        // the tip's own segment is left out, the rest of its crack is not
+        let hook = crack(vec![[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0]]);
+        assert_eq!(
+            first_hit(&hook, Some(End::End), [1.0, 1.0], [1.5, 1.0]),
+            None
+        );
+        let s = first_hit(&hook, Some(End::End), [1.0, 1.0], [1.0, -1.0]).unwrap();
+        assert!((s - 0.5).abs() < 1e-12, "{s}");
+    }
+
+    #[test]
+    fn a_crack_extends_at_either_end_with_closed_surfaces() {
+        let mut c = crack(vec![[0.0, 0.0], [1.0, 0.0]]);
+        c.v_above[1] = [2.0, 1.0];
+        c.v_below[1] = [0.0, -1.0];
+        c.extend(End::End, [1.5, 0.0]);
+        c.extend(End::Start, [-0.5, 0.1]);
+        assert_eq!(c.plane, [[-0.5, 0.1], [0.0, 0.0], [1.0, 0.0], [1.5, 0.0]]);
+        assert_eq!(c.above, c.plane);
+        assert_eq!(c.below, c.plane);
+        assert_eq!(c.v_above[3], [1.0, 0.0]);
+        assert_eq!(c.v_below[0], [0.0, 0.0]);
+    }
+
+    #[test]
+    fn toughness_as_j_or_k() {
+        let g = |j_ic, k_ic| GrowthSpec {
+            j_ic,
+            k_ic,
+            segment: 0.5,
+        };
+        assert_eq!(g(None, Some(5e5)).k_ic(1e9), 5e5);
+        // the paper's section 3.5: E = 2500 MPa plane stress, J_Ic = 1000 J/m²
+        let k = g(Some(1000.0), None).k_ic(2.5e9);
+        assert!((k / 1.58114e6 - 1.0).abs() < 1e-5, "{k}");
+    }
+}
