@@ -600,9 +600,8 @@ fn an_edge_crack_grows_straight_once_j_reaches_the_toughness() {
 /// A crack that grows toward another stops at it: the edge crack of
 /// [`edge_cracked`] runs toward an interior crack across its path
 /// (x = 12.05 mm, 8 mm long), comes within 1.5 cells of it and no point
-/// of it passes that crack. (It stops 0.7 mm short: within two cells the
-/// 4-cell contour is crossed by the other crack, and J by PIJC drops;
-/// Nairn & Aimene's FIJC corrects that.)
+/// of it passes that crack (it stops 0.6 mm short, where its J falls
+/// below J_Ic; 0.7 mm with PIJC).
 #[test]
 fn a_growing_crack_stops_at_the_crack_it_meets() {
     let wall = ", { points = [[0.01205, 0.0111], [0.01205, 0.0151], [0.01205, 0.0191]] }";
@@ -612,4 +611,105 @@ fn a_growing_crack_stops_at_the_crack_it_meets() {
     println!("tip at {tip:?}, {} points", cracks[0].plane.len());
     assert!(tip[0] > 0.01205 - 1.5e-3, "it stopped at {tip:?}");
     assert!(cracks[0].plane.iter().all(|p| p[0] < 0.01205), "{tip:?}");
+}
+
+/// The edge-cracked plate of [`edge_cracked`] with `cracks` in place of
+/// its crack, without growth, on a grid 5 mm beyond the plate (room for
+/// cracks drawn from outside it), J of crack 0's end on the contours of
+/// 4, 6, 8, 12 and 16 cells by `method`: the means of its `_J`, `_J6`,
+/// `_J8`, `_J12`, `_J16` over the last third of the ramp (0.4–0.6 ms, the
+/// load still rising: every contour sees the same instants).
+fn edge_plate_j(cracks: &str, method: &str) -> [f64; 5] {
+    let mut text = include_str!("../scenes/cramp_edge_growth.toml").to_string();
+    for (from, to) in [
+        (
+            "min = [-0.004, -0.002]",
+            "min = [-0.004, -0.005]".to_string(),
+        ),
+        ("max = [0.022, 0.032]", "max = [0.025, 0.035]".to_string()),
+        (
+            "growth = { j_ic = 100.0 }",
+            format!("j_contours = [4, 6, 8, 12, 16]\nj_method = \"{method}\""),
+        ),
+    ] {
+        assert!(text.contains(from), "{from}");
+        text = text.replace(from, &to);
+    }
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("explicit_cracks"))
+        .expect("the crack")
+        .to_string();
+    let text = text.replace(&line, &format!("explicit_cracks = [{cracks}]"));
+    let (_, rec) = run(&parse(&text));
+    let (_, mean) = hold_means(&rec, 4.0e-4);
+    ["J", "J6", "J8", "J12", "J16"].map(|c| mean(&format!("crack0_end_{c}")))
+}
+
+/// The edge crack of [`edge_cracked`] as a polyline from outside the
+/// plate to its tip at x = 5 mm.
+const EDGE_CRACK: &str = "{ points = [[-0.0039, 0.0151], [-0.002, 0.0151], [0.0, 0.0151], [0.002, 0.0151], [0.004, 0.0151], [0.005, 0.0151]] }";
+
+/// The patch test (Nairn & Aimene's Table 1, scaled to the small plate):
+/// a vertical crack through the whole plate 2.55 mm ahead of the edge
+/// crack's tip cuts every contour but the 4-cell one. FIJC (the vertical
+/// crack's faces integrated inside the contour) keeps J on the 6-, 8- and
+/// 12-cell contours within 10 % of the 4-cell J (measured: −4.5, −8.9,
+/// −7.1 %); PIJC falls 18 % below it at 8 cells (the paper: PIJC 0.943
+/// and 0.773 of the reference at 16 and 32 cells, FIJC 1.064 and 1.061).
+#[test]
+fn fijc_keeps_j_where_a_crack_cuts_the_contour() {
+    let cracks = format!(
+        "{EDGE_CRACK}, {{ points = [[0.00755, -0.0039], [0.00755, 0.0151], [0.00755, 0.0339]] }}"
+    );
+    let fijc = edge_plate_j(&cracks, "fijc");
+    let pijc = edge_plate_j(&cracks, "pijc");
+    println!("FIJC J4, 6, 8, 12, 16 {fijc:?}\nPIJC J4, 6, 8, 12, 16 {pijc:?}");
+    assert_eq!(fijc[0], pijc[0], "the 4-cell contour meets no other crack");
+    // (the 16-cell contour runs 3 mm outside the plate's cracked edge and
+    // has no J in the last rows: left out)
+    for (k, j) in fijc.iter().enumerate().take(4).skip(1) {
+        assert!(
+            (j / fijc[0] - 1.0).abs() < 0.1,
+            "FIJC contour {k}: {j} against {}",
+            fijc[0]
+        );
+    }
+    assert!(
+        pijc[2] < 0.85 * pijc[0],
+        "PIJC 8 cells {} against {}",
+        pijc[2],
+        pijc[0]
+    );
+}
+
+/// Contour adaptation (Nairn & Aimene's DENT example, scaled): two edge
+/// cracks 7 mm into either edge on one line (a symmetric double-edge
+/// notch; an eccentric ligament would bend shut one tip), their tips 6
+/// cells apart. Adaptive FIJC moves the right edge of the contours that
+/// would hold the other tip (12 and 16 cells) to two cells short of it:
+/// J on every contour within 10 % of the 4-cell J (measured: within
+/// 4.3 %); without adaptation the 12-cell J is 38 % low and the 16-cell J
+/// near 0 (the paper: J goes to 0 for contours of 14 cells and more, 40 %
+/// low at 12).
+#[test]
+fn adaptive_fijc_leaves_out_the_other_tip() {
+    let cracks = "{ points = [[-0.0039, 0.0151], [-0.002, 0.0151], [0.0, 0.0151], [0.002, 0.0151], [0.004, 0.0151], [0.006, 0.0151], [0.007, 0.0151]] }, \
+         { points = [[0.0239, 0.0151], [0.022, 0.0151], [0.02, 0.0151], [0.018, 0.0151], [0.016, 0.0151], [0.014, 0.0151], [0.013, 0.0151]] }";
+    let fijc = edge_plate_j(cracks, "fijc");
+    let fixed = edge_plate_j(cracks, "fijc_fixed");
+    println!("FIJC J4, 6, 8, 12, 16 {fijc:?}\nnon-adaptive J4, 6, 8, 12, 16 {fixed:?}");
+    for (k, j) in fijc.iter().enumerate().skip(1) {
+        assert!(
+            (j / fijc[0] - 1.0).abs() < 0.1,
+            "FIJC contour {k}: {j} against {}",
+            fijc[0]
+        );
+    }
+    assert!(
+        fixed[4] < 0.8 * fijc[0],
+        "non-adaptive 16 cells {} against {}",
+        fixed[4],
+        fijc[0]
+    );
 }

@@ -10,14 +10,17 @@
 //! field is the set of cracks the line between them crosses (the
 //! partition's test), so field 0 of a node is the particles on its own
 //! side of every crack. The contour needs no grid of the step and runs
-//! only on the series cadence.
+//! on the series cadence (and after every step of a growing crack).
 //!
-//! Contours crossed by a crack other than the target's are handled as the
-//! paper's PIJC (two virtual nodes where the crack crosses an interval,
-//! each side taking the fields of the particles on its side); the crack
-//! surface integrals and contour adaptation of FIJC are not built yet.
+//! Contours met by a crack other than the target's are handled by the
+//! paper's FIJC (`[cramp] j_method`, [`JMethod`]): the contour's edge
+//! moved off another crack's tip (step 6), two virtual nodes where a crack
+//! crosses an interval, each side taking the fields of the particles on
+//! its side (PIJC's path), and the integrals along both faces of every
+//! other crack inside the contour (step 5, [`faces_term`]).
 
 use super::j_integral::{along, contour_term, decompose, ContourPoint};
+use super::section::JMethod;
 use super::{crossing, Crack};
 use crate::diagnostics::measure::strain_energy_density;
 use crate::grid::shape::Kernel;
@@ -88,6 +91,14 @@ impl super::Cramp {
     }
 }
 
+/// How a tip's J is taken: the step's start for the volume term (none:
+/// no volume term) and how other cracks at the contour are treated.
+#[derive(Debug, Clone, Copy)]
+pub struct JOptions<'a> {
+    pub before: Option<&'a BeforeRow>,
+    pub method: JMethod,
+}
+
 /// Why a tip has no J (the series shows NaN there).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NoJ {
@@ -115,6 +126,22 @@ struct Acc {
 }
 
 impl Acc {
+    /// Adds a particle's fields (`particle_fields`) with weight `w`.
+    fn add(&mut self, w: f64, (mass, wk, s, g): ParticleFields) {
+        let sm = w * mass;
+        self.m += sm;
+        self.w += sm * wk[0];
+        self.k += sm * wk[1];
+        for i in 0..3 {
+            self.s[i] += sm * s[i];
+        }
+        for i in 0..2 {
+            for j in 0..2 {
+                self.g[i][j] += sm * g[i][j];
+            }
+        }
+    }
+
     /// The extrapolated fields (zero where no particle reaches).
     fn value(&self) -> Fields {
         if !(self.m > 0.0) {
@@ -247,14 +274,84 @@ pub fn tip_opening(crack: &Crack, end: End, (from, to): (f64, f64)) -> (f64, f64
 /// The nodes of the square contour of `side` cells about node `centre`,
 /// counter-clockwise from its lower-left corner (each once), or None where
 /// it leaves the grid.
+#[cfg(test)]
 fn ring(geom: &GridGeom<2>, centre: [isize; 2], side: u32) -> Option<Vec<usize>> {
     let r = side as isize / 2;
-    let (i0, j0, i1, j1) = (centre[0] - r, centre[1] - r, centre[0] + r, centre[1] + r);
+    rect_ring(geom, Rect::square(centre, r))
+}
+
+/// A contour's rectangle of grid nodes, by their indices (inclusive).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Rect {
+    lo: [isize; 2],
+    hi: [isize; 2],
+}
+
+impl Rect {
+    /// The square ±`r` cells about the node `centre`.
+    fn square(centre: [isize; 2], r: isize) -> Rect {
+        Rect {
+            lo: [centre[0] - r, centre[1] - r],
+            hi: [centre[0] + r, centre[1] + r],
+        }
+    }
+
+    /// Whether the point `o` (grid index units) lies inside, or in a cell
+    /// next to it (Nairn & Aimene's note 1 of step 6).
+    fn near(&self, o: [f64; 2]) -> bool {
+        (0..2).all(|a| o[a] > (self.lo[a] - 1) as f64 && o[a] < (self.hi[a] + 1) as f64)
+    }
+
+    /// Step 6 of §2.2.2: the rectangle with the one edge moved (the one
+    /// that moves least) that leaves another crack's tip at `o` two cells
+    /// outside while the target tip at `t` stays two cells inside ("for
+    /// accuracy and whenever possible, keep the new edge at least 2 cells
+    /// from each crack tip"), else one cell each; None where no edge can
+    /// (both tips in one cell or nearly: note 2, the contour is kept and
+    /// the other crack's faces integrated up to its tip).
+    fn adapted(&self, t: [f64; 2], o: [f64; 2]) -> Option<Rect> {
+        for margin in [2.0, 1.0] {
+            let mut best: Option<(isize, Rect)> = None;
+            for a in 0..2 {
+                let mut r = *self;
+                if o[a] > t[a] {
+                    let edge = (o[a] - margin).floor() as isize;
+                    if (edge as f64) < t[a] + margin {
+                        continue;
+                    }
+                    r.hi[a] = edge.min(self.hi[a]);
+                } else {
+                    let edge = (o[a] + margin).ceil() as isize;
+                    if (edge as f64) > t[a] - margin {
+                        continue;
+                    }
+                    r.lo[a] = edge.max(self.lo[a]);
+                }
+                let moved = (self.hi[a] - r.hi[a]) + (r.lo[a] - self.lo[a]);
+                if best.is_none_or(|(m, _)| moved < m) {
+                    best = Some((moved, r));
+                }
+            }
+            if let Some((_, r)) = best {
+                return Some(r);
+            }
+        }
+        None
+    }
+}
+
+/// The nodes of a rectangle's boundary, counter-clockwise from its
+/// lower-left corner; None if it leaves the grid.
+fn rect_ring(geom: &GridGeom<2>, r: Rect) -> Option<Vec<usize>> {
+    let ([i0, j0], [i1, j1]) = (r.lo, r.hi);
     if i0 < 0 || j0 < 0 || i1 >= geom.nodes[0] as isize || j1 >= geom.nodes[1] as isize {
         return None;
     }
+    if i1 <= i0 || j1 <= j0 {
+        return None;
+    }
     let node = |i: isize, j: isize| geom.node([i as usize, j as usize]);
-    let mut out = Vec::with_capacity(8 * r as usize);
+    let mut out = Vec::with_capacity(2 * ((i1 - i0) + (j1 - j0)) as usize);
     out.extend((i0..i1).map(|i| node(i, j0)));
     out.extend((j0..j1).map(|j| node(i1, j)));
     out.extend((i0 + 1..=i1).rev().map(|i| node(i, j1)));
@@ -294,7 +391,7 @@ pub fn tip_j<K: Kernel, const V: usize>(
     parts: &Particles<2, V>,
     mats: &[Elastic],
     cracks: &[Crack],
-    before: Option<&BeforeRow>,
+    how: JOptions<'_>,
     (target, end): (usize, End),
     sides: &[u32],
 ) -> Vec<Result<TipJ, NoJ>> {
@@ -332,13 +429,35 @@ pub fn tip_j<K: Kernel, const V: usize>(
     };
     let e_star = e_star(&mats[parts.material[first as usize] as usize]);
     let (cod_n, cod_t) = tip_opening(crack, end, (h, 3.0 * h));
+    // the other cracks' ends, grid index units (tips a contour must leave
+    // out under adaptive FIJC; an edge crack's mouth too, harmlessly)
+    let others: Vec<[f64; 2]> = cracks
+        .iter()
+        .enumerate()
+        .filter(|&(c, _)| c != target)
+        .flat_map(|(_, k)| [k.plane[0], k.plane[k.plane.len() - 1]])
+        .map(|x| geom.xi(x))
+        .collect();
     sides
         .iter()
         .map(|&side| {
-            let nodes = ring(geom, centre, side).ok_or(NoJ::OffGrid)?;
+            let mut rect = Rect::square(centre, side as isize / 2);
+            if how.method == JMethod::Fijc {
+                for &o in &others {
+                    if rect.near(o) {
+                        rect = rect.adapted(xi, o).unwrap_or(rect);
+                    }
+                }
+            }
+            let nodes = rect_ring(geom, rect).ok_or(NoJ::OffGrid)?;
             let mut j12 = contour_j::<K, V>(geom, parts, mats, cracks, target, &near, &nodes)?;
-            if let Some(b) = before {
-                let v = volume_term(parts, b, &near, ring_box(geom, &nodes));
+            let square = ring_box(geom, &nodes);
+            if how.method != JMethod::Pijc {
+                let f = faces_term(geom, parts, mats, cracks, target, &near, square);
+                j12 = [j12[0] + f[0], j12[1] + f[1]];
+            }
+            if let Some(b) = how.before {
+                let v = volume_term(parts, b, &near, square);
                 j12 = [j12[0] + v[0], j12[1] + v[1]];
             }
             let j = along(j12, dir[1].atan2(dir[0]));
@@ -421,19 +540,10 @@ fn contour_j<K: Kernel, const V: usize>(
             let Some(acc) = accs[k].iter_mut().find(|a| a.cracks == bits) else {
                 return;
             };
-            let (mass, wk, s, g) = *fields.get_or_insert_with(|| particle_fields(parts, mats, p));
-            let sm = sn.w * mass;
-            acc.m += sm;
-            acc.w += sm * wk[0];
-            acc.k += sm * wk[1];
-            for i in 0..3 {
-                acc.s[i] += sm * s[i];
-            }
-            for i in 0..2 {
-                for j in 0..2 {
-                    acc.g[i][j] += sm * g[i][j];
-                }
-            }
+            acc.add(
+                sn.w,
+                *fields.get_or_insert_with(|| particle_fields(parts, mats, p)),
+            );
         });
     }
     let field = |k: usize, bits: u64| {
@@ -472,6 +582,139 @@ fn contour_j<K: Kernel, const V: usize>(
     }
     path.push(end_point);
     Ok(contour_term(&path))
+}
+
+/// Step 5 of §2.2.2 (FIJC): the first term of eq. 9 along both faces of
+/// every crack but the target inside the contour's rectangle `(lo, hi)`.
+/// The region the contour bounds has those faces as boundary too: with
+/// the outward normal of the material there (−n̂ on the face above the
+/// crack, n̂ below), each face adds ∫ ((W + K) n_k − T_i ∂u_i/∂x_k) ds,
+/// the traction T = σ·n where the faces touch (the tracked surfaces
+/// closed) and zero where the crack is open. Each segment is clipped to
+/// the rectangle (the paper's φ fractions of its first and last segments,
+/// and its corner case, come out of the clipping) and integrated by the
+/// trapezoid rule on points at most half a cell apart, whatever the
+/// spacing of the crack's points. The faces' fields at a point are the
+/// mass- and quadratic-B-spline-weighted means of the particles on that
+/// face's side within 1.5 cells (the paper extrapolates the face's
+/// velocity field from the grid to the crack points; this takes the
+/// particles directly, as the contour's nodes do).
+fn faces_term<const V: usize>(
+    geom: &GridGeom<2>,
+    parts: &Particles<2, V>,
+    mats: &[Elastic],
+    cracks: &[Crack],
+    target: usize,
+    near: &[u32],
+    (lo, hi): ([f64; 2], [f64; 2]),
+) -> [f64; 2] {
+    let mut j = [0.0; 2];
+    for (c, crack) in cracks.iter().enumerate() {
+        if c == target {
+            continue;
+        }
+        for k in 0..crack.plane.len() - 1 {
+            let (a, b) = (crack.plane[k], crack.plane[k + 1]);
+            let Some((t0, t1)) = clip(a, b, lo, hi) else {
+                continue;
+            };
+            let nrm = crack.normal(k);
+            let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+            let (open_a, open_b) = (crack.opening_at(k, nrm), crack.opening_at(k + 1, nrm));
+            let integrand = |t: f64| {
+                let x = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+                let closed = (1.0 - t) * open_a + t * open_b <= 0.0;
+                let mut v = [0.0; 2];
+                // above: the material's outward normal is −n̂; below, n̂
+                for sign in [-1.0, 1.0] {
+                    let out = [sign * nrm[0], sign * nrm[1]];
+                    // the face's side, a hair off the plane
+                    let eps = -1e-4 * geom.h * sign;
+                    let at = [x[0] + eps * nrm[0], x[1] + eps * nrm[1]];
+                    let f = face_fields(geom, parts, mats, cracks, near, at);
+                    let t = if closed {
+                        [
+                            f.s[0] * out[0] + f.s[2] * out[1],
+                            f.s[2] * out[0] + f.s[1] * out[1],
+                        ]
+                    } else {
+                        [0.0; 2]
+                    };
+                    for k in 0..2 {
+                        v[k] += (f.w + f.k) * out[k] - (t[0] * f.g[0][k] + t[1] * f.g[1][k]);
+                    }
+                }
+                v
+            };
+            // the trapezoid rule on points at most half a cell apart, the
+            // faces' fields taken there (however far apart the crack's
+            // own points are)
+            let m = (((t1 - t0) * len / (0.5 * geom.h)).ceil() as usize).max(1);
+            let dt = (t1 - t0) / m as f64;
+            let mut prev = integrand(t0);
+            for q in 1..=m {
+                let next = integrand(t0 + q as f64 * dt);
+                for i in 0..2 {
+                    j[i] += 0.5 * (prev[i] + next[i]) * dt * len;
+                }
+                prev = next;
+            }
+        }
+    }
+    j
+}
+
+/// The part of the segment `a`–`b` inside the box `(lo, hi)`, as
+/// parameters t0 < t1 along it (Liang–Barsky), if any.
+fn clip(a: [f64; 2], b: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> Option<(f64, f64)> {
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for d in 0..2 {
+        let dx = b[d] - a[d];
+        if dx == 0.0 {
+            if a[d] < lo[d] || a[d] > hi[d] {
+                return None;
+            }
+            continue;
+        }
+        let (u, v) = ((lo[d] - a[d]) / dx, (hi[d] - a[d]) / dx);
+        t0 = t0.max(u.min(v));
+        t1 = t1.min(u.max(v));
+    }
+    (t1 > t0).then_some((t0, t1))
+}
+
+/// The fields at `x` from the particles of `near` whose line to it
+/// crosses no crack, weighted by mass and a quadratic B-spline of their
+/// distance in cells each way.
+fn face_fields<const V: usize>(
+    geom: &GridGeom<2>,
+    parts: &Particles<2, V>,
+    mats: &[Elastic],
+    cracks: &[Crack],
+    near: &[u32],
+    x: [f64; 2],
+) -> Fields {
+    let b2 = |d: f64| {
+        let d = d.abs();
+        if d < 0.5 {
+            0.75 - d * d
+        } else if d < 1.5 {
+            0.5 * (1.5 - d) * (1.5 - d)
+        } else {
+            0.0
+        }
+    };
+    let mut acc = Acc::default();
+    for &p in near {
+        let p = p as usize;
+        let xp = parts.x[p];
+        let w = b2((xp[0] - x[0]) / geom.h) * b2((xp[1] - x[1]) / geom.h);
+        if w <= 0.0 || crossed(cracks, xp, x) != 0 {
+            continue;
+        }
+        acc.add(w, particle_fields(parts, mats, p));
+    }
+    acc.value()
 }
 
 /// The square a ring of nodes bounds: its lower-left and upper-right
@@ -531,11 +774,14 @@ fn volume_term<const V: usize>(
 
 /// Particle `p`'s mass, its strain and kinetic energy densities per
 /// current volume, W and K (J/m³), its stress and its ∇u.
+/// A particle's mass, W and K, σ (xx, yy, xy) and ∇u.
+type ParticleFields = (f64, [f64; 2], [f64; 3], [[f64; 2]; 2]);
+
 fn particle_fields<const V: usize>(
     parts: &Particles<2, V>,
     mats: &[Elastic],
     p: usize,
-) -> (f64, [f64; 2], [f64; 3], [[f64; 2]; 2]) {
+) -> ParticleFields {
     let (psi, v_ref) = strain_energy_density(mats, parts, p);
     let vol = parts.vol[p];
     let m = parts.mass[p];
@@ -631,7 +877,10 @@ mod tests {
                 &parts,
                 &mats,
                 &cracks,
-                None,
+                JOptions {
+                    before: None,
+                    method: JMethod::Fijc,
+                },
                 (0, End::End),
                 &[4, 8, 12],
             );
@@ -660,12 +909,36 @@ mod tests {
                 &parts,
                 &mats,
                 &cracks,
-                None,
+                JOptions {
+                    before: None,
+                    method: JMethod::Fijc,
+                },
                 (0, End::Start),
                 &[4],
             );
             assert_eq!(start[0], Err(NoJ::NotATip));
         }
+    }
+
+    #[test]
+    fn a_contour_moves_the_edge_that_leaves_out_the_other_tip() {
+        let square = Rect::square([0, 0], 6);
+        let t = [0.3, 0.2];
+        // ahead on the right: the right edge two cells short of it
+        let r = square.adapted(t, [6.0, 0.1]).expect("adapted");
+        assert_eq!((r.lo, r.hi), ([-6, -6], [4, 6]));
+        assert!(!r.near([6.0, 0.1]));
+        // below and a little left, too near for two cells each side: the
+        // bottom edge a cell and a half above it, 2.2 cells below the tip
+        let r = square.adapted(t, [-0.5, -3.5]).expect("adapted");
+        assert_eq!((r.lo, r.hi), ([-6, -2], [6, 6]));
+        // 3.1 cells ahead: a cell each side
+        let r = square.adapted(t, [3.4, 0.0]).expect("adapted");
+        assert_eq!(r.hi[0], 2);
+        // 1.5 cells off, or in the tip's own cell: no contour leaves it out
+        // (note 2)
+        assert_eq!(square.adapted(t, [1.8, 0.0]), None);
+        assert_eq!(square.adapted(t, [0.9, 0.0]), None);
     }
 
     #[test]

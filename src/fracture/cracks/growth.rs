@@ -14,7 +14,7 @@
 //! they met another). A tip that leaves its body (an edge reached) is no
 //! longer a tip and grows no more.
 
-use super::contour::{tip_j, tip_of, End};
+use super::contour::{tip_j, tip_of, End, JOptions};
 use super::j_integral::{hoop_direction, hoop_k};
 use super::section::GrowthSpec;
 use super::{Crack, Cramp};
@@ -66,9 +66,12 @@ impl Cramp {
         let mut events = Vec::new();
         for c in 0..self.cracks.len() {
             for end in End::BOTH {
-                let before = self.before_row.as_ref();
+                let how = JOptions {
+                    before: self.before_row.as_ref(),
+                    method: self.j_method,
+                };
                 let tip = (c, end);
-                let js = tip_j::<K, V>(geom, parts, mats, &self.cracks, before, tip, &first);
+                let js = tip_j::<K, V>(geom, parts, mats, &self.cracks, how, tip, &first);
                 let Some(Ok(t)) = js.first() else {
                     continue;
                 };

@@ -107,6 +107,14 @@ impl Crack {
             .sum()
     }
 
+    /// Normal opening of the faces at point `q` along `n`:
+    /// (x_above − x_below)·n, m (positive: open).
+    pub fn opening_at(&self, q: usize, n: [f64; 2]) -> f64 {
+        (0..2)
+            .map(|a| (self.above[q][a] - self.below[q][a]) * n[a])
+            .sum()
+    }
+
     /// Length along the plane, m.
     pub fn length(&self) -> f64 {
         self.plane
@@ -373,6 +381,8 @@ pub struct Cramp {
     before_row: Option<contour::BeforeRow>,
     /// The 2D thickness, m (`analysis.thickness`).
     pub thickness: f64,
+    /// How J treats other cracks at its contour (`[cramp] j_method`).
+    pub j_method: section::JMethod,
     /// Crack growth (`[cramp] growth`), if the scene asks for it.
     pub growth: Option<section::GrowthSpec>,
     /// The scene's crack points (those beyond them were grown).

@@ -4,7 +4,7 @@
 //! after the step's slots are released, all through its [`FieldSplit`].
 //! 2D only (validation refuses explicit cracks in a 3D scene).
 
-use super::contour::{tip_j, End};
+use super::contour::{tip_j, End, JOptions};
 use super::{Crack, Cramp, Warnings};
 use crate::fracture::model::{
     decode, encode, AfterContext, ContactContext, FieldSplit, FractureModel, RestoreContext,
@@ -32,6 +32,7 @@ pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>
     let mut cramp = Cramp::new(cracks, spec.surface_update, spec.j_contours);
     cramp.thickness = file.analysis.thickness;
     cramp.growth = spec.growth;
+    cramp.j_method = spec.j_method;
     Some(Box::new(cramp))
 }
 
@@ -145,8 +146,11 @@ impl FractureModel for Cramp {
                 } else {
                     let (geom, parts, mats, sides) = (at.geom, at.parts, at.mats, &self.j_contours);
                     let tip = (c, end);
-                    let before = self.before_row.as_ref();
-                    by_kernel!(at.kernel, K => tip_j::<K, 3>(geom, parts, mats, &self.cracks, before, tip, sides))
+                    let how = JOptions {
+                        before: self.before_row.as_ref(),
+                        method: self.j_method,
+                    };
+                    by_kernel!(at.kernel, K => tip_j::<K, 3>(geom, parts, mats, &self.cracks, how, tip, sides))
                 };
                 let got = |k: usize| js.get(k).and_then(|r| r.ok());
                 let name = format!("crack{c}_{}", end.name());

@@ -65,10 +65,33 @@ pub struct CrampSpec {
     /// `_J`, `_KI`, `_KII` columns; each further one a `_J{N}` column.
     #[serde(default = "default_j_contours")]
     pub j_contours: Vec<u32>,
+    /// How J treats other cracks that meet its contour.
+    #[serde(default)]
+    pub j_method: JMethod,
     /// Crack growth by the maximum hoop stress against a toughness; left
     /// out, the cracks keep their length (J is still reported).
     #[serde(default)]
     pub growth: Option<GrowthSpec>,
+}
+
+/// How J treats other cracks that meet its contour (Nairn & Aimene,
+/// section 2.2). All three give the same J where no other crack comes
+/// near the contour.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum JMethod {
+    /// The full-interaction contour, adaptive (steps 1–9 of §2.2.2):
+    /// PIJC's path plus integrals along both faces of every other crack
+    /// inside the contour, and the contour's edge moved to leave out
+    /// another crack's tip that is inside it or in a cell next to it.
+    #[default]
+    Fijc,
+    /// FIJC without moving the contour (step 6 skipped): the faces of a
+    /// crack whose tip is inside are integrated up to that tip.
+    FijcFixed,
+    /// The partially integrated contour: virtual nodes where other cracks
+    /// cross it and nothing more (invalid where they do; for comparison).
+    Pijc,
 }
 
 /// Crack growth (Nairn & Aimene, section 3.5): after every step each
@@ -109,6 +132,7 @@ impl Default for CrampSpec {
         CrampSpec {
             surface_update: SurfaceUpdate::default(),
             j_contours: default_j_contours(),
+            j_method: JMethod::default(),
             growth: None,
         }
     }
