@@ -600,8 +600,8 @@ fn an_edge_crack_grows_straight_once_j_reaches_the_toughness() {
 /// A crack that grows toward another stops at it: the edge crack of
 /// [`edge_cracked`] runs toward an interior crack across its path
 /// (x = 12.05 mm, 8 mm long), comes within 1.5 cells of it and no point
-/// of it passes that crack (it stops 0.6 mm short, where its J falls
-/// below J_Ic; 0.7 mm with PIJC).
+/// of it passes that crack (it stops half a cell short, where its J
+/// falls below J_Ic).
 #[test]
 fn a_growing_crack_stops_at_the_crack_it_meets() {
     let wall = ", { points = [[0.01205, 0.0111], [0.01205, 0.0151], [0.01205, 0.0191]] }";

@@ -9,8 +9,8 @@
 //! the new segments are then added crack by crack, start before end, so
 //! the result is the same for any thread count. A new segment stops
 //! short of any crack it would cross (another crack, or its own away from
-//! the tip): the tip then sits on that crack and, with nothing left to
-//! grow into, stays there (the paper's cracks "stopped propagating" where
+//! the tip): the tip then sits against that crack and, with nothing left
+//! to grow into, stays there (the paper's cracks "stopped propagating" where
 //! they met another). A tip that leaves its body (an edge reached) is no
 //! longer a tip and grows no more.
 
@@ -103,7 +103,11 @@ impl Cramp {
                     first_hit(crack, skip, tip, q)
                 })
                 .fold(1.0, f64::min);
-            let len = (hit * step - GAP * geom.h).min(step);
+            let len = if hit < 1.0 {
+                hit * step - GAP * geom.h
+            } else {
+                step
+            };
             if len < SHORTEST * geom.h {
                 continue;
             }
