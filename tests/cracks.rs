@@ -646,6 +646,17 @@ fn edge_plate_j(cracks: &str, method: &str) -> [f64; 5] {
     ["J", "J6", "J8", "J12", "J16"].map(|c| mean(&format!("crack0_end_{c}")))
 }
 
+/// Every J of `js` (the contours in order) within 10 % of the first's.
+fn within_tenth_of_first(method: &str, js: &[f64]) {
+    for (k, j) in js.iter().enumerate().skip(1) {
+        assert!(
+            (j / js[0] - 1.0).abs() < 0.1,
+            "{method} contour {k}: {j} against {}",
+            js[0]
+        );
+    }
+}
+
 /// The edge crack of [`edge_cracked`] as a polyline from outside the
 /// plate to its tip at x = 5 mm.
 const EDGE_CRACK: &str = "{ points = [[-0.0039, 0.0151], [-0.002, 0.0151], [0.0, 0.0151], [0.002, 0.0151], [0.004, 0.0151], [0.005, 0.0151]] }";
@@ -668,13 +679,7 @@ fn fijc_keeps_j_where_a_crack_cuts_the_contour() {
     assert_eq!(fijc[0], pijc[0], "the 4-cell contour meets no other crack");
     // (the 16-cell contour runs 3 mm outside the plate's cracked edge and
     // has no J in the last rows: left out)
-    for (k, j) in fijc.iter().enumerate().take(4).skip(1) {
-        assert!(
-            (j / fijc[0] - 1.0).abs() < 0.1,
-            "FIJC contour {k}: {j} against {}",
-            fijc[0]
-        );
-    }
+    within_tenth_of_first("FIJC", &fijc[..4]);
     assert!(
         pijc[2] < 0.85 * pijc[0],
         "PIJC 8 cells {} against {}",
@@ -699,13 +704,7 @@ fn adaptive_fijc_leaves_out_the_other_tip() {
     let fijc = edge_plate_j(cracks, "fijc");
     let fixed = edge_plate_j(cracks, "fijc_fixed");
     println!("FIJC J4, 6, 8, 12, 16 {fijc:?}\nnon-adaptive J4, 6, 8, 12, 16 {fixed:?}");
-    for (k, j) in fijc.iter().enumerate().skip(1) {
-        assert!(
-            (j / fijc[0] - 1.0).abs() < 0.1,
-            "FIJC contour {k}: {j} against {}",
-            fijc[0]
-        );
-    }
+    within_tenth_of_first("FIJC", &fijc);
     assert!(
         fixed[4] < 0.8 * fijc[0],
         "non-adaptive 16 cells {} against {}",
