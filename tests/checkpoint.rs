@@ -247,6 +247,33 @@ fn a_resumed_run_whose_crack_grows_repeats_the_straight_one_bit_for_bit() {
 }
 
 #[test]
+fn a_resumed_run_whose_growing_crack_carries_a_pressure_repeats_the_straight_one() {
+    // the growing edge crack with a pressure on its faces too (the forces
+    // at the grown points, which carry it, and J's pressure term), resumed
+    // after it has grown
+    let text = scene_text(
+        "cramp_edge_growth.toml",
+        &[
+            ("end = 6.0e-4", "end = 4.0e-4"),
+            (
+                "[0.005, 0.0151]] }]",
+                "[0.005, 0.0151]], pressure = { table = [[0.0, 0.0], [4.0e-4, 3.0e5]] } }]",
+            ),
+        ],
+    );
+    let (a, b) = straight_and_resumed(&text, 420, 40);
+    let lines: Vec<&str> = a.series.lines().collect();
+    let at = lines[0].split(',').position(|c| c == "crack0_length");
+    let length = |row: &str| -> f64 { row.split(',').nth(at.unwrap()).unwrap().parse().unwrap() };
+    let (first, last) = (length(lines[1]), length(lines[lines.len() - 1]));
+    assert!(
+        last > first + 5e-3,
+        "the crack grew from {first} m to {last} m"
+    );
+    assert_same(&a, &b);
+}
+
+#[test]
 fn with_pcg_a_resumed_run_agrees_to_the_solver_tolerance() {
     // the PCG's factor is not in the checkpoint: the first solve after the
     // resume refactorizes, so c differs within the tolerance; with [dfg]

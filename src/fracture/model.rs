@@ -273,6 +273,14 @@ pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
         None
     }
 
+    /// Adds the split's own forces to the nodal fields in a stage between
+    /// the scatter and the grid update (`crack_traction`: pressure on
+    /// crack faces); returns their work over the step, J, or None for a
+    /// stage that is not the split's.
+    fn forces(&self, _stage: Stage, _at: ForceContext<'_, D>) -> Option<f64> {
+        None
+    }
+
     /// Runs a stage that comes after the step's slots are released
     /// ([`Stage::after_slots`]: moving crack surfaces), on the nodal
     /// fields the step left; false for a stage that is not the split's.
@@ -290,6 +298,18 @@ pub struct ContactContext<'a, const D: usize = 2> {
     pub floor: f64,
 }
 
+/// What a split's forces are added to: the grid, the step's nodal fields
+/// after the scatter and their layout, the kernel, the step's mid-time
+/// (s) and Δt.
+pub struct ForceContext<'a, const D: usize = 2> {
+    pub geom: &'a GridGeom<D>,
+    pub grid: &'a mut GridFields<D>,
+    pub multi: &'a MultiField,
+    pub kernel: ShapeFunctionKind,
+    pub time: f64,
+    pub dt: f64,
+}
+
 /// What a split's stages after the slots read: the grid and the nodal
 /// fields the step left (mass, first and final velocities per field slot),
 /// the particles after the gather, the kernel and Δt.
@@ -300,6 +320,8 @@ pub struct AfterContext<'a, const D: usize = 2, const V: usize = 3> {
     pub grid: &'a GridFields<D>,
     pub multi: &'a MultiField,
     pub kernel: ShapeFunctionKind,
+    /// The step's end, s.
+    pub time: f64,
     pub dt: f64,
 }
 

@@ -23,7 +23,7 @@ pub use g2p::BadKind;
 use crate::contact::{self, ContactLaw};
 use crate::diagnostics::{measure, Control, Observer, Progress, SeriesRow};
 use crate::fracture::model::{
-    self as fm, AfterContext, ContactContext, FieldSplit, FractureModel, RowContext,
+    self as fm, AfterContext, ContactContext, FieldSplit, ForceContext, FractureModel, RowContext,
     ScatterContext, SeriesOut, SlotContext, StepContext,
 };
 use crate::grid::shape::{by_kernel, Kernel};
@@ -596,6 +596,7 @@ where
                     grid: &self.grid,
                     multi: &multi,
                     kernel: self.scene.file.grid.shape_function,
+                    time: self.time,
                     dt,
                 };
                 let ran = split
@@ -688,6 +689,28 @@ where
                         );
                         self.add_work(w);
                         true
+                    }
+                    // a split's own forces (crack-face pressure), at mid-step
+                    // like the tractions
+                    Stage::CrackTraction => {
+                        let (Some(s), Some(m)) = (split, multi) else {
+                            break 'stage false;
+                        };
+                        let at = ForceContext {
+                            geom: &self.geom,
+                            grid: &mut self.grid,
+                            multi: m,
+                            kernel: self.scene.file.grid.shape_function,
+                            time: self.time + 0.5 * dt,
+                            dt,
+                        };
+                        match s.forces(t.stage, at) {
+                            Some(w) => {
+                                self.add_work(w);
+                                true
+                            }
+                            None => false,
+                        }
                     }
                     Stage::GridUpdate => {
                         self.grid_update(dt, t_bc, multi)?;

@@ -30,6 +30,11 @@ pub enum Stage {
     P2g,
     /// Surface tractions on the outermost particles of traction sides.
     Traction,
+    /// Explicit cracks' face pressures: each loaded crack point's two
+    /// surfaces push the material either side apart with P·A n̂, spread to
+    /// the nodes of their own side's velocity field (Nairn & Aimene, eqs.
+    /// 7–8). Only with a crack that has a `pressure`.
+    CrackTraction,
     /// The implicit phase-field solve per body (Kakouris & Triantafyllou):
     /// assemble K(H) c = F, factorize, solve, map c to the particles
     /// (skipped inside when the last stagger already solved this state).
@@ -76,11 +81,12 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 17] = [
+    pub const ALL: [Stage; 18] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
         Stage::Traction,
+        Stage::CrackTraction,
         Stage::PhaseFieldSolve,
         Stage::GridUpdate,
         Stage::Contact,
@@ -107,6 +113,7 @@ impl Stage {
             Stage::FieldPartition => "field_partition",
             Stage::P2g => "p2g",
             Stage::Traction => "traction",
+            Stage::CrackTraction => "crack_traction",
             Stage::PhaseFieldSolve => "phase_field_solve",
             Stage::GridUpdate => "grid_update",
             Stage::Contact => "contact",
@@ -182,6 +189,11 @@ impl Plan {
         let dfg = file.dfg.is_some();
         let cracks = file.bodies.iter().any(|b| !b.explicit_cracks.is_empty());
         let contact = contact_groups.len() > 1 || dfg || cracks;
+        let pressure = file
+            .bodies
+            .iter()
+            .flat_map(|b| &b.explicit_cracks)
+            .any(|c| c.pressure.is_some());
         let growth = cracks && file.cramp.as_ref().is_some_and(|c| c.growth.is_some());
         let uses = |f: fn(&super::schema::MaterialSpec) -> bool| {
             file.bodies
@@ -199,6 +211,7 @@ impl Plan {
                 Stage::FieldPartition | Stage::Contact => contact,
                 Stage::P2g | Stage::GridUpdate | Stage::Rebin => true,
                 Stage::Traction => traction,
+                Stage::CrackTraction => pressure,
                 Stage::PhaseFieldSolve | Stage::PhaseFieldHistory | Stage::PhaseFieldStagger => {
                     phase_field
                 }

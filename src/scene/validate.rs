@@ -614,7 +614,7 @@ impl Checker {
         }
         ok
     }
-    fn time_function(&mut self, path: &str, f: &TimeFunction) {
+    pub(crate) fn time_function(&mut self, path: &str, f: &TimeFunction) {
         match f {
             TimeFunction::Constant(v) => {
                 self.finite(path, *v);

@@ -21,6 +21,7 @@
 
 use super::j_integral::{along, contour_term, decompose, ContourPoint};
 use super::section::JMethod;
+use super::traction::traction_j;
 use super::{crossing, Crack};
 use crate::diagnostics::measure::strain_energy_density;
 use crate::grid::shape::Kernel;
@@ -97,6 +98,22 @@ impl super::Cramp {
 pub struct JOptions<'a> {
     pub before: Option<&'a BeforeRow>,
     pub method: JMethod,
+    /// Every crack's face pressure now, Pa (empty: none has one).
+    pub pressure: &'a [f64],
+}
+
+/// What the integrals about one tip read: the grid, the particles and
+/// their materials, the cracks, the target crack, the particles near the
+/// tip (in particle order) and every crack's face pressure, Pa.
+#[derive(Clone, Copy)]
+struct Around<'a, const V: usize> {
+    geom: &'a GridGeom<2>,
+    parts: &'a Particles<2, V>,
+    mats: &'a [Elastic],
+    cracks: &'a [Crack],
+    target: usize,
+    near: &'a [u32],
+    pressure: &'a [f64],
 }
 
 /// Why a tip has no J (the series shows NaN there).
@@ -438,6 +455,15 @@ pub fn tip_j<K: Kernel, const V: usize>(
         .flat_map(|(_, k)| [k.plane[0], k.plane[k.plane.len() - 1]])
         .map(|x| geom.xi(x))
         .collect();
+    let around = Around {
+        geom,
+        parts,
+        mats,
+        cracks,
+        target,
+        near: &near,
+        pressure: how.pressure,
+    };
     sides
         .iter()
         .map(|&side| {
@@ -450,17 +476,23 @@ pub fn tip_j<K: Kernel, const V: usize>(
                 }
             }
             let nodes = rect_ring(geom, rect).ok_or(NoJ::OffGrid)?;
-            let mut j12 = contour_j::<K, V>(geom, parts, mats, cracks, target, &near, &nodes)?;
+            let mut j12 = contour_j::<K, V>(&around, &nodes)?;
             let square = ring_box(geom, &nodes);
             if how.method != JMethod::Pijc {
-                let f = faces_term(geom, parts, mats, cracks, target, &near, square);
+                let f = faces_term(&around, square);
                 j12 = [j12[0] + f[0], j12[1] + f[1]];
             }
             if let Some(b) = how.before {
                 let v = volume_term(parts, b, &near, square);
                 j12 = [j12[0] + v[0], j12[1] + v[1]];
             }
-            let j = along(j12, dir[1].atan2(dir[0]));
+            // step 9: the target crack's own face pressure (eqs. 11–12),
+            // along the crack
+            let mut j = along(j12, dir[1].atan2(dir[0]));
+            let p = how.pressure.get(target).copied().unwrap_or(0.0);
+            if p != 0.0 {
+                j += traction_j(cracks, (target, end), p, square);
+            }
             let (k1, k2) = decompose(j, e_star, cod_n, cod_t);
             Ok(TipJ {
                 j12,
@@ -476,14 +508,18 @@ pub fn tip_j<K: Kernel, const V: usize>(
 /// The contour term of eq. 9 on the ring `nodes` (counter-clockwise) about
 /// crack `target`'s tip, from the particles `near`.
 fn contour_j<K: Kernel, const V: usize>(
-    geom: &GridGeom<2>,
-    parts: &Particles<2, V>,
-    mats: &[Elastic],
-    cracks: &[Crack],
-    target: usize,
-    near: &[u32],
+    at: &Around<'_, V>,
     nodes: &[usize],
 ) -> Result<[f64; 2], NoJ> {
+    let Around {
+        geom,
+        parts,
+        mats,
+        cracks,
+        target,
+        near,
+        ..
+    } = *at;
     let n = nodes.len();
     let pos: Vec<[f64; 2]> = nodes.iter().map(|&i| geom.node_position(i)).collect();
     // the cracks crossing each interval (ring k to k + 1) and where
@@ -599,20 +635,22 @@ fn contour_j<K: Kernel, const V: usize>(
 /// face's side within 1.5 cells (the paper extrapolates the face's
 /// velocity field from the grid to the crack points; this takes the
 /// particles directly, as the contour's nodes do).
-fn faces_term<const V: usize>(
-    geom: &GridGeom<2>,
-    parts: &Particles<2, V>,
-    mats: &[Elastic],
-    cracks: &[Crack],
-    target: usize,
-    near: &[u32],
-    (lo, hi): ([f64; 2], [f64; 2]),
-) -> [f64; 2] {
+fn faces_term<const V: usize>(at: &Around<'_, V>, (lo, hi): ([f64; 2], [f64; 2])) -> [f64; 2] {
+    let Around {
+        geom,
+        parts,
+        mats,
+        cracks,
+        target,
+        near,
+        pressure,
+    } = *at;
     let mut j = [0.0; 2];
     for (c, crack) in cracks.iter().enumerate() {
         if c == target {
             continue;
         }
+        let p = pressure.get(c).copied().unwrap_or(0.0);
         for k in 0..crack.plane.len() - 1 {
             let (a, b) = (crack.plane[k], crack.plane[k + 1]);
             let Some((t0, t1)) = clip(a, b, lo, hi) else {
@@ -632,11 +670,16 @@ fn faces_term<const V: usize>(
                     let eps = -1e-4 * geom.h * sign;
                     let at = [x[0] + eps * nrm[0], x[1] + eps * nrm[1]];
                     let f = face_fields(geom, parts, mats, cracks, near, at);
+                    // open faces carry their pressure (step 5's case 3):
+                    // the traction on the material is −P times its
+                    // outward normal
                     let t = if closed {
                         [
                             f.s[0] * out[0] + f.s[2] * out[1],
                             f.s[2] * out[0] + f.s[1] * out[1],
                         ]
+                    } else if p != 0.0 {
+                        [-p * out[0], -p * out[1]]
                     } else {
                         [0.0; 2]
                     };
@@ -666,7 +709,7 @@ fn faces_term<const V: usize>(
 
 /// The part of the segment `a`–`b` inside the box `(lo, hi)`, as
 /// parameters t0 < t1 along it (Liang–Barsky), if any.
-fn clip(a: [f64; 2], b: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> Option<(f64, f64)> {
+pub(crate) fn clip(a: [f64; 2], b: [f64; 2], lo: [f64; 2], hi: [f64; 2]) -> Option<(f64, f64)> {
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for d in 0..2 {
         let dx = b[d] - a[d];
@@ -880,6 +923,7 @@ mod tests {
                 JOptions {
                     before: None,
                     method: JMethod::Fijc,
+                    pressure: &[],
                 },
                 (0, End::End),
                 &[4, 8, 12],
@@ -912,6 +956,7 @@ mod tests {
                 JOptions {
                     before: None,
                     method: JMethod::Fijc,
+                    pressure: &[],
                 },
                 (0, End::Start),
                 &[4],

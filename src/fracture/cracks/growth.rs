@@ -58,17 +58,20 @@ impl Cramp {
         geom: &GridGeom<2>,
         parts: &Particles<2, V>,
         mats: &[Elastic],
+        time: f64,
     ) -> usize {
         let Some(growth) = self.growth.clone() else {
             return 0;
         };
         let first = [self.j_contours[0]];
+        let pressures = self.pressures(time);
         let mut events = Vec::new();
         for c in 0..self.cracks.len() {
             for end in End::BOTH {
                 let how = JOptions {
                     before: self.before_row.as_ref(),
                     method: self.j_method,
+                    pressure: &pressures,
                 };
                 let tip = (c, end);
                 let js = tip_j::<K, V>(geom, parts, mats, &self.cracks, how, tip, &first);

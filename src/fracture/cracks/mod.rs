@@ -31,6 +31,10 @@
 //! 5. **Growth** (`crack_growth`, only with `[cramp] growth`,
 //!    [`Cramp::grow`], section 3.5): each tip's J and K_I, K_II; a new
 //!    segment in the maximum-hoop-stress direction where K_I^max ≥ K_Ic.
+//!
+//! A crack may carry a face pressure (`crack_traction`, after the scatter,
+//! [`traction`], section 2.1.4): nodal forces on the fields either side,
+//! and its term in J.
 
 pub mod contour;
 pub mod growth;
@@ -38,6 +42,7 @@ pub mod j_integral;
 pub mod model;
 pub mod section;
 pub mod snapshot;
+pub mod traction;
 
 use crate::grid::shape::Kernel;
 use crate::grid::{particle_support, Bins, FieldSlots, GridFields, GridGeom, MultiField, Support};
@@ -385,6 +390,12 @@ pub struct Cramp {
     pub j_method: section::JMethod,
     /// Crack growth (`[cramp] growth`), if the scene asks for it.
     pub growth: Option<section::GrowthSpec>,
+    /// Per crack, its face pressure (`explicit_cracks[k].pressure`), Pa.
+    pub pressure: Vec<Option<crate::scene::schema::TimeFunction>>,
+    /// Per crack, how many of its points at the start and at the end lie
+    /// outside its body (no pressure there); growth adds points only at
+    /// tips, inside, so the counts hold as the crack grows.
+    pub outside: Vec<(usize, usize)>,
     /// The scene's crack points (those beyond them were grown).
     initial_points: usize,
 

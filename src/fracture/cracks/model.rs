@@ -5,10 +5,12 @@
 //! 2D only (validation refuses explicit cracks in a 3D scene).
 
 use super::contour::{tip_j, End, JOptions};
+use super::traction::outside_ends;
 use super::{Crack, Cramp, Warnings};
 use crate::fracture::model::{
-    decode, encode, AfterContext, ContactContext, FieldSplit, FractureModel, RestoreContext,
-    RowContext, ScatterContext, SeriesOut, SetupContext, SlotContext, SplitSlots, StepContext,
+    decode, encode, AfterContext, ContactContext, FieldSplit, ForceContext, FractureModel,
+    RestoreContext, RowContext, ScatterContext, SeriesOut, SetupContext, SlotContext, SplitSlots,
+    StepContext,
 };
 use crate::grid::shape::by_kernel;
 use crate::grid::MultiField;
@@ -17,10 +19,13 @@ use crate::scene::Stage;
 /// The model for a scene whose bodies list `explicit_cracks`.
 pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>> {
     let file = &at.scene.file;
-    let mut cracks = Vec::new();
+    let (mut cracks, mut pressure, mut outside) = (Vec::new(), Vec::new(), Vec::new());
     for (b, body) in file.bodies.iter().enumerate() {
         for spec in &body.explicit_cracks {
-            cracks.push(Crack::new(b as u16, spec.friction, spec.xy()));
+            let xy = spec.xy();
+            outside.push(outside_ends(&xy, &body.shape, &body.holes));
+            pressure.push(spec.pressure.clone());
+            cracks.push(Crack::new(b as u16, spec.friction, xy));
         }
     }
     if cracks.is_empty() {
@@ -33,6 +38,8 @@ pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>
     cramp.thickness = file.analysis.thickness;
     cramp.growth = spec.growth;
     cramp.j_method = spec.j_method;
+    cramp.pressure = pressure;
+    cramp.outside = outside;
     Some(Box::new(cramp))
 }
 
@@ -79,6 +86,18 @@ impl FieldSplit for Cramp {
         Some(Cramp::contact(self, at.grid, at.multi, at.floor))
     }
 
+    fn forces(&self, stage: Stage, at: ForceContext<'_>) -> Option<f64> {
+        match stage {
+            Stage::CrackTraction => {
+                let (geom, grid, multi) = (at.geom, at.grid, at.multi);
+                Some(
+                    by_kernel!(at.kernel, K => self.face_forces::<K>(geom, grid, multi, at.time, at.dt)),
+                )
+            }
+            _ => None,
+        }
+    }
+
     fn after_slots(&mut self, stage: Stage, at: AfterContext<'_>) -> bool {
         match stage {
             Stage::CrackSurfaces => {
@@ -87,7 +106,7 @@ impl FieldSplit for Cramp {
             }
             Stage::CrackGrowth => {
                 let (geom, parts, mats) = (at.geom, at.parts, at.mats);
-                by_kernel!(at.kernel, K => self.grow::<K, 3>(geom, parts, mats));
+                by_kernel!(at.kernel, K => self.grow::<K, 3>(geom, parts, mats, at.time));
                 true
             }
             _ => false,
@@ -139,6 +158,7 @@ impl FractureModel for Cramp {
             }
             out.push(&format!("crack{c}_length"), crack.length());
         }
+        let pressures = self.pressures(at.time);
         for c in 0..self.cracks.len() {
             for end in End::BOTH {
                 let js = if out.declaring() {
@@ -149,6 +169,7 @@ impl FractureModel for Cramp {
                     let how = JOptions {
                         before: self.before_row.as_ref(),
                         method: self.j_method,
+                        pressure: &pressures,
                     };
                     by_kernel!(at.kernel, K => tip_j::<K, 3>(geom, parts, mats, &self.cracks, how, tip, sides))
                 };

@@ -4,6 +4,7 @@
 //! which [`crate::scene::Scene::validate`] calls.
 
 use crate::geometry::{contains, ShapeSpec, Vector};
+use crate::scene::schema::TimeFunction;
 use crate::scene::Checker;
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +30,12 @@ pub struct ExplicitCrackSpec {
     /// (0: frictionless contact; the faces never interpenetrate).
     #[serde(default)]
     pub friction: f64,
+    /// A pressure on the crack's faces, Pa, a function of time (a number
+    /// or `{ table = [[t, p], ...] }`): the faces are pushed apart by it
+    /// where they lie inside the body (Nairn & Aimene, eqs. 7–8 with
+    /// T_n = −P, T_t = 0). None: traction-free faces.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pressure: Option<TimeFunction>,
 }
 
 impl ExplicitCrackSpec {
@@ -205,6 +212,9 @@ pub(crate) fn check(
         for (k, crack) in cracks.iter().enumerate() {
             let path = format!("bodies[{b}].explicit_cracks[{k}]");
             c.in_range(&format!("{path}.friction"), crack.friction, 0.0, 1e3);
+            if let Some(p) = &crack.pressure {
+                c.time_function(&format!("{path}.pressure"), p);
+            }
             if crack.points.len() < 2 {
                 c.err(
                     &format!("{path}.points"),
