@@ -1,7 +1,9 @@
 //! Explicit cracks (CRAMP) as a [`FractureModel`] that splits the velocity
-//! fields: its `field_partition` runs before the scatter, its contact law
-//! takes the `contact` stage's place, and its `crack_surfaces` stage runs
-//! after the step's slots are released, all through its [`FieldSplit`].
+//! fields: its `field_partition` runs before the scatter, its
+//! `crack_traction` (faces under pressure) adds forces after it, its
+//! contact law takes the `contact` stage's place, and its
+//! `crack_surfaces` and `crack_growth` stages run after the step's slots
+//! are released, all through its [`FieldSplit`].
 //! 2D only (validation refuses explicit cracks in a 3D scene).
 
 use super::contour::{tip_j, End, JOptions};
