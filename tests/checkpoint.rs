@@ -225,6 +225,14 @@ fn a_resumed_run_with_explicit_cracks_repeats_the_straight_one_bit_for_bit() {
     assert_same(&a, &b);
 }
 
+/// The first and last rows' `crack0_length` of a series, m.
+fn crack0_lengths(series: &str) -> (f64, f64) {
+    let lines: Vec<&str> = series.lines().collect();
+    let at = lines[0].split(',').position(|c| c == "crack0_length");
+    let length = |row: &str| -> f64 { row.split(',').nth(at.unwrap()).unwrap().parse().unwrap() };
+    (length(lines[1]), length(lines[lines.len() - 1]))
+}
+
 #[test]
 fn a_resumed_run_whose_crack_grows_repeats_the_straight_one_bit_for_bit() {
     // the growing edge crack, resumed at step 420 (the crack has grown
@@ -235,10 +243,7 @@ fn a_resumed_run_whose_crack_grows_repeats_the_straight_one_bit_for_bit() {
         &[("end = 6.0e-4", "end = 4.0e-4")],
     );
     let (a, b) = straight_and_resumed(&text, 420, 40);
-    let lines: Vec<&str> = a.series.lines().collect();
-    let at = lines[0].split(',').position(|c| c == "crack0_length");
-    let length = |row: &str| -> f64 { row.split(',').nth(at.unwrap()).unwrap().parse().unwrap() };
-    let (first, last) = (length(lines[1]), length(lines[lines.len() - 1]));
+    let (first, last) = crack0_lengths(&a.series);
     assert!(
         last > first + 5e-3,
         "the crack grew from {first} m to {last} m"
@@ -262,10 +267,7 @@ fn a_resumed_run_whose_growing_crack_carries_a_pressure_repeats_the_straight_one
         ],
     );
     let (a, b) = straight_and_resumed(&text, 420, 40);
-    let lines: Vec<&str> = a.series.lines().collect();
-    let at = lines[0].split(',').position(|c| c == "crack0_length");
-    let length = |row: &str| -> f64 { row.split(',').nth(at.unwrap()).unwrap().parse().unwrap() };
-    let (first, last) = (length(lines[1]), length(lines[lines.len() - 1]));
+    let (first, last) = crack0_lengths(&a.series);
     assert!(
         last > first + 5e-3,
         "the crack grew from {first} m to {last} m"
