@@ -9,6 +9,8 @@
 #   cargo build --release -p cleave-client
 #   OLD=/tmp/old/target/release/cleave NEW=target/release/cleave \
 #     bash docs/scripts/compare_cut.sh scenes/*.toml
+# IGNORE="col1 col2" leaves those series columns out of the comparison
+# (a change that corrects one diagnostic), and names the ones that differ.
 # Prints one line per scene; a run's outputs are deleted after its
 # comparison (P1's VTK files are gigabytes).
 set -uo pipefail
@@ -36,21 +38,25 @@ PY
     RAYON_NUM_THREADS=$th timeout 1800 "$bin" run "$cut" --out "$dir/$name-$b" --quiet > /dev/null 2>&1 \
       || echo "$name: the $b build exited $?"
   done
-  python3 - "$dir/$name-old" "$dir/$name-new" "$name" "$th" <<'PY'
+  IGNORE=${IGNORE:-} python3 - "$dir/$name-old" "$dir/$name-new" "$name" "$th" <<'PY'
 import csv, sys, os, filecmp
 old, new, name, th = sys.argv[1:]
+ignore = os.environ.get("IGNORE", "").split()
 o = list(csv.reader(open(old + "/series.csv")))
 w = list(csv.reader(open(new + "/series.csv")))
 ho, hn = o[0], w[0]
-keep = [c for c in ho if not c.endswith("_s")]
+keep = [c for c in ho if not c.endswith("_s") and c not in ignore]
 diff = (sum(a[ho.index(c)] != b[hn.index(c)] for a, b in zip(o[1:], w[1:]) for c in keep)
         if len(o) == len(w) else "rows differ")
+moved = [c for c in ignore if c in ho and c in hn and len(o) == len(w)
+         and any(a[ho.index(c)] != b[hn.index(c)] for a, b in zip(o[1:], w[1:]))]
 snaps = sorted(f for f in os.listdir(old) if f.endswith((".vtp", ".vti")))
 bad = [f for f in snaps
        if not os.path.exists(new + "/" + f) or not filecmp.cmp(old + "/" + f, new + "/" + f, shallow=False)]
 print(f"{name} threads {th}: rows {len(o) - 1}/{len(w) - 1}, differing values {diff}, "
       f"added columns {[c for c in hn if c not in ho]}, removed {[c for c in ho if c not in hn]}; "
-      f"VTK files {len(snaps)}, differing {bad}")
+      f"VTK files {len(snaps)}, differing {bad}"
+      + (f"; ignored columns that differ {moved}" if ignore else ""))
 PY
   rm -rf "$dir/$name-old" "$dir/$name-new"
 done

@@ -35,6 +35,9 @@
 #            [transfer] stress update; USL leaves stress noise at the
 #            pressure-loaded faces where V crosses H (docs/cracks-c3.md).
 #            Run names end in "_musl" for MUSL
+#   SCHEME   the [transfer] scheme: flip (default: FLIP 0.99), pic, apic,
+#            xpic1 or fmpm1 (the paper's FMPM(1)); run names then end in
+#            "_<scheme>" and the summary's update column reads musl+<scheme>
 #   SUMMARY_ONLY=1  only rewrite the summary from runs already there
 #   RAYON_NUM_THREADS (default 1)
 set -euo pipefail
@@ -49,12 +52,13 @@ MU=${MU:-0}
 RAMP_MS=${RAMP_MS:-1.0}
 HOLD_MS=${HOLD_MS:-0.5}
 STRESS_UPDATE=${STRESS_UPDATE:-musl}
+SCHEME=${SCHEME:-flip}
 export RAYON_NUM_THREADS=${RAYON_NUM_THREADS:-1}
 mkdir -p "$OUT/scenes" "$OUT/runs"
 
 # ---------------------------------------------------------------- scenes
 cat > "$OUT/gen_c3.py" <<'EOF'
-"""gen_c3.py OUT.toml CASE CELL_MM ENDS MODEL RAMP_MS HOLD_MS PH_MPA MU STRESS_UPDATE
+"""gen_c3.py OUT.toml CASE CELL_MM ENDS MODEL RAMP_MS HOLD_MS PH_MPA MU STRESS_UPDATE SCHEME
 CASE: 'single' (no V crack) or b/w."""
 import math, sys
 
@@ -64,6 +68,8 @@ ends, model = sys.argv[4], sys.argv[5]
 ramp, hold = float(sys.argv[6]) * 1e-3, float(sys.argv[7]) * 1e-3
 ph, mu = float(sys.argv[8]) * 1e6, float(sys.argv[9])
 su = sys.argv[10]
+scheme = sys.argv[11] if len(sys.argv) > 11 else "flip"
+transfer = ([f'stress_update = "{su}"'] if su != "usl" else []) + ([f'scheme = "{scheme}"'] if scheme != "flip" else [])
 
 w, L, a, lb = 0.05, 0.10, 0.025, 0.05   # half width, height, H (half) length, V length
 P = 5e6                                 # crack-face pressure
@@ -168,7 +174,7 @@ material = "plate"
 explicit_cracks = [
 {lines}]
 {grips}
-{'' if su == 'usl' else chr(10) + '[transfer]' + chr(10) + 'stress_update = "' + su + '"' + chr(10)}
+{'' if not transfer else chr(10) + '[transfer]' + chr(10) + chr(10).join(transfer) + chr(10)}
 [cramp]
 j_contours = {contours}
 
@@ -181,13 +187,14 @@ EOF
 # ---------------------------------------------------------------- runs
 tag="${ENDS}_${MODEL}_ph${PH_MPA}_mu${MU}_tr${RAMP_MS}"
 [ "$STRESS_UPDATE" != usl ] && tag="${tag}_${STRESS_UPDATE}"
+[ "$SCHEME" != flip ] && tag="${tag}_${SCHEME}"
 names=()
 for c in $CASES; do names+=("h${CELL_MM}_${c}_${tag}"); done
 
 if [ "${SUMMARY_ONLY:-0}" != 1 ]; then
   for c in $CASES; do
     name="h${CELL_MM}_${c}_${tag}"
-    python3 "$OUT/gen_c3.py" "$OUT/scenes/$name.toml" "$c" "$CELL_MM" "$ENDS" "$MODEL" "$RAMP_MS" "$HOLD_MS" "$PH_MPA" "$MU" "$STRESS_UPDATE"
+    python3 "$OUT/gen_c3.py" "$OUT/scenes/$name.toml" "$c" "$CELL_MM" "$ENDS" "$MODEL" "$RAMP_MS" "$HOLD_MS" "$PH_MPA" "$MU" "$STRESS_UPDATE" "$SCHEME"
     echo "== $name" >&2
     "$CLEAVE" run "$OUT/scenes/$name.toml" --out "$OUT/runs/$name" --json --quiet \
       > "$OUT/runs/$name.json" 2> "$OUT/runs/$name.err" || { echo "   failed: $OUT/runs/$name.err" >&2; continue; }
@@ -203,7 +210,7 @@ out, cell = sys.argv[1], sys.argv[2]
 h = float(cell) * 1e-3
 G0 = 1392.0
 cont = [int(round(c / float(cell))) for c in (2, 4, 8)]
-pat = re.compile(rf"h{re.escape(cell)}_(?P<case>[^_]+)_(?P<ends>free|held)_(?P<model>half|full)_ph(?P<ph>[^_]+)_mu(?P<mu>[^_]+)_tr(?P<tr>[^_/]+)(_(?P<su>musl))?$")
+pat = re.compile(rf"h{re.escape(cell)}_(?P<case>[^_]+)_(?P<ends>free|held)_(?P<model>half|full)_ph(?P<ph>[^_]+)_mu(?P<mu>[^_]+)_tr(?P<tr>[^_/]+)(_(?P<su>musl))?(_(?P<sc>pic|apic|xpic1|fmpm1))?$")
 
 def vtp(fn):
     d = open(fn, "rb").read()
@@ -261,7 +268,7 @@ for run in sorted(glob.glob(f"{out}/runs/h{cell}_*")):
     node = round(tip / h) * h          # the node nearest the tip (grid lines at multiples of h)
     xv = v_line_x(run, float(allrows[-1]["crack0_end_y"])) if g["case"] != "single" else float("nan")
     crossed = [g["case"] != "single" and abs(xv - node) < n / 2 * h for n in cont]
-    g["su"] = g["su"] or "usl"
+    g["su"] = (g["su"] or "usl") + ("+" + g["sc"] if g["sc"] else "")
     res.append(dict(g, J=J, sd=sd, follow=follow, wall=wall, eerr=eerr, tip=tip, node=node, xv=xv, crossed=crossed, rows=len(rows)))
 
 def key(r):

@@ -60,8 +60,29 @@ impl<const D: usize> G2pStats<D> {
 /// Parameters of the transfer.
 #[derive(Debug, Clone, Copy)]
 pub struct Transfer {
-    /// FLIP fraction α (ignored for APIC).
+    /// FLIP fraction α (ignored for APIC and the second-order updates).
     pub flip: f64,
+    /// The particle update (ignored for APIC).
+    pub update: ParticleUpdate,
+}
+
+/// How a non-APIC particle takes its new velocity and position from the
+/// grid. S v̄ is the updated grid velocity at the particle, S v⁰ the
+/// scattered one (before forces, walls and contact), v_p its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ParticleUpdate {
+    /// v_p ← α (v_p + S(v̄ − v⁰)) + (1 − α) S v̄, x_p ← x_p + Δt S v̄.
+    #[default]
+    Blend,
+    /// XPIC(1) (Hammerquist & Nairn 2017, as Nairn & Aimene write it for
+    /// crack particles after their eq. 6): v_p ← S v̄ and
+    /// x_p ← x_p + Δt (S v⁰ + ½ (S v̄ − v_p)), the position second order
+    /// in the change of velocity the particle sees.
+    Xpic1,
+    /// FMPM(1) (Nairn & Hammerquist 2021, order one: the lumped mass):
+    /// v_p ← S v̄ and x_p ← x_p + ½ Δt (v_p + S v̄), the trapezoid of the
+    /// particle's old and new velocities.
+    Fmpm1,
 }
 
 /// The constitutive update of particle `p` with velocity gradient `l`
@@ -257,6 +278,7 @@ fn gather<
         affine: SyncPtr::new(&mut parts.affine),
         x_next: SyncPtr::new(x_next),
         alpha: transfer.flip,
+        update: transfer.update,
         dinv: K::APIC_DINV_H2.map(|d| d * geom.inv_h * geom.inv_h),
     };
     (0..n.div_ceil(CHUNK))
@@ -393,6 +415,7 @@ struct Gather<'a, S, const D: usize, const V: usize> {
     x_next: SyncPtr<'a, [f64; D]>,
     /// The FLIP fraction.
     alpha: f64,
+    update: ParticleUpdate,
     /// APIC's D⁻¹ (None: C = L, linear and GIMP kernels).
     dinv: Option<f64>,
 }
@@ -424,6 +447,7 @@ unsafe fn gather_chunk<
         affine,
         x_next,
         alpha,
+        update,
         dinv,
     } = *g;
     let (geom, dt, gimp) = (up.geom, up.dt, !half_size.is_empty());
@@ -491,16 +515,29 @@ unsafe fn gather_chunk<
             vpic
         } else {
             let mut v = [0.0; D];
-            for a in 0..D {
-                v[a] = alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a];
+            match update {
+                ParticleUpdate::Blend => {
+                    for a in 0..D {
+                        v[a] = alpha * (vp[a] + dflip[a]) + (1.0 - alpha) * vpic[a];
+                    }
+                }
+                ParticleUpdate::Xpic1 | ParticleUpdate::Fmpm1 => v = vpic,
             }
             v
         };
-        *vp = vnew;
+        // the position's rate over the step
+        let rate = |a: usize| match update {
+            _ if APIC => vpic[a],
+            ParticleUpdate::Blend => vpic[a],
+            // S v⁰ = S v̄ − S(v̄ − v⁰)
+            ParticleUpdate::Xpic1 => vpic[a] - dflip[a] + 0.5 * (vpic[a] - vp[a]),
+            ParticleUpdate::Fmpm1 => 0.5 * (vp[a] + vpic[a]),
+        };
         let mut moved = [0.0; D];
         for a in 0..D {
-            moved[a] = xp[a] + dt * vpic[a];
+            moved[a] = xp[a] + dt * rate(a);
         }
+        *vp = vnew;
         geom.keep_inside(&mut moved, vp);
         if VELOCITY_ONLY {
             // SAFETY: as above.

@@ -147,6 +147,7 @@ pub struct Simulation<const D: usize = 2, const V: usize = 3> {
     /// Node runs the last scatter wrote (cleared at the next reset).
     written: Vec<std::ops::Range<usize>>,
     flip: f64,
+    update: g2p::ParticleUpdate,
     body_force: [f64; D],
     m_min: f64,
     time: f64,
@@ -157,6 +158,10 @@ pub struct Simulation<const D: usize = 2, const V: usize = 3> {
     max_signal: f64,
     external_work: f64,
     abs_work: f64,
+    /// The traction forces this step put on the grid, slot by slot: their
+    /// work is F·v Δt with the grid velocities the particles then move
+    /// with, counted at the gather.
+    applied: Vec<(usize, [f64; D])>,
     initial_energy: f64,
     energy_floor: f64,
     times: StageTimes,
@@ -663,7 +668,10 @@ where
         plan: &mut [StageTime],
     ) -> Result<(), SimError> {
         let t_bc = self.time + dt;
-        let transfer = g2p::Transfer { flip: self.flip };
+        let transfer = g2p::Transfer {
+            flip: self.flip,
+            update: self.update,
+        };
         let mut moved_tile = false;
         let step_before = self.step;
         for t in plan.iter_mut() {
@@ -679,19 +687,19 @@ where
                     // Tractions at mid-step: the impulse of a linear ramp is then exact
                     Stage::Traction => {
                         let t_mid = self.time + 0.5 * dt;
-                        let w = self.tractions.apply::<K, S, V>(
+                        self.tractions.apply::<K, S, V>(
                             t_mid,
-                            dt,
                             &self.geom,
                             &self.parts,
                             slots,
                             &mut self.grid,
+                            &mut self.applied,
                         );
-                        self.add_work(w);
                         true
                     }
                     // a split's own forces (crack-face pressure), at mid-step
-                    // like the tractions
+                    // like the tractions; their work is the split's own
+                    // (crack faces are not particles: F·v of the surface)
                     Stage::CrackTraction => {
                         let (Some(s), Some(m)) = (split, multi) else {
                             break 'stage false;
@@ -743,6 +751,7 @@ where
                         true
                     }
                     Stage::G2p => {
+                        self.applied_work(dt);
                         let stats = if self.apic {
                             g2p::g2p::<K, S, true, D, V>(
                                 &self.geom,
@@ -770,6 +779,7 @@ where
                         true
                     }
                     Stage::G2pVelocity => {
+                        self.applied_work(dt);
                         self.musl_velocities::<K, S>(dt, slots, transfer);
                         true
                     }
@@ -987,6 +997,34 @@ where
                 self.m_min,
             );
         }
+    }
+
+    /// The work of the traction forces the step put on the grid
+    /// (`applied`), Σ F_i·v_i Δt with the grid velocities after the update
+    /// and contact: under PIC, FLIP and APIC a particle moves by
+    /// Δt Σ_i S_ip v_i, so this is each force's work along its particle's
+    /// own displacement (XPIC(1) and FMPM(1) move it by a second-order
+    /// rate; the grid's is then the step's first-order estimate). F·v_p Δt
+    /// with the particles' own velocities is not: under FLIP and MUSL the
+    /// particle velocity drifts from the rate the particle moves at, and a
+    /// traction edge's work came out at two thirds of the strain energy it
+    /// stored (`tests/verification.rs`). Crack-face pressures count their
+    /// own work by the surfaces' velocities: they are not forces on
+    /// particles, and Σ F_i·v_i over their nodes over-counts where a share
+    /// lands on a node of little field mass (docs/cracks-c3.md).
+    fn applied_work(&mut self, dt: f64) {
+        if self.applied.is_empty() {
+            return;
+        }
+        let vel = &self.grid.vel;
+        let w: f64 = self
+            .applied
+            .iter()
+            .map(|&(s, f)| crate::tensor::dot(f, vel[s]))
+            .sum::<f64>()
+            * dt;
+        self.applied.clear();
+        self.add_work(w);
     }
 
     fn add_work(&mut self, w: f64) {

@@ -1,6 +1,7 @@
 //! Building a [`Simulation`] from a validated scene: particles, grid,
 //! boundary conditions, tractions, friction table.
 
+use super::g2p::ParticleUpdate;
 use super::grid_update::Boundary;
 use super::{Saved, Simulation, StageTimes};
 use crate::contact::ContactLaw;
@@ -14,7 +15,7 @@ use crate::particles::Particles;
 use crate::scene::{
     MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage, TimeFunction, TransferKind,
 };
-use crate::tensor::{check_voigt, dot, identity, norm, resize};
+use crate::tensor::{check_voigt, identity, norm, resize};
 
 pub(super) fn build<const D: usize, const V: usize>(scene: &Scene) -> Simulation<D, V>
 where
@@ -213,8 +214,13 @@ where
         x_next: Vec::new(),
         written: Vec::new(),
         flip: match file.transfer.scheme {
-            TransferKind::Pic => 0.0,
+            TransferKind::Pic | TransferKind::Xpic1 | TransferKind::Fmpm1 => 0.0,
             _ => file.transfer.flip_blend,
+        },
+        update: match file.transfer.scheme {
+            TransferKind::Xpic1 => ParticleUpdate::Xpic1,
+            TransferKind::Fmpm1 => ParticleUpdate::Fmpm1,
+            _ => ParticleUpdate::Blend,
         },
         body_force: file.body_force.get::<D>(),
         m_min: file.guards.min_node_mass_fraction * min_mass,
@@ -224,6 +230,7 @@ where
         max_signal,
         external_work: 0.0,
         abs_work: 0.0,
+        applied: Vec::new(),
         initial_energy: 0.0,
         energy_floor: 1e-9 * scale,
         times: StageTimes::new(&scene.plan),
@@ -367,19 +374,20 @@ impl<const D: usize> Tractions<D> {
         Tractions { sides }
     }
 
-    /// Adds the traction forces at time `t` to the grid; returns their work
-    /// over the step, F·v_p Δt.
+    /// Adds the traction forces at time `t` to the grid, and each nodal
+    /// share to `applied` (slot, force): their work is counted once the
+    /// grid velocities the particles move with are known
+    /// (`Simulation::applied_work`).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn apply<K: Kernel, S: FieldSlots, const V: usize>(
         &self,
         t: f64,
-        dt: f64,
         geom: &GridGeom<D>,
         parts: &Particles<D, V>,
         slots: &S,
         grid: &mut GridFields<D>,
-    ) -> f64 {
-        let mut work = 0.0;
+        applied: &mut Vec<(usize, [f64; D])>,
+    ) {
         for side in &self.sides {
             let sn = side.normal.as_ref().map_or(0.0, |f| f.eval(t));
             let ss = side.shear.as_ref().map_or(0.0, |f| f.eval(t));
@@ -390,15 +398,15 @@ impl<const D: usize> Tractions<D> {
             for &(p, area) in &side.particles {
                 let p = p as usize;
                 let f = tr.map(|c| c * area);
-                work += dot(f, parts.v[p]) * dt;
                 particle_support::<K, D, V>(geom, parts, p).for_each(|n| {
                     let s = slots.slot(n.node, p);
+                    let fi = f.map(|c| n.w * c);
                     for a in 0..D {
-                        grid.force[s][a] += n.w * f[a];
+                        grid.force[s][a] += fi[a];
                     }
+                    applied.push((s, fi));
                 });
             }
         }
-        work
     }
 }

@@ -139,7 +139,10 @@ fn run<const APIC: bool>(
             &SingleField,
             &grid,
             &mats,
-            g2p::Transfer { flip: 0.99 },
+            g2p::Transfer {
+                flip: 0.99,
+                update: g2p::ParticleUpdate::Blend,
+            },
             dt,
         );
         assert!(stats.bad.is_none(), "{:?}", stats.bad);

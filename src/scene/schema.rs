@@ -444,6 +444,13 @@ pub enum TransferKind {
     Pic,
     /// Affine PIC (Jiang et al. 2015): conserves angular momentum.
     Apic,
+    /// XPIC(1) (Hammerquist & Nairn 2017): PIC velocities with a
+    /// second-order position update; what Nairn & Aimene recommend.
+    Xpic1,
+    /// FMPM(1) (Nairn & Hammerquist 2021): PIC velocities, positions moved
+    /// by the mean of the old and new particle velocities; Nairn &
+    /// Aimene's J benchmarks (C1–C4) ran with it.
+    Fmpm1,
 }
 
 /// When the stress is updated within a step.
