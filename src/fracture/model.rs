@@ -266,9 +266,12 @@ pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
     }
 
     /// Contact between the split's fields by the split's own law (explicit
-    /// cracks: each crack's normal and friction), in the `contact` stage;
+    /// cracks: each crack's normal and friction), in the `contact` stage
+    /// (`at.momenta` false) or the `contact_momenta` stage (true: on the
+    /// scattered velocities v⁰, the correction carried into v̄ as well);
     /// returns the nodes where it acted. None: the step's law between
-    /// fields ([`crate::contact::apply`], with [`Self::self_friction`]).
+    /// fields ([`crate::contact::apply`], with [`Self::self_friction`]),
+    /// and no `contact_momenta` pass.
     fn contact(&self, _at: ContactContext<'_, D>) -> Option<usize> {
         None
     }
@@ -296,6 +299,8 @@ pub struct ContactContext<'a, const D: usize = 2> {
     pub grid: &'a mut GridFields<D>,
     pub multi: &'a MultiField,
     pub floor: f64,
+    /// The first pass, on the scattered momenta (`contact_momenta`).
+    pub momenta: bool,
 }
 
 /// What a split's forces are added to: the grid, the step's nodal fields

@@ -724,6 +724,22 @@ where
                         self.grid_update(dt, t_bc, multi)?;
                         true
                     }
+                    // the split's first pass; the walls come again in `contact`
+                    Stage::ContactMomenta => {
+                        let (Some(s), Some(m)) = (split, multi) else {
+                            break 'stage false;
+                        };
+                        let floor = self
+                            .m_min
+                            .max(contact::MIN_FIELD_FRACTION * self.friction.full_node_mass);
+                        let at = ContactContext {
+                            grid: &mut self.grid,
+                            multi: m,
+                            floor,
+                            momenta: true,
+                        };
+                        s.contact(at).is_some()
+                    }
                     Stage::Contact => {
                         let Some(m) = multi else {
                             break 'stage false;
@@ -736,6 +752,7 @@ where
                                 grid: &mut self.grid,
                                 multi: m,
                                 floor,
+                                momenta: false,
                             })
                         });
                         let touched = match own {

@@ -41,6 +41,14 @@ pub enum Stage {
     PhaseFieldSolve,
     /// Nodal momentum update and boundary conditions.
     GridUpdate,
+    /// Explicit cracks' first contact pass, on the scattered momenta
+    /// (Nairn & Aimene §2.1.3, after Nairn, Bardenhagen & Smith 2018): the
+    /// fields' velocities p/m before the forces' increment are corrected
+    /// where a crack's faces are closed and approaching, and the
+    /// correction is carried into the updated velocities; the particles'
+    /// FLIP increment leaves it out. Only with explicit cracks and
+    /// `[cramp] contact_passes = 2` (the default).
+    ContactMomenta,
     /// Frictional contact between velocity fields (Bardenhagen et al.
     /// 2001), then the walls again.
     Contact,
@@ -81,7 +89,7 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 18] = [
+    pub const ALL: [Stage; 19] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -89,6 +97,7 @@ impl Stage {
         Stage::CrackTraction,
         Stage::PhaseFieldSolve,
         Stage::GridUpdate,
+        Stage::ContactMomenta,
         Stage::Contact,
         Stage::G2p,
         Stage::G2pVelocity,
@@ -116,6 +125,7 @@ impl Stage {
             Stage::CrackTraction => "crack_traction",
             Stage::PhaseFieldSolve => "phase_field_solve",
             Stage::GridUpdate => "grid_update",
+            Stage::ContactMomenta => "contact_momenta",
             Stage::Contact => "contact",
             Stage::G2p => "g2p",
             Stage::G2pVelocity => "g2p_velocity",
@@ -195,6 +205,7 @@ impl Plan {
             .flat_map(|b| &b.explicit_cracks)
             .any(|c| c.pressure.is_some());
         let growth = cracks && file.cramp.as_ref().is_some_and(|c| c.growth.is_some());
+        let two_passes = cracks && file.cramp.as_ref().is_none_or(|c| c.contact_passes == 2);
         let uses = |f: fn(&super::schema::MaterialSpec) -> bool| {
             file.bodies
                 .iter()
@@ -212,6 +223,7 @@ impl Plan {
                 Stage::P2g | Stage::GridUpdate | Stage::Rebin => true,
                 Stage::Traction => traction,
                 Stage::CrackTraction => pressure,
+                Stage::ContactMomenta => two_passes,
                 Stage::PhaseFieldSolve | Stage::PhaseFieldHistory | Stage::PhaseFieldStagger => {
                     phase_field
                 }

@@ -643,7 +643,21 @@ impl Cramp {
     /// centre-of-mass velocity along the normal, and tangentially as far as
     /// Coulomb friction μ|Δv_n| allows (Bardenhagen et al. 2001). Momentum
     /// is conserved pair by pair. Returns the nodes where contact acted.
-    pub fn contact(&self, grid: &mut GridFields<2>, multi: &MultiField, floor: f64) -> usize {
+    ///
+    /// With `momenta`, the paper's first pass (p + Δp right after the
+    /// scatter): the test and the change act on the scattered velocities
+    /// v⁰ = p/m, and the change is added to the updated ones v̄ too, so the
+    /// particles' FLIP increment v̄ − v⁰ leaves it out while their
+    /// positions and the second pass see it (eq. after 8: the
+    /// acceleration holds Δp̃ but not Δp, so that a perfect interface
+    /// reverts to no crack).
+    pub fn contact(
+        &self,
+        grid: &mut GridFields<2>,
+        multi: &MultiField,
+        floor: f64,
+        momenta: bool,
+    ) -> usize {
         let nodes = grid.mass.len() - multi.extra_node.len();
         let mut touched = 0;
         for r in &self.recs {
@@ -692,7 +706,11 @@ impl Cramp {
                 // from a's particles toward b's
                 let s = if fc.side == ABOVE { 1.0 } else { -1.0 };
                 let n = [s * fc.normal[0] / l, s * fc.normal[1] / l];
-                let (va, vb) = (grid.vel[ia], grid.vel[ib]);
+                let (va, vb) = if momenta {
+                    (grid.vel_old[ia], grid.vel_old[ib])
+                } else {
+                    (grid.vel[ia], grid.vel[ib])
+                };
                 let rel = (vb[0] - va[0]) * n[0] + (vb[1] - va[1]) * n[1];
                 if rel >= 0.0 {
                     continue; // separating
@@ -713,6 +731,12 @@ impl Cramp {
                 for d in 0..2 {
                     grid.vel[ia][d] += dva[d];
                     grid.vel[ib][d] -= k * dva[d];
+                }
+                if momenta {
+                    for d in 0..2 {
+                        grid.vel_old[ia][d] += dva[d];
+                        grid.vel_old[ib][d] -= k * dva[d];
+                    }
                 }
                 hit = true;
             }

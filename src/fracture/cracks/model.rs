@@ -85,7 +85,9 @@ impl FieldSplit for Cramp {
     }
 
     fn contact(&self, at: ContactContext<'_>) -> Option<usize> {
-        Some(Cramp::contact(self, at.grid, at.multi, at.floor))
+        Some(Cramp::contact(
+            self, at.grid, at.multi, at.floor, at.momenta,
+        ))
     }
 
     fn forces(&self, stage: Stage, at: ForceContext<'_>) -> Option<f64> {

@@ -75,6 +75,12 @@ pub struct CrampSpec {
     /// How J treats other cracks that meet its contour.
     #[serde(default)]
     pub j_method: JMethod,
+    /// Crack contact passes per step: 2 (default) corrects the fields'
+    /// momenta right after the scatter and again after the grid update, as
+    /// Nairn & Aimene (§2.1.3) require for accurate contact; 1 only after
+    /// the update.
+    #[serde(default = "default_contact_passes")]
+    pub contact_passes: u32,
     /// Crack growth by the maximum hoop stress against a toughness; left
     /// out, the cracks keep their length (J is still reported).
     #[serde(default)]
@@ -122,6 +128,10 @@ pub struct GrowthSpec {
     pub segment: f64,
 }
 
+fn default_contact_passes() -> u32 {
+    2
+}
+
 fn default_segment() -> f64 {
     0.5
 }
@@ -140,6 +150,7 @@ impl Default for CrampSpec {
             surface_update: SurfaceUpdate::default(),
             j_contours: default_j_contours(),
             j_method: JMethod::default(),
+            contact_passes: default_contact_passes(),
             growth: None,
         }
     }
@@ -171,6 +182,16 @@ pub(crate) fn check(
     }
     if let Some(spec) = cramp {
         check_contours(c, &spec.j_contours);
+        if !matches!(spec.contact_passes, 1 | 2) {
+            c.err(
+                "cramp.contact_passes",
+                format!(
+                    "{} contact passes: 2 (after the scatter and after the grid update, the \
+                     paper's) or 1 (after the update only)",
+                    spec.contact_passes
+                ),
+            );
+        }
         if let Some(g) = &spec.growth {
             check_growth(c, g);
         }
