@@ -23,6 +23,9 @@
 #   SINGLE=0        leave out the single-crack run (it is the reference of
 #            the summary's J/Js columns, so run it once per CELL_MM)
 #   SUMMARY_ONLY=1  only rewrite the summary from runs already there
+#   CRAMP_EXTRA  lines added to every scene's [cramp] table, e.g.
+#            'contact_passes = 1' (one crack-contact pass, as binaries
+#            before the momenta pass; the default is two)
 #   RAYON_NUM_THREADS (default 1)
 set -euo pipefail
 CLEAVE=${CLEAVE:-target/release/cleave}
@@ -39,7 +42,7 @@ mkdir -p "$OUT/scenes" "$OUT/runs"
 cat > "$OUT/gen_c1.py" <<'EOF'
 """gen_c1.py OUT.toml CASE METHOD CELL_MM RAMP_MS HOLD_MS
 CASE: 'single' (no V crack) or b/w; METHOD: fijc | fijc_fixed | pijc."""
-import math, sys
+import math, os, sys
 
 out, case, method = sys.argv[1], sys.argv[2], sys.argv[3]
 h = float(sys.argv[4]) * 1e-3
@@ -140,6 +143,7 @@ material = "grip"
 
 [cramp]
 j_contours = {contours}
+{os.environ.get('CRAMP_EXTRA', '')}
 j_method = "{method}"
 
 [output]

@@ -39,6 +39,9 @@
 #            xpic1 or fmpm1 (the paper's FMPM(1)); run names then end in
 #            "_<scheme>" and the summary's update column reads musl+<scheme>
 #   SUMMARY_ONLY=1  only rewrite the summary from runs already there
+#   CRAMP_EXTRA  lines added to every scene's [cramp] table, e.g.
+#            'contact_passes = 1' (one crack-contact pass, as binaries
+#            before the momenta pass; the default is two)
 #   RAYON_NUM_THREADS (default 1)
 set -euo pipefail
 CLEAVE=${CLEAVE:-target/release/cleave}
@@ -60,7 +63,7 @@ mkdir -p "$OUT/scenes" "$OUT/runs"
 cat > "$OUT/gen_c3.py" <<'EOF'
 """gen_c3.py OUT.toml CASE CELL_MM ENDS MODEL RAMP_MS HOLD_MS PH_MPA MU STRESS_UPDATE SCHEME
 CASE: 'single' (no V crack) or b/w."""
-import math, sys
+import math, os, sys
 
 out, case = sys.argv[1], sys.argv[2]
 h = float(sys.argv[3]) * 1e-3
@@ -177,6 +180,7 @@ explicit_cracks = [
 {'' if not transfer else chr(10) + '[transfer]' + chr(10) + chr(10).join(transfer) + chr(10)}
 [cramp]
 j_contours = {contours}
+{os.environ.get('CRAMP_EXTRA', '')}
 
 [output]
 series_rows = {int(round(end / 1e-5)) + 1}
