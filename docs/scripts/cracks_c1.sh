@@ -24,8 +24,8 @@
 #            the summary's J/Js columns, so run it once per CELL_MM)
 #   SUMMARY_ONLY=1  only rewrite the summary from runs already there
 #   CRAMP_EXTRA  lines added to every scene's [cramp] table, e.g.
-#            'contact_passes = 1' (one crack-contact pass, as binaries
-#            before the momenta pass; the default is two)
+#            'contact_passes = 2' (the paper's two crack-contact passes;
+#            the default is one)
 #   RAYON_NUM_THREADS (default 1)
 set -euo pipefail
 CLEAVE=${CLEAVE:-target/release/cleave}

@@ -33,8 +33,8 @@
 #   SUMMARY_ONLY=1  only rewrite the summary from the runs already in OUT
 #   PLOT=1   also draw OUT/cracks-c2.png (needs matplotlib on PYTHONPATH)
 #   CRAMP_EXTRA  lines added to every scene's [cramp] table, e.g.
-#            'contact_passes = 1' (one crack-contact pass, as binaries
-#            before the momenta pass; the default is two)
+#            'contact_passes = 2' (the paper's two crack-contact passes;
+#            the default is one)
 #   RAYON_NUM_THREADS (default 1)
 # Run names: h<CELL_MM>_<case>_<method>, with _r<RAMP_MS> / _t<TIP_MM> /
 # _musl / _gimp added when those differ from the defaults.

@@ -47,7 +47,7 @@ pub enum Stage {
     /// where a crack's faces are closed and approaching, and the
     /// correction is carried into the updated velocities; the particles'
     /// FLIP increment leaves it out. Only with explicit cracks and
-    /// `[cramp] contact_passes = 2` (the default).
+    /// `[cramp] contact_passes = 2`.
     ContactMomenta,
     /// Frictional contact between velocity fields (Bardenhagen et al.
     /// 2001), then the walls again.
@@ -205,7 +205,7 @@ impl Plan {
             .flat_map(|b| &b.explicit_cracks)
             .any(|c| c.pressure.is_some());
         let growth = cracks && file.cramp.as_ref().is_some_and(|c| c.growth.is_some());
-        let two_passes = cracks && file.cramp.as_ref().is_none_or(|c| c.contact_passes == 2);
+        let two_passes = cracks && file.cramp.as_ref().is_some_and(|c| c.contact_passes == 2);
         let uses = |f: fn(&super::schema::MaterialSpec) -> bool| {
             file.bodies
                 .iter()
