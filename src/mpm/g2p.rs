@@ -526,8 +526,9 @@ unsafe fn gather_chunk<
             v
         };
         // the position's rate over the step
+        // APIC moves with the PIC velocity whatever `update` says
+        let update = if APIC { ParticleUpdate::Blend } else { update };
         let rate = |a: usize| match update {
-            _ if APIC => vpic[a],
             ParticleUpdate::Blend => vpic[a],
             // S v⁰ = S v̄ − S(v̄ − v⁰)
             ParticleUpdate::Xpic1 => vpic[a] - dflip[a] + 0.5 * (vpic[a] - vp[a]),

@@ -729,9 +729,7 @@ where
                         let (Some(s), Some(m)) = (split, multi) else {
                             break 'stage false;
                         };
-                        let floor = self
-                            .m_min
-                            .max(contact::MIN_FIELD_FRACTION * self.friction.full_node_mass);
+                        let floor = self.contact_floor();
                         let at = ContactContext {
                             grid: &mut self.grid,
                             multi: m,
@@ -744,9 +742,7 @@ where
                         let Some(m) = multi else {
                             break 'stage false;
                         };
-                        let floor = self
-                            .m_min
-                            .max(contact::MIN_FIELD_FRACTION * self.friction.full_node_mass);
+                        let floor = self.contact_floor();
                         let own = split.and_then(|s| {
                             s.contact(ContactContext {
                                 grid: &mut self.grid,
@@ -1042,6 +1038,13 @@ where
             * dt;
         self.applied.clear();
         self.add_work(w);
+    }
+
+    /// The least field mass crack contact acts on (both of its passes):
+    /// the grid's floor, or a fraction of a full node's mass if larger.
+    fn contact_floor(&self) -> f64 {
+        self.m_min
+            .max(contact::MIN_FIELD_FRACTION * self.friction.full_node_mass)
     }
 
     fn add_work(&mut self, w: f64) {
