@@ -1,5 +1,6 @@
 //! `cleave bench`: particle-steps per second of the explicit step for a 2D
-//! linear-elastic block (quadratic B-splines, 4 particles per cell) or,
+//! linear-elastic block (quadratic B-splines or the kernels of `--kernel`,
+//! 4 particles per cell) or,
 //! with `--dim 3`, a 3D neo-Hookean APIC block (8 particles per cell, with
 //! bytes per particle and optionally Taichi on the same block) at several
 //! sizes and thread counts. Prints the table and writes it to a Markdown
@@ -15,7 +16,7 @@ use std::time::Instant;
 /// The benchmark block: `cells × cells` cells of material with 2 × 2
 /// particles each, in a grid with a 4-cell margin, stretching and spinning
 /// slowly so the particles move.
-fn scene(cells: usize, transfer: &str) -> anyhow::Result<Scene> {
+fn scene(cells: usize, transfer: &str, kernel: &str) -> anyhow::Result<Scene> {
     let h = 1.0 / cells as f64;
     let m = 4.0 * h;
     let text = format!(
@@ -24,7 +25,7 @@ fn scene(cells: usize, transfer: &str) -> anyhow::Result<Scene> {
 cell_size = {h:e}
 min = [{neg:e}, {neg:e}]
 max = [{pos:e}, {pos:e}]
-shape_function = "quadratic_bspline"
+shape_function = "{kernel}"
 
 [time]
 end = 1.0
@@ -117,6 +118,7 @@ pub fn run(
     steps: usize,
     largest: usize,
     transfers: &str,
+    kernels: &str,
     thread_counts: &[usize],
 ) -> anyhow::Result<()> {
     let sizes: Vec<usize> = [128usize, 256, 512]
@@ -124,15 +126,19 @@ pub fn run(
         .filter(|&c| c <= largest)
         .collect();
     let mut table = String::new();
-    let _ = writeln!(table, "| transfer | particles | threads | ms / step | M particle-steps / s | speed-up | P2G ms | grid ms | G2P ms |");
-    let _ = writeln!(table, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(table, "| kernel | transfer | particles | threads | ms / step | M particle-steps / s | speed-up | P2G ms | grid ms | G2P ms |");
+    let _ = writeln!(table, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     println!(
-        "{:>8} {:>10} {:>8} {:>10} {:>12} {:>9}",
-        "transfer", "particles", "threads", "ms/step", "Mp-steps/s", "speed-up"
+        "{:>17} {:>8} {:>10} {:>8} {:>10} {:>12} {:>9}",
+        "kernel", "transfer", "particles", "threads", "ms/step", "Mp-steps/s", "speed-up"
     );
-    for transfer in transfers.split(',').map(str::trim) {
+    let pairs = kernels
+        .split(',')
+        .map(str::trim)
+        .flat_map(|k| transfers.split(',').map(str::trim).map(move |t| (k, t)));
+    for (kernel, transfer) in pairs {
         for &cells in &sizes {
-            let sc = scene(cells, transfer)?;
+            let sc = scene(cells, transfer, kernel)?;
             let n = sc.total_particles();
             let mut base = 0.0;
             for (i, &threads) in thread_counts.iter().enumerate() {
@@ -142,13 +148,13 @@ pub fn run(
                 }
                 let speedup = m.rate / base;
                 println!(
-                    "{transfer:>8} {n:>10} {threads:>8} {:>10.2} {:>12.2} {speedup:>9.2}",
+                    "{kernel:>17} {transfer:>8} {n:>10} {threads:>8} {:>10.2} {:>12.2} {speedup:>9.2}",
                     1e3 * m.per_step,
                     m.rate / 1e6
                 );
                 let _ = writeln!(
                     table,
-                    "| {transfer} | {n} | {threads} | {:.2} | {:.2} | {speedup:.2} | {:.2} | {:.2} | {:.2} |",
+                    "| {kernel} | {transfer} | {n} | {threads} | {:.2} | {:.2} | {speedup:.2} | {:.2} | {:.2} | {:.2} |",
                     1e3 * m.per_step,
                     m.rate / 1e6,
                     1e3 * m.stages[0],
@@ -161,8 +167,9 @@ pub fn run(
     let machine = cpu_name();
     let doc = format!(
         "# Performance of the explicit step\n\n\
-         Measured by `cargo run --release -p cleave-client -- bench --steps {steps} --transfer {transfers}{threads_arg}` on {machine} \
-         ({} logical CPUs). A 2D linear-elastic block (plane strain), quadratic B-splines, 2 × 2 particles per cell, \
+         Measured by `cargo run --release -p cleave-client -- bench --steps {steps} --transfer {transfers}{kernel_arg}{largest_arg}{threads_arg}` on {machine} \
+         ({} logical CPUs). A 2D linear-elastic block (plane strain), the kernels named (LME at the default \
+         locality γ = 4), 2 × 2 particles per cell, \
          USL, CFL 0.5; the block spins and stretches so particles cross cells. Each row is the mean over {steps} steps \
          after 3 warm-up steps; {thread_list} threads run back to back in the same process, so their ratio is meaningful \
          even on a noisy machine. G2P includes the particle update (strain, stress, guards) and the tile \
@@ -176,6 +183,16 @@ pub fn run(
         std::thread::available_parallelism().map_or(0, |n| n.get()),
         threads_arg = threads_arg(thread_counts),
         thread_list = thread_list(thread_counts),
+        largest_arg = if largest == 512 {
+            String::new()
+        } else {
+            format!(" --largest {largest}")
+        },
+        kernel_arg = if kernels == "quadratic_bspline" {
+            String::new()
+        } else {
+            format!(" --kernel {kernels}")
+        },
     );
     if let Some(dir) = out.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

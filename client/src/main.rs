@@ -104,6 +104,11 @@ enum Command {
         /// [default: flip,apic]. 3D measures APIC only.
         #[arg(long)]
         transfer: Option<String>,
+        /// Shape functions to measure, comma-separated: linear, gimp,
+        /// quadratic_bspline, cubic_bspline, lme [default:
+        /// quadratic_bspline]. 2D only.
+        #[arg(long)]
+        kernel: Option<String>,
         /// Python with Taichi 1.7 installed: run docs/scripts/taichi_mpm3d.py
         /// on the same 3D problem, interleaved with cleave (3D only).
         #[arg(long)]
@@ -593,9 +598,18 @@ fn local_main(command: Command) -> ExitCode {
             steps,
             largest,
             transfer,
+            kernel,
             taichi,
             threads,
-        } => match bench_dims(dim, out, steps, largest, transfer, taichi, &threads) {
+        } => match bench_dims(
+            dim,
+            out,
+            steps,
+            largest,
+            (transfer, kernel),
+            taichi,
+            &threads,
+        ) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");
@@ -611,7 +625,7 @@ fn bench_dims(
     out: Option<PathBuf>,
     steps: usize,
     largest: Option<usize>,
-    transfer: Option<String>,
+    (transfer, kernel): (Option<String>, Option<String>),
     taichi: Option<PathBuf>,
     threads: &str,
 ) -> anyhow::Result<()> {
@@ -634,6 +648,10 @@ fn bench_dims(
                 "--dim 3 measures APIC only (issue 32's problem); drop --transfer {t}"
             );
         }
+        anyhow::ensure!(
+            kernel.is_none(),
+            "--kernel compares the 2D problem; drop --dim 3"
+        );
         let out = out.unwrap_or_else(|| PathBuf::from("docs/performance-3d.md"));
         bench::run_3d(
             &out,
@@ -649,7 +667,15 @@ fn bench_dims(
         );
         let out = out.unwrap_or_else(|| PathBuf::from("docs/performance.md"));
         let transfer = transfer.unwrap_or_else(|| "flip,apic".into());
-        bench::run(&out, steps, largest.unwrap_or(512), &transfer, &threads)
+        let kernel = kernel.unwrap_or_else(|| "quadratic_bspline".into());
+        bench::run(
+            &out,
+            steps,
+            largest.unwrap_or(512),
+            &transfer,
+            &kernel,
+            &threads,
+        )
     }
 }
 

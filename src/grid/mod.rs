@@ -49,6 +49,9 @@ pub struct GridGeom<const D: usize = 2> {
     /// bottom/top, back/front) are walls (fixed or roller): particles are
     /// kept on the domain's side of them ([`GridGeom::keep_inside`]).
     pub walls: [[bool; 2]; D],
+    /// The LME locality γ = βh² of the grid's shape functions
+    /// ([`shape::Lme`]; the other kernels ignore it).
+    pub lme_gamma: f64,
 }
 
 impl<const D: usize> GridGeom<D> {
@@ -63,6 +66,7 @@ impl<const D: usize> GridGeom<D> {
             domain_max: std::array::from_fn(|d| min[d] + cells[d] as f64 * h),
             tiles: nodes.map(|n| n.div_ceil(TILE)),
             walls: [[false; 2]; D],
+            lme_gamma: shape::LME_GAMMA_DEFAULT,
         }
     }
 
@@ -648,15 +652,18 @@ mod tests {
         let x: Vec<[f64; 2]> = (0..5000).map(|_| [30.0 * next(), 30.0 * next()]).collect();
         // (support width, first node of the support) of the kernels
         type FirstNode = fn(f64) -> isize;
-        let kernels: [(usize, FirstNode); 4] = [
-            (shape::Linear::N, |xi| shape::Linear::eval(xi, 0.25).base),
-            (shape::Gimp::N, |xi| shape::Gimp::eval(xi, 0.25).base),
+        let kernels: [(usize, FirstNode); 5] = [
+            (shape::Linear::N, |xi| {
+                shape::Linear::eval(xi, 0.25, 0.0).base
+            }),
+            (shape::Gimp::N, |xi| shape::Gimp::eval(xi, 0.25, 0.0).base),
             (shape::QuadraticBspline::N, |xi| {
-                shape::QuadraticBspline::eval(xi, 0.0).base
+                shape::QuadraticBspline::eval(xi, 0.0, 0.0).base
             }),
             (shape::CubicBspline::N, |xi| {
-                shape::CubicBspline::eval(xi, 0.0).base
+                shape::CubicBspline::eval(xi, 0.0, 0.0).base
             }),
+            (shape::Lme::N, |xi| shape::Lme::eval(xi, 0.0, 4.0).base),
         ];
         let geom = GridGeom::new([0.0, 0.0], 1.0, [30, 30]);
         for (n, base) in kernels {
@@ -747,6 +754,8 @@ mod tests {
         check::<shape::Linear, 2>([40, 33], 3000);
         check::<shape::QuadraticBspline, 2>([40, 33], 3000);
         check::<shape::CubicBspline, 2>([40, 33], 3000);
+        check::<shape::Lme, 2>([40, 33], 3000);
+        check::<shape::Lme, 3>([27, 19, 22], 3000);
         check::<shape::Linear, 3>([27, 19, 22], 6000);
         check::<shape::Gimp, 3>([27, 19, 22], 6000);
         check::<shape::QuadraticBspline, 3>([27, 19, 22], 6000);

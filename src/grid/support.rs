@@ -37,19 +37,14 @@
 //! back into the node's offset from [`Support::first_node`] (what a stored
 //! footprint mask needs).
 //!
-//! **A support of runtime width** (LME shape functions, whose support is
-//! every node within a cut-off radius that depends on the locality
-//! parameter and the particle): not a tensor product, so no 1D evaluations.
-//! Such a kernel builds its support with the same interface — a
-//! constructor from the particle's position, `for_each` handing out
-//! `SupportNode`s, `len()` — but stores its node list and values in
-//! fixed-capacity arrays sized by the widest support a scene allows (known
-//! after validation), fills them by its own solve, and visits them in its
-//! list's order; `a` is then the position in that list and `local`/`at`
-//! the node's lattice coordinates. When the two exist side by side, the
-//! methods shared here become a trait (`ParticleSupport`) implemented by
-//! both, with the grid transfers generic over it as they are over
-//! [`Kernel`] today.
+//! **LME shape functions** ([`crate::grid::shape::Lme`]) are one more
+//! [`Kernel`]: on a Cartesian grid, with the box of nodes as their node
+//! set, local maximum-entropy approximants are a tensor product of 1D ones
+//! (the partition function separates by axis), so they need no support of
+//! their own. Their locality γ comes from [`GridGeom::lme_gamma`]. A
+//! support wider than four nodes per axis (γ below
+//! [`crate::grid::shape::LME_GAMMA_MIN`]) would need more ghost nodes and a
+//! larger [`MAX_SUPPORT`].
 
 use super::shape::{Kernel, Weights1, MAX_SUPPORT};
 use super::GridGeom;
@@ -161,9 +156,9 @@ impl<K: Kernel, const D: usize, const HESS: bool> Support<K, D, HESS> {
         let mut d2 = [[0.0; MAX_SUPPORT]; D];
         for d in 0..D {
             if HESS {
-                (w[d], d2[d]) = K::eval2(xi[d], lp);
+                (w[d], d2[d]) = K::eval2(xi[d], lp, geom.lme_gamma);
             } else {
-                w[d] = K::eval(xi[d], lp);
+                w[d] = K::eval(xi[d], lp, geom.lme_gamma);
             }
         }
         Support {
@@ -288,7 +283,7 @@ impl<K: Kernel, const D: usize, const HESS: bool> Support<K, D, HESS> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::shape::{CubicBspline, Gimp, Linear, QuadraticBspline};
+    use super::super::shape::{self, CubicBspline, Gimp, Linear, Lme, QuadraticBspline};
     use super::*;
 
     type Hess<const D: usize> = [[f64; D]; D];
@@ -307,9 +302,9 @@ mod tests {
         let e: Vec<_> = (0..D)
             .map(|d| {
                 if hess {
-                    K::eval2(xi[d], lp)
+                    K::eval2(xi[d], lp, geom.lme_gamma)
                 } else {
-                    (K::eval(xi[d], lp), [0.0; MAX_SUPPORT])
+                    (K::eval(xi[d], lp, geom.lme_gamma), [0.0; MAX_SUPPORT])
                 }
             })
             .collect();
@@ -429,6 +424,7 @@ mod tests {
         check::<Gimp, 2>(0.5);
         check::<QuadraticBspline, 2>(0.0);
         check::<CubicBspline, 2>(0.0);
+        check::<Lme, 2>(0.0);
     }
 
     /// In 3D: the triple loop's nodes and values (x innermost), the
@@ -439,14 +435,17 @@ mod tests {
         check::<Gimp, 3>(0.25);
         check::<QuadraticBspline, 3>(0.0);
         check::<CubicBspline, 3>(0.0);
+        check::<Lme, 3>(0.0);
     }
 
     /// A linear field is reproduced exactly by every kernel in 3D, and its
-    /// gradient too: Σ N_I x_I = x, Σ ∇N_I ⊗ x_I = I.
+    /// gradient too: Σ N_I x_I = x, Σ ∇N_I ⊗ x_I = I (LME at the least,
+    /// the default and a large locality).
     #[test]
     fn supports_reproduce_linear_fields_in_3d() {
-        fn linear<K: Kernel>(lp: f64) {
-            let geom = GridGeom::<3>::new([0.1, -0.2, 0.3], 0.05, [12, 10, 8]);
+        fn linear<K: Kernel>(lp: f64, gamma: f64) {
+            let mut geom = GridGeom::<3>::new([0.1, -0.2, 0.3], 0.05, [12, 10, 8]);
+            geom.lme_gamma = gamma;
             for x in [
                 [0.23, 0.04, 0.41],
                 [0.5, 0.2, 0.66],
@@ -471,9 +470,12 @@ mod tests {
                 }
             }
         }
-        linear::<Linear>(0.0);
-        linear::<Gimp>(0.25);
-        linear::<QuadraticBspline>(0.0);
-        linear::<CubicBspline>(0.0);
+        linear::<Linear>(0.0, 0.0);
+        linear::<Gimp>(0.25, 0.0);
+        linear::<QuadraticBspline>(0.0, 0.0);
+        linear::<CubicBspline>(0.0, 0.0);
+        for gamma in [shape::LME_GAMMA_MIN, shape::LME_GAMMA_DEFAULT, 30.0] {
+            linear::<Lme>(0.0, gamma);
+        }
     }
 }

@@ -45,6 +45,7 @@ where
         ],
     ];
     geom.walls = std::array::from_fn(|d| sides[d]);
+    geom.lme_gamma = file.grid.lme_gamma.unwrap_or(shape::LME_GAMMA_DEFAULT);
     let mats: Vec<Elastic> = scene
         .materials
         .iter()

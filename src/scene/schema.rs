@@ -170,6 +170,11 @@ pub struct GridSpec {
     pub max: Vector,
     #[serde(default)]
     pub shape_function: ShapeFunctionKind,
+    /// Locality γ = βh² of `shape_function = "lme"` (dimensionless, in
+    /// [`crate::grid::shape::LME_GAMMA_MIN`], [`crate::grid::shape::LME_GAMMA_MAX`]);
+    /// left out: [`crate::grid::shape::LME_GAMMA_DEFAULT`]. Only with LME.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lme_gamma: Option<f64>,
     #[serde(default)]
     pub boundary: BoundarySpec,
 }

@@ -6,6 +6,7 @@ use super::plan::Plan;
 use super::schema::*;
 use super::{phase_field_gamma, FieldError, ResolvedDamage, SceneError};
 use crate::geometry::{self, Lattice};
+use crate::grid::shape;
 use crate::material::ElasticConstants;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -644,10 +645,39 @@ impl Checker {
     }
 }
 
+/// `grid.lme_gamma`: only with LME, and in the range whose support fits
+/// the engine's four-node stencils ([`shape::Lme`]).
+fn check_lme(c: &mut Checker, g: &GridSpec) {
+    let Some(gamma) = g.lme_gamma else {
+        return;
+    };
+    if g.shape_function != ShapeFunctionKind::Lme {
+        c.err(
+            "grid.lme_gamma",
+            format!(
+                "the LME locality applies to shape_function = \"lme\" only, not {:?}",
+                g.shape_function
+            ),
+        );
+    } else if !(shape::LME_GAMMA_MIN..=shape::LME_GAMMA_MAX).contains(&gamma) {
+        c.err(
+            "grid.lme_gamma",
+            format!(
+                "{gamma} is outside [{:.4}, {}]: below, the nodes beyond the four-node support would \
+                 carry more than 1e-6 of the weight (wider supports are not supported); above, \
+                 the functions are the linear hat's (use shape_function = \"linear\")",
+                shape::LME_GAMMA_MIN,
+                shape::LME_GAMMA_MAX
+            ),
+        );
+    }
+}
+
 /// The grid's cells along x, y and (in 3D) z; zeros when it is refused.
 fn check_grid(c: &mut Checker, g: &GridSpec, dim: usize) -> [usize; 3] {
     let mut cells = [0usize; 3];
     let h_ok = c.positive("grid.cell_size", g.cell_size);
+    check_lme(c, g);
     let min_ok = c.vector("grid.min", g.min, dim);
     let max_ok = c.vector("grid.max", g.max, dim);
     if !(h_ok && min_ok && max_ok) {

@@ -686,7 +686,7 @@ mod tests {
 
     /// The kernel's function of node 0 at position t (in cells).
     fn value_centred<K: Kernel>(t: f64) -> f64 {
-        let w = K::eval(t, 0.0);
+        let w = K::eval(t, 0.0, 0.0);
         let k = -w.base;
         if (0..K::N as isize).contains(&k) {
             w.w[k as usize]
