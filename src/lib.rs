@@ -17,6 +17,7 @@ pub mod jobs;
 pub mod material;
 pub mod methods;
 pub mod mpm;
+pub mod neighbours;
 pub mod output;
 pub mod particles;
 pub mod run;

@@ -84,6 +84,12 @@ pub fn dot<const D: usize>(a: [f64; D], b: [f64; D]) -> f64 {
     s
 }
 
+/// a − b, component by component.
+#[inline(always)]
+pub fn sub<const D: usize>(a: [f64; D], b: [f64; D]) -> [f64; D] {
+    std::array::from_fn(|k| a[k] - b[k])
+}
+
 /// |a|.
 #[inline(always)]
 pub fn norm<const D: usize>(a: [f64; D]) -> f64 {

@@ -76,8 +76,9 @@ use crate::grid::shape::Kernel;
 use crate::grid::{
     particle_support, scatter_coloured, Bins, FieldSlots, GridGeom, MultiField, SyncPtr, TILE,
 };
+use crate::neighbours::{bin_index, Neighbours};
 use crate::particles::Particles;
-use crate::tensor::dot;
+use crate::tensor::{dot, sub};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -442,12 +443,6 @@ fn kernel(rbar: f64, radius: f64) -> (f64, f64) {
     )
 }
 
-/// a − b.
-#[inline(always)]
-fn sub<const D: usize>(a: [f64; D], b: [f64; D]) -> [f64; D] {
-    std::array::from_fn(|k| a[k] - b[k])
-}
-
 /// cof(F) N = det F · F⁻ᵀ N, the direction of a material normal N after
 /// the deformation F (row-major): in 2D [F₁₁N₀ − F₁₀N₁, −F₀₁N₀ + F₀₀N₁];
 /// in 3D N₀ a₁×a₂ + N₁ a₂×a₀ + N₂ a₀×a₁ with a_j the columns of F.
@@ -473,176 +468,6 @@ fn cof_times<const D: usize>(f: &[[f64; D]; D], n: [f64; D]) -> [f64; D] {
         }
     }
     out
-}
-
-/// Neighbour lists by cell binning (section 2.5), in 2D or 3D.
-#[derive(Debug, Clone, Default)]
-pub struct Neighbours<const D: usize = 2> {
-    /// `list[start[p]..start[p+1]]` are the particles within the build
-    /// reach of p (p included), in bin order.
-    start: Vec<u32>,
-    list: Vec<u32>,
-    /// Positions at the last build.
-    x_built: Vec<[f64; D]>,
-    /// Lists built so far.
-    pub builds: u64,
-}
-
-impl<const D: usize> Neighbours<D> {
-    /// The key of particles that take no part.
-    pub const NONE: u16 = u16::MAX;
-
-    pub fn of(&self, p: usize) -> &[u32] {
-        &self.list[self.start[p] as usize..self.start[p + 1] as usize]
-    }
-
-    /// Builds the lists: pairs closer than `reach` with the same `key`.
-    /// Particles keyed [`Neighbours::NONE`] get no list and are in none.
-    pub fn build(&mut self, x: &[[f64; D]], key: &[u16], reach: f64, min: [f64; D], max: [f64; D]) {
-        let n = x.len();
-        let nb: [usize; D] =
-            std::array::from_fn(|a| ((max[a] - min[a]) / reach).ceil() as usize + 1);
-        let bins: usize = nb.iter().product();
-        // counting sort by bin (stable: ascending index inside a bin)
-        let mut bin_start = vec![0u32; bins + 1];
-        let bin_of: Vec<u32> = x
-            .iter()
-            .map(|&p| bin_index(bin_cell(p, min, reach, nb), nb) as u32)
-            .collect();
-        for &b in &bin_of {
-            bin_start[b as usize + 1] += 1;
-        }
-        for b in 0..bins {
-            bin_start[b + 1] += bin_start[b];
-        }
-        let mut order = vec![0u32; n];
-        let mut cursor = bin_start.clone();
-        for (p, &b) in bin_of.iter().enumerate() {
-            order[cursor[b as usize] as usize] = p as u32;
-            cursor[b as usize] += 1;
-        }
-        let grid = BinGrid {
-            x,
-            key,
-            order: &order,
-            bin_start: &bin_start,
-            nb,
-            min,
-            reach,
-        };
-        let counts: Vec<u32> = (0..n)
-            .into_par_iter()
-            .map(|p| {
-                let mut k = 0u32;
-                grid.visit(p, |_| k += 1);
-                k
-            })
-            .collect();
-        self.start.clear();
-        self.start.reserve(n + 1);
-        let mut total = 0u32;
-        self.start.push(0);
-        for &k in &counts {
-            total += k;
-            self.start.push(total);
-        }
-        self.list.resize(total as usize, 0);
-        let list = SyncPtr::new(&mut self.list);
-        let start = &self.start;
-        (0..n).into_par_iter().for_each(|p| {
-            let mut at = start[p] as usize;
-            grid.visit(p, |q| {
-                // SAFETY: p writes only its own range start[p]..start[p+1].
-                unsafe { *list.at(at) = q };
-                at += 1;
-            });
-        });
-        self.x_built.clear();
-        self.x_built.extend_from_slice(x);
-        self.builds += 1;
-    }
-
-    /// Whether some particle with a list moved more than `limit` since
-    /// the last build.
-    pub fn stale(&self, x: &[[f64; D]], limit: f64) -> bool {
-        if self.x_built.len() != x.len() {
-            return true;
-        }
-        let l2 = limit * limit;
-        x.par_iter()
-            .zip(&self.x_built)
-            .enumerate()
-            .any(|(p, (a, b))| {
-                let d = sub(*a, *b);
-                self.start[p + 1] > self.start[p] && dot(d, d) > l2
-            })
-    }
-}
-
-/// The bin of a point (clamped into the bin grid).
-#[inline(always)]
-fn bin_cell<const D: usize>(p: [f64; D], min: [f64; D], reach: f64, nb: [usize; D]) -> [usize; D] {
-    std::array::from_fn(|a| (((p[a] - min[a]) / reach).max(0.0) as usize).min(nb[a] - 1))
-}
-
-/// The index of bin `c`: x fastest, then y, then z.
-#[inline(always)]
-fn bin_index<const D: usize>(c: [usize; D], nb: [usize; D]) -> usize {
-    let mut b = c[D - 1];
-    for a in (0..D - 1).rev() {
-        b = b * nb[a] + c[a];
-    }
-    b
-}
-
-/// Particles sorted into square (cubic) bins of the search reach.
-struct BinGrid<'a, const D: usize> {
-    x: &'a [[f64; D]],
-    key: &'a [u16],
-    order: &'a [u32],
-    bin_start: &'a [u32],
-    nb: [usize; D],
-    min: [f64; D],
-    reach: f64,
-}
-
-impl<const D: usize> BinGrid<'_, D> {
-    /// Calls `f(q)` for every q closer than the reach to p with p's key, in
-    /// bin order (the 3^D bins around p's, x fastest).
-    #[inline(always)]
-    fn visit(&self, p: usize, mut f: impl FnMut(u32)) {
-        if self.key[p] == Neighbours::<D>::NONE {
-            return;
-        }
-        let (x, r2) = (self.x, self.reach * self.reach);
-        let c = bin_cell(x[p], self.min, self.reach, self.nb);
-        let lo: [usize; D] = std::array::from_fn(|a| c[a].saturating_sub(1));
-        let hi: [usize; D] = std::array::from_fn(|a| (c[a] + 2).min(self.nb[a]));
-        let mut at = lo;
-        loop {
-            // the bins lo[0]..hi[0] of this row are consecutive
-            let b = bin_index(at, self.nb);
-            let row = self.bin_start[b] as usize..self.bin_start[b + hi[0] - lo[0]] as usize;
-            for &q in &self.order[row] {
-                let d = sub(x[q as usize], x[p]);
-                if self.key[q as usize] == self.key[p] && dot(d, d) < r2 {
-                    f(q);
-                }
-            }
-            let mut a = 1;
-            loop {
-                if a == D {
-                    return;
-                }
-                at[a] += 1;
-                if at[a] < hi[a] {
-                    break;
-                }
-                at[a] = lo[a];
-                a += 1;
-            }
-        }
-    }
 }
 
 /// Settings of the partitioning, in SI units.
@@ -846,7 +671,7 @@ impl<const D: usize> Dfg<D> {
     /// What a checkpoint keeps of the neighbour lists: the positions they
     /// were built at (empty before the first build) and the builds so far.
     pub fn neighbour_state(&self) -> (Vec<[f64; D]>, u64) {
-        (self.neighbours.x_built.clone(), self.neighbours.builds)
+        (self.neighbours.built_at().to_vec(), self.neighbours.builds)
     }
 
     /// The neighbour lists of a checkpoint ([`Dfg::neighbour_state`]):
@@ -1516,77 +1341,5 @@ mod tests {
             let a = PI * k as f64 / 1800.0 + 1e-3;
             check(&c2, [a.cos(), a.sin()]);
         }
-    }
-
-    #[test]
-    fn neighbour_lists_hold_every_close_pair_of_the_same_key() {
-        let mut x = Vec::new();
-        let mut key = Vec::new();
-        for i in 0..30 {
-            for j in 0..20 {
-                x.push([0.013 * i as f64 + 0.001 * (j % 3) as f64, 0.011 * j as f64]);
-                key.push(u16::from(i >= 15));
-            }
-        }
-        check_neighbours(&x, &key, [0.0, 0.0], [0.4, 0.25], 0);
-    }
-
-    /// Builds the lists with reach 0.03 and compares every particle's with
-    /// a search of all pairs (same key, not [`Neighbours::NONE`], closer
-    /// than the reach); a move of 2 mm along `axis` makes them stale, none
-    /// does not.
-    fn check_neighbours<const D: usize>(
-        x: &[[f64; D]],
-        key: &[u16],
-        min: [f64; D],
-        max: [f64; D],
-        axis: usize,
-    ) {
-        let mut nb = Neighbours::<D>::default();
-        let reach = 0.03;
-        nb.build(x, key, reach, min, max);
-        for p in 0..x.len() {
-            let mut want: Vec<u32> = (0..x.len() as u32)
-                .filter(|&q| {
-                    let d = sub(x[q as usize], x[p]);
-                    key[p] != Neighbours::<D>::NONE
-                        && key[q as usize] == key[p]
-                        && dot(d, d) < reach * reach
-                })
-                .collect();
-            let mut got = nb.of(p).to_vec();
-            got.sort();
-            want.sort();
-            assert_eq!(got, want, "particle {p}");
-        }
-        assert!(!nb.stale(x, 0.001));
-        let mut y = x.to_vec();
-        y[7][axis] += 0.002;
-        assert!(nb.stale(&y, 0.001));
-    }
-
-    /// The same in 3D: cubic bins, the 27 around a particle's.
-    #[test]
-    fn neighbour_lists_hold_every_close_pair_of_the_same_key_in_3d() {
-        let mut x = Vec::new();
-        let mut key = Vec::new();
-        for i in 0..14 {
-            for j in 0..10 {
-                for k in 0..8 {
-                    let wobble = 0.001 * ((i + 2 * j + 3 * k) % 4) as f64;
-                    x.push([
-                        0.013 * i as f64 + wobble,
-                        0.011 * j as f64,
-                        0.012 * k as f64,
-                    ]);
-                    key.push(if i == 3 {
-                        Neighbours::<3>::NONE
-                    } else {
-                        u16::from(k >= 4)
-                    });
-                }
-            }
-        }
-        check_neighbours(&x, &key, [0.0; 3], [0.2, 0.12, 0.1], 2);
     }
 }
