@@ -4,6 +4,7 @@
 pub mod cracks;
 pub mod damage;
 pub mod dfg;
+pub mod eigen;
 pub mod model;
 pub mod phase_field;
 
