@@ -794,6 +794,35 @@ impl Cramp {
         }
     }
 
+    /// Visits the nodes of surface point `(c, k, side)` at `x` that its own
+    /// side's velocity field reaches (the appendix's v(s, i), what a
+    /// surface takes its velocity from and gives its forces to): for each
+    /// node of positive weight whose field for that side exists, its
+    /// field's slot and the weight N. Nodes in the support's order.
+    pub(crate) fn own_side<K: Kernel>(
+        &self,
+        geom: &GridGeom<2>,
+        multi: &MultiField,
+        (c, k, side): (usize, usize, u8),
+        x: [f64; 2],
+        mut visit: impl FnMut(usize, f64),
+    ) {
+        let nodes = geom.node_count();
+        let seen = self.seen(geom, x);
+        Support::<K, 2>::new(geom, x, 0.0).for_each(|sn| {
+            if sn.w <= 0.0 {
+                return;
+            }
+            let Some(j) = self.surface_field(geom, (c, k, side), (x, seen), sn.node) else {
+                return;
+            };
+            if multi.mask.get(sn.node).is_none_or(|m| m >> j & 1 == 0) {
+                return;
+            }
+            visit(multi.slot_of(nodes, sn.node, j), sn.w);
+        });
+    }
+
     /// The `crack_surfaces` stage (Nairn & Aimene, eqs. 3–6): every
     /// surface point takes the velocities of its own side's fields,
     /// weighted by nodal mass (eq. 5: nodes without mass in that field
@@ -810,7 +839,6 @@ impl Cramp {
         multi: &MultiField,
         dt: f64,
     ) {
-        let nodes = geom.node_count();
         let mut moves: Vec<Vec<[SurfaceMove; 2]>> = Vec::with_capacity(self.cracks.len());
         for (c, crack) in self.cracks.iter().enumerate() {
             let mut m = Vec::with_capacity(crack.plane.len());
@@ -823,20 +851,8 @@ impl Cramp {
                         (crack.below[k], crack.v_below[k])
                     };
                     let (mut mw, mut pv, mut pv0) = (0.0, [0.0; 2], [0.0; 2]);
-                    let seen = self.seen(geom, x);
-                    Support::<K, 2>::new(geom, x, 0.0).for_each(|sn| {
-                        if sn.w <= 0.0 {
-                            return;
-                        }
-                        let Some(j) = self.surface_field(geom, (c, k, side), (x, seen), sn.node)
-                        else {
-                            return;
-                        };
-                        if multi.mask.get(sn.node).is_none_or(|m| m >> j & 1 == 0) {
-                            return;
-                        }
-                        let slot = multi.slot_of(nodes, sn.node, j);
-                        let w = grid.mass[slot] * sn.w;
+                    self.own_side::<K>(geom, multi, (c, k, side), x, |slot, n| {
+                        let w = grid.mass[slot] * n;
                         if w > 0.0 {
                             mw += w;
                             for d in 0..2 {

@@ -10,7 +10,7 @@ use super::contour::End;
 use super::{Crack, Cramp, ABOVE, BELOW, MAX_LEN};
 use crate::geometry::{contains, ShapeSpec};
 use crate::grid::shape::Kernel;
-use crate::grid::{GridFields, GridGeom, MultiField, Support};
+use crate::grid::{GridFields, GridGeom, MultiField};
 
 impl Crack {
     /// Crack point `k`'s share of the crack's length (half of each
@@ -97,7 +97,6 @@ impl Cramp {
         t: f64,
         dt: f64,
     ) -> f64 {
-        let nodes = geom.node_count();
         let mut work = 0.0;
         for (c, crack) in self.cracks.iter().enumerate() {
             let p = self.pressure_at(c, t);
@@ -114,25 +113,13 @@ impl Cramp {
                         (crack.below[k], crack.v_below[k], -1.0)
                     };
                     let force = [sign * f * nrm[0], sign * f * nrm[1]];
-                    let seen = self.seen(geom, x);
                     let mut to = [(0usize, 0.0f64); MAX_LEN];
                     let (mut n, mut sum) = (0, 0.0);
-                    Support::<K, 2>::new(geom, x, 0.0).for_each(|sn| {
-                        if sn.w <= 0.0 || n == MAX_LEN {
-                            return;
-                        }
-                        let Some(j) = self.surface_field(geom, (c, k, side), (x, seen), sn.node)
-                        else {
-                            return;
-                        };
-                        if multi.mask.get(sn.node).is_none_or(|m| m >> j & 1 == 0) {
-                            return;
-                        }
-                        let slot = multi.slot_of(nodes, sn.node, j);
-                        if grid.mass[slot] > 0.0 {
-                            to[n] = (slot, sn.w);
+                    self.own_side::<K>(geom, multi, (c, k, side), x, |slot, w| {
+                        if n < MAX_LEN && grid.mass[slot] > 0.0 {
+                            to[n] = (slot, w);
                             n += 1;
-                            sum += sn.w;
+                            sum += w;
                         }
                     });
                     if sum <= 0.0 {
