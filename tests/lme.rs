@@ -79,7 +79,11 @@ fn lme_scenes_are_validated() {
     assert!(fourth.contains("shape_function = \"lme\"") && fourth.contains("74.0"));
     refused(
         &fourth,
-        &["grid.shape_function", "needs second derivatives", "Lme"],
+        &[
+            "grid.shape_function",
+            "needs second derivatives",
+            "not \"lme\"",
+        ],
     );
     // the 2nd-order phase field takes LME
     Scene::from_text(&p1.replace(from, "shape_function = \"lme\""), None)

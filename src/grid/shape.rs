@@ -36,6 +36,19 @@ pub enum ShapeFunctionKind {
     Lme,
 }
 
+impl ShapeFunctionKind {
+    /// The name a scene gives it (`grid.shape_function`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ShapeFunctionKind::Linear => "linear",
+            ShapeFunctionKind::Gimp => "gimp",
+            ShapeFunctionKind::QuadraticBspline => "quadratic_bspline",
+            ShapeFunctionKind::CubicBspline => "cubic_bspline",
+            ShapeFunctionKind::Lme => "lme",
+        }
+    }
+}
+
 /// Evaluates `body` with the type `K` bound to the kernel of `kind`: one
 /// dispatch from the scene's shape function to the generic stages.
 macro_rules! by_kernel {

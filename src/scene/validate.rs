@@ -325,7 +325,7 @@ impl Scene {
                     {
                         c.err(
                             "grid.shape_function",
-                            format!("the 4th-order phase field of {path} needs second derivatives: use quadratic_bspline or cubic_bspline, not {kind:?}"),
+                            format!("the 4th-order phase field of {path} needs second derivatives: use quadratic_bspline or cubic_bspline, not {:?}", kind.name()),
                         );
                     }
                 } else if !body.cracks.is_empty() && !has_damage(&file, &body.material) {
@@ -656,7 +656,7 @@ fn check_lme(c: &mut Checker, g: &GridSpec) {
             "grid.lme_gamma",
             format!(
                 "the LME locality applies to shape_function = \"lme\" only, not {:?}",
-                g.shape_function
+                g.shape_function.name()
             ),
         );
     } else if !(shape::LME_GAMMA_MIN..=shape::LME_GAMMA_MAX).contains(&gamma) {
