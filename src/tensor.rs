@@ -84,6 +84,22 @@ pub fn dot<const D: usize>(a: [f64; D], b: [f64; D]) -> f64 {
     s
 }
 
+/// s : e of two symmetric tensors in Voigt order with tensor (not
+/// engineering) shear components: the diagonal terms, then twice the
+/// shear ones, summed in Voigt order from the first term. Half of it is
+/// the small-strain energy density of stress s at strain e.
+#[inline(always)]
+pub fn contract<const D: usize, const V: usize>(s: &[f64; V], e: &[f64; V]) -> f64 {
+    let mut w = s[0] * e[0];
+    for k in 1..D {
+        w += s[k] * e[k];
+    }
+    for k in D..V {
+        w += 2.0 * s[k] * e[k];
+    }
+    w
+}
+
 /// a − b, component by component.
 #[inline(always)]
 pub fn sub<const D: usize>(a: [f64; D], b: [f64; D]) -> [f64; D] {

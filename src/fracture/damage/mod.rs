@@ -41,7 +41,7 @@ pub mod section;
 
 use crate::particles::Particles;
 use crate::scene::{DamageModel, ResolvedDamage};
-use crate::tensor::{resize, sym_eigen3, voigt};
+use crate::tensor::{contract, resize, sub, sym_eigen3, voigt};
 use rand_core::{RngCore, SeedableRng};
 use rayon::prelude::*;
 
@@ -262,17 +262,8 @@ impl DamageLaw {
                     let s = pr.degrade::<D, V>(&se, d);
                     if d > d_old {
                         let s_old = pr.degrade::<D, V>(&se, d_old);
-                        let e = strain[p];
-                        // ½ Δσ:ε with tensor shear strains: the diagonal
-                        // terms, then twice the shear ones, in Voigt order
-                        let mut w = (s_old[0] - s[0]) * e[0];
-                        for k in 1..D {
-                            w += (s_old[k] - s[k]) * e[k];
-                        }
-                        for k in D..V {
-                            w += 2.0 * (s_old[k] - s[k]) * e[k];
-                        }
-                        let de = 0.5 * w;
+                        // ½ Δσ:ε
+                        let de = 0.5 * contract::<D, V>(&sub(s_old, s), &strain[p]);
                         released += vol[i] * de;
                         damage[i] = d;
                     }
