@@ -106,6 +106,20 @@ impl<const D: usize> Neighbours<D> {
         self.builds += 1;
     }
 
+    /// Sorts each list by particle index, so that a sum over a list runs
+    /// in an order that depends on who is in it, not on where the bins
+    /// were when it was built.
+    pub fn sort(&mut self) {
+        let mut rest: &mut [u32] = &mut self.list;
+        let mut lists = Vec::with_capacity(self.start.len().saturating_sub(1));
+        for w in self.start.windows(2) {
+            let (l, r) = std::mem::take(&mut rest).split_at_mut((w[1] - w[0]) as usize);
+            lists.push(l);
+            rest = r;
+        }
+        lists.into_par_iter().for_each(|l| l.sort_unstable());
+    }
+
     /// Whether some particle with a list moved more than `limit` since
     /// the last build.
     pub fn stale(&self, x: &[[f64; D]], limit: f64) -> bool {

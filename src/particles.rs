@@ -68,6 +68,10 @@ pub struct Particles<const D: usize = 2, const V: usize = 3> {
     /// whose J integral needs it (the rotation as well as the strain:
     /// Nairn & Aimene, eq. 9).
     pub grad_u: Vec<[[f64; D]; D]>,
+    /// The eigen models' state of each point (Molinos et al.): the
+    /// softening onset, χ and the stress scale; empty unless a material
+    /// has an eigen model.
+    pub softening: Vec<crate::fracture::eigen::softening::Softening>,
 }
 
 impl<const D: usize, const V: usize> Particles<D, V> {
@@ -104,5 +108,6 @@ impl<const D: usize, const V: usize> Particles<D, V> {
             + b(&self.damage)
             + b(&self.strength)
             + b(&self.grad_u)
+            + b(&self.softening)
     }
 }

@@ -7,6 +7,7 @@ pub mod dfg;
 pub mod eigen;
 pub mod model;
 pub mod phase_field;
+pub(crate) mod tracks;
 
 /// Every fracture model the engine knows, in the order of their series
 /// columns (and of the summary, snapshots and checkpoint state). A scene
@@ -17,6 +18,7 @@ pub(crate) const MODELS: &[model::Build] = &[
     dfg::model::build,
     damage::model::build,
     cracks::model::build,
+    eigen::model::build,
 ];
 
 /// The fracture models that run in 3D (issue 32), in the order of
@@ -27,4 +29,5 @@ pub(crate) const MODELS_3D: &[model::Build<3, 6>] = &[
     phase_field::model::build::<3, 6>,
     dfg::model::build::<3, 6>,
     damage::model::build::<3, 6>,
+    eigen::model::build::<3, 6>,
 ];

@@ -363,8 +363,8 @@ impl Observer for OutputWriter {
     }
 
     fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
-        // an image of the phase field or damage of every snapshot that has one
-        for field in ["phase_field", "damage"] {
+        // an image of the phase field, damage or χ of every snapshot that has one
+        for field in ["phase_field", "damage", "chi"] {
             let image = self.dir.join(format!("{field}_{:04}.png", snap.index));
             if self.plots.draw(&image, || {
                 plot_particle_field(&image, snap, field, 0.0, 1.0)

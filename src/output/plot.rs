@@ -543,6 +543,7 @@ fn field_label(name: &str) -> (String, bool) {
     match name {
         "phase_field" => ("phase field (dimensionless, 0 = broken)".to_string(), false),
         "damage" => ("damage (dimensionless, 1 = broken)".to_string(), true),
+        "chi" => ("χ (dimensionless, 1 = eroded)".to_string(), true),
         other => (format!("{} (dimensionless)", other.replace('_', " ")), true),
     }
 }

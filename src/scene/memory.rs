@@ -218,6 +218,29 @@ pub(super) fn estimate(
     if any(&|m| m.damage().is_some()) {
         per_particle += 16; // damage, strength
     }
+    let reach = mats()
+        .into_iter()
+        .filter_map(|m| m.eigen())
+        .map(|e| e.epsilon * (1.0 + crate::fracture::eigen::SKIN))
+        .fold(0.0, f64::max);
+    if reach > 0.0 {
+        // the softening state (onset, χ, d), the stage's two scratch
+        // values, the neighbour list's start and build position, and its
+        // entries: the points within ε plus the skin, π r² (4/3 π r³)
+        // over the cell's area (volume) times the particles per cell
+        let ppc = file
+            .bodies
+            .iter()
+            .map(|b| b.ppc(file.dimension()) as f64)
+            .fold(1.0, f64::max);
+        let r = reach / file.grid.cell_size;
+        let listed = if three {
+            4.0 / 3.0 * std::f64::consts::PI * r * r * r * ppc
+        } else {
+            std::f64::consts::PI * r * r * ppc
+        };
+        per_particle += 32 + 16 + 4 + vector + 4 * listed.ceil() as u64;
+    }
     // the bins' order and a copy of the groups; MUSL's second pass keeps
     // the new positions
     let mut overhead: u64 = 4 + 1 + vector;

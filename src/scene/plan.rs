@@ -68,6 +68,10 @@ pub enum Stage {
     /// Damage update and tensile stress degradation (Homel & Herbold 2017,
     /// eqs. 23–27).
     Damage,
+    /// Eigenerosion and eigensoftening (Molinos et al., eqs. 11–20,
+    /// Algorithm 2): each point's ε-neighbourhood against G_c or f_t, the
+    /// softening law, and the stress the point then carries.
+    Eigen,
     /// The particles that changed tile are re-binned (a no-op when none
     /// did).
     Rebin,
@@ -89,7 +93,7 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 19] = [
+    pub const ALL: [Stage; 20] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -105,6 +109,7 @@ impl Stage {
         Stage::G2pStress,
         Stage::PhaseFieldHistory,
         Stage::Damage,
+        Stage::Eigen,
         Stage::Rebin,
         Stage::PhaseFieldStagger,
         Stage::CrackSurfaces,
@@ -133,6 +138,7 @@ impl Stage {
             Stage::G2pStress => "g2p_stress",
             Stage::PhaseFieldHistory => "phase_field_history",
             Stage::Damage => "damage",
+            Stage::Eigen => "eigen",
             Stage::Rebin => "rebin",
             Stage::PhaseFieldStagger => "phase_field_stagger",
             Stage::CrackSurfaces => "crack_surfaces",
@@ -213,6 +219,7 @@ impl Plan {
         };
         let phase_field = uses(|m| m.phase_field.is_some());
         let damage = uses(|m| m.damage.is_some());
+        let eigen = uses(|m| m.eigen.is_some());
         let musl = file.transfer.stress_update == StressUpdate::Musl;
         // the order is `Stage::ALL`'s; each stage's condition, one arm each
         let stages = Stage::ALL
@@ -230,6 +237,7 @@ impl Plan {
                 Stage::G2p => !musl,
                 Stage::G2pVelocity | Stage::Remap | Stage::G2pStress => musl,
                 Stage::Damage => damage,
+                Stage::Eigen => eigen,
                 Stage::CrackSurfaces => cracks,
                 Stage::CrackGrowth => growth,
             })

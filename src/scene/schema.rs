@@ -19,6 +19,7 @@ pub use crate::material::{MaterialModel, PlaneKind};
 pub use crate::fracture::cracks::section::{CrampSpec, ExplicitCrackSpec, SurfaceUpdate};
 pub use crate::fracture::damage::section::{DamageModel, DamageSpec, WeibullSpec};
 pub use crate::fracture::dfg::section::DfgSpec;
+pub use crate::fracture::eigen::section::{EigenModel, EigenSpec};
 pub use crate::fracture::phase_field::section::{PhaseFieldSpec, PlaneStressSplit};
 
 /// The whole scene file.
@@ -516,6 +517,10 @@ pub struct MaterialSpec {
     /// single-field mode or, with `[dfg]`, with field-gradient partitioning.
     #[serde(default)]
     pub damage: Option<DamageSpec>,
+    /// Eigenerosion or eigensoftening (Molinos et al., after Pandolfi &
+    /// Ortiz and Navas et al.).
+    #[serde(default)]
+    pub eigen: Option<EigenSpec>,
 }
 
 /// A body's material: either the name of an entry of `[materials]` or an
@@ -524,7 +529,8 @@ pub struct MaterialSpec {
 #[serde(untagged)]
 pub enum MaterialRef {
     Name(String),
-    Inline(MaterialSpec),
+    /// Boxed: a material table is ten times the size of a name.
+    Inline(Box<MaterialSpec>),
 }
 
 impl SceneFile {
@@ -556,7 +562,7 @@ impl<'de> Deserialize<'de> for MaterialRef {
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<MaterialRef, A::Error> {
                 MaterialSpec::deserialize(de::value::MapAccessDeserializer::new(map))
-                    .map(MaterialRef::Inline)
+                    .map(|m| MaterialRef::Inline(Box::new(m)))
             }
         }
         d.deserialize_any(V)

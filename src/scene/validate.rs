@@ -54,6 +54,8 @@ pub enum MaterialFracture {
     /// A continuum damage model with its derived constants (Homel &
     /// Herbold 2017, section 2.7).
     Damage(ResolvedDamage),
+    /// Eigenerosion or eigensoftening (Molinos et al.).
+    Eigen(crate::fracture::eigen::section::ResolvedEigen),
 }
 
 impl ResolvedMaterial {
@@ -69,6 +71,15 @@ impl ResolvedMaterial {
     pub fn damage(&self) -> Option<&ResolvedDamage> {
         match &self.fracture {
             Some(MaterialFracture::Damage(d)) => Some(d),
+            _ => None,
+        }
+    }
+
+    /// Its eigen model, if its fracture model is eigenerosion or
+    /// eigensoftening.
+    pub fn eigen(&self) -> Option<&crate::fracture::eigen::section::ResolvedEigen> {
+        match &self.fracture {
+            Some(MaterialFracture::Eigen(e)) => Some(e),
             _ => None,
         }
     }
@@ -328,15 +339,15 @@ impl Scene {
                             format!("the 4th-order phase field of {path} needs second derivatives: use quadratic_bspline or cubic_bspline, not {:?}", kind.name()),
                         );
                     }
-                } else if !body.cracks.is_empty() && !has_damage(&file, &body.material) {
+                } else if !body.cracks.is_empty() && !breaks(&file, &body.material) {
                     c.err(
                         &format!("{path}.cracks"),
-                        "initial cracks need a material with a phase_field or damage",
+                        "initial cracks need a material with a phase_field, damage or eigen model",
                     );
-                } else if body.crack_origin.is_some() && !has_damage(&file, &body.material) {
+                } else if body.crack_origin.is_some() && !breaks(&file, &body.material) {
                     c.err(
                         &format!("{path}.crack_origin"),
-                        "a crack-tip origin needs a material with a phase_field or damage",
+                        "a crack-tip origin needs a material with a phase_field, damage or eigen model",
                     );
                 }
             }
@@ -344,8 +355,8 @@ impl Scene {
                 c.vector(&format!("{path}.crack_origin"), o, dim);
             }
             for (k, crack) in body.cracks.iter().enumerate() {
-                if crack.profile == CrackProfile::Borden && has_damage(&file, &body.material) {
-                    c.err(&format!("{path}.cracks[{k}].profile"), "the borden profile is an initial history field: it is for phase-field materials, not damage");
+                if crack.profile == CrackProfile::Borden && breaks(&file, &body.material) {
+                    c.err(&format!("{path}.cracks[{k}].profile"), "the borden profile is an initial history field: it is for phase-field materials, not damage or eigen models");
                 }
                 if crack.points.len() < 2 {
                     c.err(
@@ -375,6 +386,24 @@ impl Scene {
             );
         }
         check_contact(&mut c, &file.contact, &groups);
+        let eigen_body = file.bodies.iter().position(|b| {
+            file.material_of(&b.material)
+                .is_some_and(|m| m.eigen.is_some())
+        });
+        if let Some(b) = eigen_body {
+            if file.bodies.iter().any(|b| has_damage(&file, &b.material)) {
+                c.err(
+                    &format!("bodies[{b}].material"),
+                    "a scene runs continuum damage or an eigen model, not both (their fragments and crack tips would be counted twice)",
+                );
+            }
+            if file.dfg.is_some() {
+                c.err(
+                    "dfg",
+                    format!("partitioning reads damage and the phase field, not the eigen models' χ (bodies[{b}]): not supported yet"),
+                );
+            }
+        }
         if let Some(dfg) = &file.dfg {
             let any_fracture = file.bodies.iter().any(|b| {
                 has_damage(&file, &b.material) || phase_field_of(&file, &b.material).is_some()
@@ -515,6 +544,13 @@ fn write_defaults(file: &mut SceneFile, dim: usize) {
 /// Whether a body's material has a damage model.
 fn has_damage(file: &SceneFile, m: &MaterialRef) -> bool {
     file.material_of(m).is_some_and(|s| s.damage.is_some())
+}
+
+/// Whether a body's material breaks particles (continuum damage or an
+/// eigen model): initial cracks are then broken particles.
+fn breaks(file: &SceneFile, m: &MaterialRef) -> bool {
+    file.material_of(m)
+        .is_some_and(|s| s.damage.is_some() || s.eigen.is_some())
 }
 
 /// The phase-field spec of a body's material, if any.
@@ -911,10 +947,24 @@ fn resolve_material(
             dim,
         )
     });
-    if m.damage.is_some() && m.phase_field.is_some() {
+    let eigen = m.eigen.as_ref().and_then(|e| {
+        crate::fracture::eigen::section::resolve(c, &format!("{path}.eigen"), e, m.model, h)
+    });
+    let given: Vec<&str> = [
+        ("phase_field", m.phase_field.is_some()),
+        ("damage", m.damage.is_some()),
+        ("eigen", m.eigen.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(k, g)| g.then_some(k))
+    .collect();
+    if given.len() > 1 {
         c.err(
-            &format!("{path}.damage"),
-            "a material has either a phase_field or a damage model, not both",
+            &format!("{path}.{}", given[1]),
+            format!(
+                "a material has one fracture model (phase_field, damage or eigen), this one has {}",
+                given.join(" and ")
+            ),
         );
     }
     if m.model == MaterialModel::NeoHookean && plane == PlaneKind::PlaneStress {
@@ -948,10 +998,11 @@ fn resolve_material(
         poissons_ratio: nu,
         lambda,
         mu,
-        fracture: match (&m.phase_field, damage) {
-            (Some(pf), None) => Some(MaterialFracture::PhaseField(pf.clone())),
-            (None, Some(d)) => Some(MaterialFracture::Damage(d)),
-            // both were refused above
+        fracture: match (&m.phase_field, damage, eigen) {
+            (Some(pf), None, None) => Some(MaterialFracture::PhaseField(pf.clone())),
+            (None, Some(d), None) => Some(MaterialFracture::Damage(d)),
+            (None, None, Some(e)) => Some(MaterialFracture::Eigen(e)),
+            // more than one was refused above
             _ => None,
         },
         wave_speed,

@@ -9,18 +9,18 @@
 //! scene; fragments are found in 3D as in 2D.
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
-use crate::diagnostics::fragments::{FragmentFinder, Fragments, NONE};
+use crate::diagnostics::fragments::{FragmentFinder, Fragments};
 use crate::diagnostics::{Field, FieldData};
 use crate::fracture::damage::{DamageLaw, DamageStep};
 use crate::fracture::model::{
     body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut,
     SetupContext, StepContext,
 };
+use crate::fracture::tracks::CrackTracks;
 use crate::particles::Particles;
 use crate::scene::{Scene, Stage};
 use crate::tensor::norm;
 use rayon::prelude::*;
-use std::any::Any;
 
 /// Damage above this counts as cracked for the crack tip.
 const TIP_D: f64 = 0.9;
@@ -30,7 +30,7 @@ pub(crate) struct DamageState {
     /// Energy released by damage since t = 0, J.
     pub dissipated: f64,
     /// The bodies with a crack origin.
-    tips: Vec<TrackedCrack>,
+    tips: CrackTracks,
     /// Particles that start this close to a crack origin root its crack, m.
     seed_radius: f64,
     /// Damage below which a particle counts as intact for fragments.
@@ -47,18 +47,6 @@ pub(crate) struct DamageState {
 pub(crate) struct DamageSaved {
     dissipated: f64,
     tips: Vec<TipTracker>,
-}
-
-/// A body whose crack tip is tracked ([`DamageState::crack_tips`]).
-struct TrackedCrack {
-    body: usize,
-    /// Its particles not on an initial crack.
-    particles: Vec<u32>,
-    /// The same, as a mask over all particles.
-    member: Vec<bool>,
-    /// Those of them that started within `seed_radius` of the origin.
-    roots: Vec<u32>,
-    tracker: TipTracker,
 }
 
 /// The damage stage for a scene whose plan has it, with the initial
@@ -108,7 +96,7 @@ impl DamageState {
         Some(DamageState {
             law,
             dissipated: 0.0,
-            tips: Vec::new(),
+            tips: CrackTracks::default(),
             seed_radius: 2.0 * h,
             fragment_damage: scene.file.output.fragment_damage,
             spacing: (0..scene.file.bodies.len())
@@ -118,91 +106,37 @@ impl DamageState {
         })
     }
 
-    /// Marks the initial cracks as fully damaged particles (those within
-    /// 0.55 particle spacings of a body's crack polylines) and starts the
-    /// crack-tip trackers of bodies with a crack origin (default: the first
-    /// crack point; see [`DamageState::crack_tips`]). Call with the
-    /// particles in their final order. 2D only: a 3D scene has neither
-    /// (`methods::runnable` refuses them; a caller that sets up a 3D scene
-    /// that has them without asking it is stopped here).
+    /// Marks the initial cracks as fully damaged particles and starts the
+    /// crack-tip trackers of bodies with a crack origin
+    /// ([`CrackTracks::place`]). Call with the particles in their final
+    /// order.
     pub(crate) fn place_cracks<const D: usize, const V: usize>(
         &mut self,
         scene: &Scene,
         parts: &mut Particles<D, V>,
     ) {
-        let Some(x2) = (&parts.x as &dyn Any).downcast_ref::<Vec<[f64; 2]>>() else {
-            assert!(
-                scene
-                    .file
-                    .bodies
-                    .iter()
-                    .all(|b| b.cracks.is_empty() && b.crack_origin.is_none()),
-                "initial cracks and crack origins are 2D (methods::runnable refuses them in 3D)"
-            );
-            return;
-        };
-        for (b, spec) in scene.file.bodies.iter().enumerate() {
-            if scene
+        let (tips, on_crack) = CrackTracks::place(scene, parts, self.seed_radius, |b| {
+            scene
                 .materials
                 .get(scene.body_material[b])
-                .is_none_or(|m| m.damage().is_none())
-            {
-                continue;
-            }
-            let spacing = scene.particle_spacing(b);
-            let mut particles = Vec::new();
-            for p in (0..parts.len()).filter(|&p| parts.body[p] as usize == b) {
-                if crate::geometry::on_cracks(x2[p], &spec.cracks, spacing) {
-                    parts.damage[p] = 1.0;
-                } else {
-                    particles.push(p as u32);
-                }
-            }
-            if let Some(o) = spec
-                .crack_origin
-                .or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()))
-            {
-                let mut member = vec![false; parts.len()];
-                particles.iter().for_each(|&p| member[p as usize] = true);
-                let r2 = self.seed_radius * self.seed_radius;
-                let x = &x2;
-                let roots: Vec<u32> = particles
-                    .iter()
-                    .copied()
-                    .filter(|&p| {
-                        (x[p as usize][0] - o[0]).powi(2) + (x[p as usize][1] - o[1]).powi(2) < r2
-                    })
-                    .collect();
-                self.tips.push(TrackedCrack {
-                    body: b,
-                    particles,
-                    member,
-                    roots,
-                    tracker: TipTracker::new(o.xy()),
-                });
-            }
+                .is_some_and(|m| m.damage().is_some())
+        });
+        for p in on_crack {
+            parts.damage[p] = 1.0;
         }
+        self.tips = tips;
     }
 
     fn saved(&self) -> DamageSaved {
         DamageSaved {
             dissipated: self.dissipated,
-            tips: self.tips.iter().map(|t| t.tracker).collect(),
+            tips: self.tips.trackers(),
         }
     }
 
     fn restore_saved(&mut self, s: DamageSaved) -> Result<(), String> {
-        if s.tips.len() != self.tips.len() {
-            return Err(format!(
-                "{} tracked cracks in the checkpoint, {} in the scene",
-                s.tips.len(),
-                self.tips.len()
-            ));
-        }
+        self.tips.restore(s.tips)?;
         self.dissipated = s.dissipated;
-        for (t, tracker) in self.tips.iter_mut().zip(s.tips) {
-            t.tracker = tracker;
-        }
         Ok(())
     }
 
@@ -218,7 +152,7 @@ impl DamageState {
 
     /// Bodies with a crack tip.
     pub(crate) fn tracked(&self) -> Vec<usize> {
-        self.tips.iter().map(|t| t.body).collect()
+        self.tips.bodies()
     }
 
     /// The fragments of undamaged material of the damage-model materials
@@ -259,51 +193,18 @@ impl DamageState {
         }
     }
 
-    /// The crack tips at `time`. A body's crack is the set of broken
-    /// particles (D > 0.9, not on an initial crack) connected, through
-    /// broken particles at most 1.5 spacings apart, to one of the particles
-    /// that started within two cells of the crack origin (material points,
-    /// so the crack's root is found however far the body has moved): the
-    /// crack that grows from the origin, not damage elsewhere (at an impact
-    /// face, say). Its tip is its particle farthest from the origin. In 3D
-    /// no crack is tracked ([`DamageState::place_cracks`]): none.
+    /// The crack tips at `time`: a body's crack is its broken particles
+    /// (D > 0.9) connected to the origin ([`CrackTracks::tips`]).
     pub(crate) fn crack_tips<const D: usize, const V: usize>(
         &mut self,
         parts: &Particles<D, V>,
         time: f64,
     ) -> Vec<CrackTip> {
-        let Some(x2) = (&parts.x as &dyn Any).downcast_ref::<Vec<[f64; 2]>>() else {
-            return Vec::new();
-        };
-        let (finder, spacing) = (&mut self.finder, &self.spacing);
+        let damage = &parts.damage;
         self.tips
-            .iter_mut()
-            .map(|t| {
-                let broken = finder.find(
-                    &parts.x,
-                    &parts.v,
-                    &parts.mass,
-                    &parts.vol,
-                    spacing,
-                    &parts.body,
-                    |p| t.member[p] && parts.damage[p] > TIP_D,
-                );
-                let mut seeds: Vec<u32> = t
-                    .roots
-                    .iter()
-                    .map(|&p| broken.label[p as usize])
-                    .filter(|&l| l != NONE)
-                    .collect();
-                seeds.sort_unstable();
-                seeds.dedup();
-                t.tracker.measure(
-                    x2,
-                    &t.particles,
-                    |p| seeds.binary_search(&broken.label[p]).is_ok(),
-                    time,
-                )
+            .tips(&mut self.finder, &self.spacing, parts, time, |p| {
+                damage[p] > TIP_D
             })
-            .collect()
     }
 }
 
@@ -368,7 +269,7 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for DamageState {
     fn summary(&self) -> serde_json::Value {
         serde_json::json!({
             "dissipated": self.dissipated,
-            "tracked_cracks": self.tips.len(),
+            "tracked_cracks": self.tips.bodies().len(),
         })
     }
 

@@ -181,7 +181,7 @@ mod tests {
     /// nothing, in compression too.
     #[test]
     fn compression_and_erosion() {
-        let (e, law) = concrete();
+        let (_, law) = concrete();
         let mut s = Softening::default();
         assert_eq!(law.update(&mut s, -1e8, -1e-3, -3e7), 1.0);
         assert_eq!(s, Softening::default());
@@ -191,6 +191,5 @@ mod tests {
             d: 1.0,
         };
         assert_eq!(law.update(&mut s, -1e8, -1e-3, -3e7), 0.0);
-        let _ = e;
     }
 }

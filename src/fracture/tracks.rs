@@ -1,0 +1,169 @@
+//! The initial cracks and crack tips of the models that break particles
+//! (continuum damage, the eigen models): a body's `cracks` become broken
+//! particles, and a body with a crack origin has its crack tip measured
+//! ([`CrackTracks::tips`]). 2D only: in 3D there are neither
+//! ([`crate::methods::runnable`] refuses `cracks` and `crack_origin`).
+
+use crate::diagnostics::crack::{CrackTip, TipTracker};
+use crate::diagnostics::fragments::{FragmentFinder, NONE};
+use crate::particles::Particles;
+use crate::scene::Scene;
+use std::any::Any;
+
+/// The bodies whose crack tip is tracked.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct CrackTracks {
+    tracks: Vec<TrackedCrack>,
+}
+
+/// A body whose crack tip is tracked.
+#[derive(Debug, Clone)]
+struct TrackedCrack {
+    body: usize,
+    /// Its particles not on an initial crack.
+    particles: Vec<u32>,
+    /// The same, as a mask over all particles.
+    member: Vec<bool>,
+    /// Those of them that started within the seed radius of the origin.
+    roots: Vec<u32>,
+    tracker: TipTracker,
+}
+
+impl CrackTracks {
+    /// The particles on the initial cracks of the bodies for which
+    /// `breaks(b)` (those within 0.55 particle spacings of a body's crack
+    /// polylines), and the trackers of those bodies with a crack origin
+    /// (default: the first crack point), rooted at the particles within
+    /// `seed_radius` of it. Call with the particles in their final order.
+    pub(crate) fn place<const D: usize, const V: usize>(
+        scene: &Scene,
+        parts: &Particles<D, V>,
+        seed_radius: f64,
+        breaks: impl Fn(usize) -> bool,
+    ) -> (CrackTracks, Vec<usize>) {
+        let mut out = (CrackTracks::default(), Vec::new());
+        let Some(x2) = (&parts.x as &dyn Any).downcast_ref::<Vec<[f64; 2]>>() else {
+            assert!(
+                scene
+                    .file
+                    .bodies
+                    .iter()
+                    .all(|b| b.cracks.is_empty() && b.crack_origin.is_none()),
+                "initial cracks and crack origins are 2D (methods::runnable refuses them in 3D)"
+            );
+            return out;
+        };
+        for (b, spec) in scene.file.bodies.iter().enumerate() {
+            if !breaks(b) {
+                continue;
+            }
+            let spacing = scene.particle_spacing(b);
+            let mut particles = Vec::new();
+            for p in (0..parts.len()).filter(|&p| parts.body[p] as usize == b) {
+                if crate::geometry::on_cracks(x2[p], &spec.cracks, spacing) {
+                    out.1.push(p);
+                } else {
+                    particles.push(p as u32);
+                }
+            }
+            if let Some(o) = spec
+                .crack_origin
+                .or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()))
+            {
+                let mut member = vec![false; parts.len()];
+                particles.iter().for_each(|&p| member[p as usize] = true);
+                let r2 = seed_radius * seed_radius;
+                let x = &x2;
+                let roots: Vec<u32> = particles
+                    .iter()
+                    .copied()
+                    .filter(|&p| {
+                        (x[p as usize][0] - o[0]).powi(2) + (x[p as usize][1] - o[1]).powi(2) < r2
+                    })
+                    .collect();
+                out.0.tracks.push(TrackedCrack {
+                    body: b,
+                    particles,
+                    member,
+                    roots,
+                    tracker: TipTracker::new(o.xy()),
+                });
+            }
+        }
+        out
+    }
+
+    /// Bodies with a crack tip.
+    pub(crate) fn bodies(&self) -> Vec<usize> {
+        self.tracks.iter().map(|t| t.body).collect()
+    }
+
+    /// The trackers' state (what a checkpoint keeps).
+    pub(crate) fn trackers(&self) -> Vec<TipTracker> {
+        self.tracks.iter().map(|t| t.tracker).collect()
+    }
+
+    /// Takes up the trackers' state [`Self::trackers`] gave.
+    pub(crate) fn restore(&mut self, trackers: Vec<TipTracker>) -> Result<(), String> {
+        if trackers.len() != self.tracks.len() {
+            return Err(format!(
+                "{} tracked cracks in the checkpoint, {} in the scene",
+                trackers.len(),
+                self.tracks.len()
+            ));
+        }
+        for (t, tracker) in self.tracks.iter_mut().zip(trackers) {
+            t.tracker = tracker;
+        }
+        Ok(())
+    }
+
+    /// The crack tips at `time`. A body's crack is the set of its
+    /// `broken` particles (not on an initial crack) connected, through
+    /// broken particles at most 1.5 spacings apart, to one of the
+    /// particles that started near the crack origin (material points, so
+    /// the crack's root is found however far the body has moved): the
+    /// crack that grows from the origin, not damage elsewhere (at an
+    /// impact face, say). Its tip is its particle farthest from the
+    /// origin. In 3D none.
+    pub(crate) fn tips<const D: usize, const V: usize>(
+        &mut self,
+        finder: &mut FragmentFinder,
+        spacing: &[f64],
+        parts: &Particles<D, V>,
+        time: f64,
+        broken: impl Fn(usize) -> bool + Sync,
+    ) -> Vec<CrackTip> {
+        let Some(x2) = (&parts.x as &dyn Any).downcast_ref::<Vec<[f64; 2]>>() else {
+            return Vec::new();
+        };
+        self.tracks
+            .iter_mut()
+            .map(|t| {
+                let found = finder.find(
+                    &parts.x,
+                    &parts.v,
+                    &parts.mass,
+                    &parts.vol,
+                    spacing,
+                    &parts.body,
+                    |p| t.member[p] && broken(p),
+                );
+                let mut seeds: Vec<u32> = t
+                    .roots
+                    .iter()
+                    .map(|&p| found.label[p as usize])
+                    .filter(|&l| l != NONE)
+                    .collect();
+                seeds.sort_unstable();
+                seeds.dedup();
+                t.tracker.measure(
+                    x2,
+                    &t.particles,
+                    |p| seeds.binary_search(&found.label[p]).is_ok(),
+                    time,
+                )
+            })
+            .collect()
+    }
+}
