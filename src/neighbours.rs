@@ -4,8 +4,10 @@
 //! for its damage field; the ε-neighbourhoods of eigenerosion and
 //! eigensoftening (Molinos et al., eqs. 11–14) are the same search.
 //!
-//! The bins are squares (cubes) of the reach; a particle's list is the
-//! particles of its own key in the 3^D bins around its own, in bin order.
+//! The bins are squares (cubes) of the reach (larger where a reach far
+//! below the particles' spacing would make more than about four bins per
+//! particle); a particle's list is the particles of its own key in the
+//! 3^D bins around its own, in bin order.
 //! Lists are built in parallel (counts, then each particle its own range),
 //! and the same for any thread count.
 
@@ -44,14 +46,24 @@ impl<const D: usize> Neighbours<D> {
     /// Particles keyed [`Neighbours::NONE`] get no list and are in none.
     pub fn build(&mut self, x: &[[f64; D]], key: &[u16], reach: f64, min: [f64; D], max: [f64; D]) {
         let n = x.len();
-        let nb: [usize; D] =
-            std::array::from_fn(|a| ((max[a] - min[a]) / reach).ceil() as usize + 1);
+        // Bins of the reach, or larger where that would make more bins
+        // than about four per particle (a reach far below the spacing):
+        // a pair closer than the reach is still in adjacent bins.
+        let bins_of = |size: f64| -> [usize; D] {
+            std::array::from_fn(|a| ((max[a] - min[a]) / size).ceil().min(1e9) as usize + 1)
+        };
+        let cap = 4.0 * n.max(1) as f64 + 64.0;
+        let mut size = reach;
+        while bins_of(size).iter().map(|&b| b as f64).product::<f64>() > cap {
+            size *= 2.0;
+        }
+        let nb = bins_of(size);
         let bins: usize = nb.iter().product();
         // counting sort by bin (stable: ascending index inside a bin)
         let mut bin_start = vec![0u32; bins + 1];
         let bin_of: Vec<u32> = x
             .iter()
-            .map(|&p| bin_index(bin_cell(p, min, reach, nb), nb) as u32)
+            .map(|&p| bin_index(bin_cell(p, min, size, nb), nb) as u32)
             .collect();
         for &b in &bin_of {
             bin_start[b as usize + 1] += 1;
@@ -72,6 +84,7 @@ impl<const D: usize> Neighbours<D> {
             bin_start: &bin_start,
             nb,
             min,
+            size,
             reach,
         };
         let counts: Vec<u32> = (0..n)
@@ -139,8 +152,8 @@ impl<const D: usize> Neighbours<D> {
 
 /// The bin of a point (clamped into the bin grid).
 #[inline(always)]
-fn bin_cell<const D: usize>(p: [f64; D], min: [f64; D], reach: f64, nb: [usize; D]) -> [usize; D] {
-    std::array::from_fn(|a| (((p[a] - min[a]) / reach).max(0.0) as usize).min(nb[a] - 1))
+fn bin_cell<const D: usize>(p: [f64; D], min: [f64; D], size: f64, nb: [usize; D]) -> [usize; D] {
+    std::array::from_fn(|a| (((p[a] - min[a]) / size).max(0.0) as usize).min(nb[a] - 1))
 }
 
 /// The index of bin `c`: x fastest, then y, then z.
@@ -161,6 +174,8 @@ struct BinGrid<'a, const D: usize> {
     bin_start: &'a [u32],
     nb: [usize; D],
     min: [f64; D],
+    /// The bins' side, at least the reach.
+    size: f64,
     reach: f64,
 }
 
@@ -173,7 +188,7 @@ impl<const D: usize> BinGrid<'_, D> {
             return;
         }
         let (x, r2) = (self.x, self.reach * self.reach);
-        let c = bin_cell(x[p], self.min, self.reach, self.nb);
+        let c = bin_cell(x[p], self.min, self.size, self.nb);
         let lo: [usize; D] = std::array::from_fn(|a| c[a].saturating_sub(1));
         let hi: [usize; D] = std::array::from_fn(|a| (c[a] + 2).min(self.nb[a]));
         let mut at = lo;
@@ -217,22 +232,31 @@ mod tests {
                 key.push(u16::from(i >= 15));
             }
         }
-        check_neighbours(&x, &key, [0.0, 0.0], [0.4, 0.25], 0);
+        check_neighbours(&x, &key, [0.0, 0.0], [0.4, 0.25], 0, 0.03);
+        // a reach far below the spacing in a vast domain: bins of the
+        // reach would be 10^30 of them; the lists are each point alone,
+        // sorted by index after `sort`
+        let mut nb = check_neighbours(&x, &key, [0.0, 0.0], [1.0e6, 1.0e6], 0, 1.0e-12);
+        nb.sort();
+        assert!((0..x.len()).all(|p| nb.of(p) == [p as u32]));
+        let mut nb = check_neighbours(&x, &key, [0.0, 0.0], [0.4, 0.25], 1, 0.05);
+        nb.sort();
+        assert!((0..x.len()).all(|p| nb.of(p).windows(2).all(|w| w[0] < w[1])));
     }
 
-    /// Builds the lists with reach 0.03 and compares every particle's with
-    /// a search of all pairs (same key, not [`Neighbours::NONE`], closer
+    /// Builds the lists with `reach` and compares every particle's with a
+    /// search of all pairs (same key, not [`Neighbours::NONE`], closer
     /// than the reach); a move of 2 mm along `axis` makes them stale, none
-    /// does not.
+    /// does not. Returns the lists.
     fn check_neighbours<const D: usize>(
         x: &[[f64; D]],
         key: &[u16],
         min: [f64; D],
         max: [f64; D],
         axis: usize,
-    ) {
+        reach: f64,
+    ) -> Neighbours<D> {
         let mut nb = Neighbours::<D>::default();
-        let reach = 0.03;
         nb.build(x, key, reach, min, max);
         for p in 0..x.len() {
             let mut want: Vec<u32> = (0..x.len() as u32)
@@ -252,6 +276,7 @@ mod tests {
         let mut y = x.to_vec();
         y[7][axis] += 0.002;
         assert!(nb.stale(&y, 0.001));
+        nb
     }
 
     /// The same in 3D: cubic bins, the 27 around a particle's.
@@ -276,6 +301,6 @@ mod tests {
                 }
             }
         }
-        check_neighbours(&x, &key, [0.0; 3], [0.2, 0.12, 0.1], 2);
+        check_neighbours(&x, &key, [0.0; 3], [0.2, 0.12, 0.1], 2, 0.03);
     }
 }

@@ -239,7 +239,8 @@ pub(super) fn estimate(
         } else {
             std::f64::consts::PI * r * r * ppc
         };
-        per_particle += 32 + 16 + 4 + vector + 4 * listed.ceil() as u64;
+        // (no more than every particle: a hostile ε stays a finite count)
+        per_particle += 32 + 16 + 4 + vector + 4 * listed.min(n as f64).ceil() as u64;
     }
     // the bins' order and a copy of the groups; MUSL's second pass keeps
     // the new positions
