@@ -948,7 +948,7 @@ fn resolve_material(
         )
     });
     let eigen = m.eigen.as_ref().and_then(|e| {
-        crate::fracture::eigen::section::resolve(c, &format!("{path}.eigen"), e, m.model, h)
+        crate::fracture::eigen::section::resolve(c, &format!("{path}.eigen"), e, m, plane, h, dim)
     });
     let given: Vec<&str> = [
         ("phase_field", m.phase_field.is_some()),

@@ -9,16 +9,19 @@
 //!
 //! - **Eigenerosion** (eqs. 11–12): G_p = C_ε/m_p Σ_{q ∈ B_ε(x_p)} m_q W_q,
 //!   m_p = Σ_{q ∈ B_ε} m_q, with W_q the free energy per unit mass of the
-//!   points not yet eroded. The paper leaves C_ε open. **Choice:
-//!   C_ε = 2ερ**, so that G_p = 2ε·ψ̄_ε, ψ̄_ε the energy per unit
-//!   reference volume of the ball (m_q/ρ = V⁰_q): the ε-neighbourhood of
-//!   a crack of area A has volume 2εA (Schmidt, Fraternali & Ortiz's
-//!   eigenfracture, which Pandolfi & Ortiz's erosion discretises), so
-//!   eroding the ball's energy over a crack of area V_ball/(2ε) releases
-//!   G_p per unit area. A point whose G_p reaches G_c is eroded: it keeps
-//!   its mass and carries no stress from then on. Every point that
-//!   reaches G_c in a step is eroded in that step (the neighbourhood sums
-//!   are taken before any of them).
+//!   points not yet eroded. The paper calls C_ε a normalising constant and
+//!   leaves it open. **Choice: C_ε = 2ερ/κ**, so that
+//!   G_p = 2εψ̄_ε/κ, ψ̄_ε the energy per unit reference volume of the ball
+//!   (m_q/ρ = V⁰_q). 2ε: the ε-neighbourhood of a crack of area A has
+//!   volume 2εA (Schmidt, Fraternali & Ortiz's eigenfracture, which
+//!   Pandolfi & Ortiz's erosion discretises). κ ([`tip_ball_factor`]):
+//!   in a crack tip's singular field the ball's energy grows as ε, so
+//!   2εψ̄_ε does not depend on ε but reads only κG (0.28 G in plane
+//!   strain at ν = 1/3); dividing by κ makes a point at a crack tip read
+//!   G, so that the crack grows at Griffith's G = G_c. A point whose G_p
+//!   reaches G_c is eroded: it keeps its mass and carries no stress from
+//!   then on. Every point that reaches G_c in a step is eroded in that
+//!   step (the neighbourhood sums are taken before any of them).
 //! - **Eigensoftening** (eqs. 13–20, Algorithm 2): σ_ε,p = 1/m_p Σ m_q σ_q,I
 //!   over the points with χ_q < 1 (m_p over all of B_ε, as Algorithm 2
 //!   sums it), σ_q,I the largest principal value of the stress q carries;
@@ -54,6 +57,39 @@ use section::{EigenModel, ResolvedEigen};
 pub const SKIN: f64 = 0.25;
 
 const CHUNK: usize = 2048;
+
+/// κ = 2εψ̄_ε / G at the tip of a mode I crack (the Williams field), for
+/// Poisson's ratio `nu` in plane strain or plane stress (`dim` 2) or at a
+/// straight crack front in 3D (plane strain there): eigenerosion's C_ε is
+/// 2ερ/κ. The energy density is W = K²w(θ)/(2πrE) with r the distance to
+/// the tip (front); with A = (1/2π)∮w dθ the ball of radius ε about the
+/// tip holds K²Aε/E in 2D (per unit thickness), so 2εψ̄_ε = 2K²A/(πE),
+/// and K²A/E·πε²/2 in 3D, so 2εψ̄_ε = 3K²A/(4E); Griffith's G is
+/// K²(1 − ν²)/E in plane strain, K²/E in plane stress. κ is 0.279 in plane
+/// strain and 0.318 in plane stress at ν = 0.333
+/// (`docs/scripts/eigen_tip_ball.py` computes the same).
+pub fn tip_ball_factor(nu: f64, plane: crate::material::PlaneKind, dim: usize) -> f64 {
+    let strain = dim == 3 || plane == crate::material::PlaneKind::PlaneStrain;
+    // the midpoint rule on a smooth periodic integrand: exact to round-off
+    let n = 720;
+    let mut a = 0.0;
+    for i in 0..n {
+        let t = -std::f64::consts::PI + (i as f64 + 0.5) * std::f64::consts::TAU / n as f64;
+        let (s, c) = (0.5 * t).sin_cos();
+        let (s3, c3) = (1.5 * t).sin_cos();
+        let (sx, sy, sxy) = (c * (1.0 - s * s3), c * (1.0 + s * s3), c * s * c3);
+        let sz = if strain { nu * (sx + sy) } else { 0.0 };
+        a += 0.5 * (sx * sx + sy * sy + sz * sz - 2.0 * nu * (sx * sy + sy * sz + sz * sx))
+            + (1.0 + nu) * sxy * sxy;
+    }
+    a /= n as f64;
+    let griffith = if strain { 1.0 - nu * nu } else { 1.0 };
+    if dim == 3 {
+        0.75 * a / griffith
+    } else {
+        2.0 * a / (std::f64::consts::PI * griffith)
+    }
+}
 
 /// The eigen models of the scene's materials, indexed like them.
 #[derive(Debug, Clone, Default)]
@@ -169,8 +205,8 @@ impl EigenLaw {
                     let se = stress[i];
                     match (m.model, &m.softening) {
                         (EigenModel::Erosion, _) => {
-                            // eq. 11 with C_ε = 2ερ: 2ε Σ ψ_q V_q / Σ V⁰_q
-                            if 2.0 * m.epsilon * a / b >= m.fracture_energy {
+                            // eq. 11 with C_ε = 2ερ/κ: 2ε Σ ψ_q V_q / (κ Σ V⁰_q)
+                            if 2.0 * m.epsilon * a / (b * m.tip_factor) >= m.fracture_energy {
                                 *s = softening::Softening {
                                     onset: None,
                                     chi: 1.0,
@@ -213,6 +249,7 @@ impl EigenLaw {
 mod tests {
     use super::softening::{Softening, SofteningLaw};
     use super::*;
+    use crate::tensor::norm;
 
     /// An n × n lattice of points `s` apart (2D, 10 mm thick, ρ = 1000),
     /// all of material 0 in group 0, at the uniaxial strain `ex` with the
@@ -239,6 +276,19 @@ mod tests {
         p
     }
 
+    /// Eigenerosion with ε, G_c and κ as the only material.
+    fn erosion(eps: f64, gc: f64, tip_factor: f64) -> EigenLaw {
+        EigenLaw {
+            models: vec![Some(ResolvedEigen {
+                model: EigenModel::Erosion,
+                epsilon: eps,
+                fracture_energy: gc,
+                softening: None,
+                tip_factor,
+            })],
+        }
+    }
+
     fn lists(p: &Particles, reach: f64) -> Neighbours {
         let mut nb = Neighbours::default();
         let key = vec![0u16; p.len()];
@@ -247,21 +297,14 @@ mod tests {
         nb
     }
 
-    /// Eq. 11 with C_ε = 2ερ on a uniform strain: G_p = 2εψ at every
+    /// Eq. 11 with C_ε = 2ερ (κ = 1) on a uniform strain: G_p = 2εψ at every
     /// point, so a G_c just above it erodes nothing and one just below it
     /// erodes every point, releasing all the stored energy ½σ:ε V.
     #[test]
     fn erosion_releases_two_epsilon_times_the_energy_density() {
         let (e, ex, s, eps) = (1.0e9, 1.0e-3, 0.01, 0.025);
         let psi = 0.5 * e * ex * ex;
-        let erosion = |gc: f64| EigenLaw {
-            models: vec![Some(ResolvedEigen {
-                model: EigenModel::Erosion,
-                epsilon: eps,
-                fracture_energy: gc,
-                softening: None,
-            })],
-        };
+        let erosion = |gc: f64| erosion(eps, gc, 1.0);
         let mut p = lattice(12, s, e, ex);
         let nb = lists(&p, eps);
         let mut scratch = Scratch::default();
@@ -316,6 +359,7 @@ mod tests {
                 epsilon: eps,
                 fracture_energy: 100.0,
                 softening: Some(SofteningLaw::linear(ft, 100.0, s)),
+                tip_factor: 1.0,
             })],
         };
         let nb = lists(&p, eps);
@@ -336,5 +380,64 @@ mod tests {
         }
         assert_eq!(step.started, started);
         assert!(started > 0 && started < p.len());
+    }
+
+    /// κ against the quadrature of `docs/scripts/eigen_tip_ball.py`.
+    #[test]
+    fn the_tip_factor_is_the_williams_field_quadrature() {
+        use crate::material::PlaneKind::{PlaneStrain, PlaneStress};
+        assert!((tip_ball_factor(0.333, PlaneStrain, 2) - 0.2787).abs() < 1e-4);
+        assert!((tip_ball_factor(0.333, PlaneStress, 2) - 0.3184).abs() < 1e-4);
+        let three = tip_ball_factor(0.333, PlaneStrain, 3);
+        let two = tip_ball_factor(0.333, PlaneStrain, 2);
+        assert!((three / two - 3.0 * std::f64::consts::PI / 8.0).abs() < 1e-12);
+    }
+
+    /// The normalisation in a discrete field: points ε/10 apart
+    /// carry the mode I Williams field (plane strain, ν = 0.333) of a
+    /// crack along −x with its tip between them; with C_ε = 2ερ/κ the
+    /// points at the tip read G = K²(1 − ν²)/E to a few per cent: G_c 6 %
+    /// above it erodes nothing, 6 % below it erodes the points about the
+    /// tip (the four nearest it among them).
+    #[test]
+    fn a_point_at_a_crack_tip_reads_griffiths_g() {
+        let (e, nu, k, s) = (1.0e9, 0.333, 1.0e6, 0.001);
+        let eps = 10.0 * s;
+        let g = k * k * (1.0 - nu * nu) / e;
+        let mut p = lattice(60, s, e, 0.0);
+        for q in 0..p.len() {
+            // the tip at the middle of the lattice, between points
+            p.x[q] = [p.x[q][0] - 29.5 * s, p.x[q][1] - 29.5 * s];
+            let [x, y] = p.x[q];
+            let (r, t) = ((x * x + y * y).sqrt(), y.atan2(x));
+            let f = k / (std::f64::consts::TAU * r).sqrt();
+            let (sn, c) = (0.5 * t).sin_cos();
+            let (s3, c3) = (1.5 * t).sin_cos();
+            let sig = [
+                f * c * (1.0 - sn * s3),
+                f * c * (1.0 + sn * s3),
+                f * c * sn * c3,
+            ];
+            let a = (1.0 + nu) / e;
+            p.stress[q] = sig;
+            p.strain[q] = [
+                a * ((1.0 - nu) * sig[0] - nu * sig[1]),
+                a * ((1.0 - nu) * sig[1] - nu * sig[0]),
+                a * sig[2],
+            ];
+        }
+        let kappa = tip_ball_factor(nu, crate::material::PlaneKind::PlaneStrain, 2);
+        let erosion = |gc: f64| erosion(eps, gc, kappa);
+        let nb = lists(&p, eps);
+        let mut q = p.clone();
+        let step = erosion(1.06 * g).update(&mut q, &nb, &mut Scratch::default());
+        assert_eq!(step.failed, 0, "G_c 6 % above G");
+        let step = erosion(0.94 * g).update(&mut p, &nb, &mut Scratch::default());
+        assert!(step.failed >= 4, "G_c 6 % below G: {} eroded", step.failed);
+        for q in 0..p.len() {
+            if norm(p.x[q]) < s {
+                assert_eq!(p.softening[q].chi, 1.0, "the point at {:?}", p.x[q]);
+            }
+        }
     }
 }

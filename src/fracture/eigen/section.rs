@@ -10,7 +10,8 @@
 //! ```
 
 use super::softening::SofteningLaw;
-use crate::material::MaterialModel;
+use crate::material::{MaterialModel, PlaneKind};
+use crate::scene::schema::MaterialSpec;
 use crate::scene::Checker;
 use serde::{Deserialize, Serialize};
 
@@ -71,19 +72,25 @@ pub struct ResolvedEigen {
     pub fracture_energy: f64,
     /// Softening: the law (f_t, w_c = 2G_F/f_t, h_ε); None for erosion.
     pub softening: Option<SofteningLaw>,
+    /// Erosion: κ, the share of G that 2εψ̄_ε reads at a crack tip
+    /// ([`super::tip_ball_factor`]); C_ε = 2ερ/κ. 1 for softening.
+    pub tip_factor: f64,
 }
 
 /// Checks a material's eigen table (`q` is its field path) and derives its
-/// constants; `h` is the cell size.
+/// constants; `h` is the cell size, `plane` the 2D analysis and `dim` the
+/// scene's dimension.
 pub(crate) fn resolve(
     c: &mut Checker,
     q: &str,
     e: &EigenSpec,
-    model: MaterialModel,
+    material: &MaterialSpec,
+    plane: PlaneKind,
     h: f64,
+    dim: usize,
 ) -> Option<ResolvedEigen> {
     let before = c.errors.len();
-    if model != MaterialModel::LinearElastic {
+    if material.model != MaterialModel::LinearElastic {
         c.err(
             &format!("{q}.model"),
             "the eigen models are implemented for linear_elastic materials (their released energy is the small-strain energy)",
@@ -144,10 +151,15 @@ pub(crate) fn resolve(
             }
         }
     };
+    let tip_factor = match e.model {
+        EigenModel::Erosion => super::tip_ball_factor(material.poissons_ratio, plane, dim),
+        EigenModel::Softening => 1.0,
+    };
     (c.errors.len() == before).then_some(ResolvedEigen {
         model: e.model,
         epsilon,
         fracture_energy: e.fracture_energy,
         softening,
+        tip_factor,
     })
 }
