@@ -116,9 +116,17 @@ fn strip_run(h: f64) -> (f64, f64, f64) {
         .replace("epsilon = 0.015", &format!("epsilon = {}", 1.5 * h))
         .replace("snapshots = 4", "snapshots = 0");
     let scene = Scene::from_text(&text, None).unwrap();
-    let mut sim = Simulation::new(&scene);
+    pull(Simulation::new(&scene), scene.file.time.end)
+}
+
+/// Runs `sim` to `end`: the peak of the mean axial stress (the volume
+/// average of σ_yy), Pa, the energy dissipated, J, and the energy balance
+/// at the end, J.
+fn pull<const D: usize, const V: usize>(mut sim: Simulation<D, V>, end: f64) -> (f64, f64, f64)
+where
+    cleave::particles::Particles<D, V>: cleave::mpm::Saved,
+{
     let mut peak: f64 = 0.0;
-    let end = scene.file.time.end;
     while sim.time() < end {
         sim.step().unwrap();
         let p = sim.particles();
@@ -157,4 +165,49 @@ fn an_eigensoftening_strip_peaks_at_its_strength_and_dissipates_gf() {
         );
         assert!(balance.abs() < 0.01 * gf_a, "h {h}: balance {balance}");
     }
+}
+
+/// The same strip in 3D (20 × 200 × 20 mm, 2 × 2 × 2 particles per cell,
+/// h = 10 mm, the middle layer of cells weaker): one code path, the same
+/// tolerances.
+#[test]
+fn the_strip_in_3d_peaks_at_its_strength_and_dissipates_gf() {
+    let text = shipped("eigen_strip.toml")
+        .replace(
+            "min = [0.0, 0.0]\nmax = [0.05, 0.2]",
+            "min = [0.0, 0.0, 0.0]\nmax = [0.02, 0.2, 0.02]",
+        )
+        .replace(
+            "[analysis]\nplane = \"plane_stress\"\nthickness = 0.01\n",
+            "",
+        )
+        .replace("x = 0.0, y = { table", "x = 0.0, z = 0.0, y = { table")
+        .replace(
+            "min = [0.0, 0.0], max = [0.05, 0.1]",
+            "min = [0.0, 0.0, 0.0], max = [0.02, 0.1, 0.02]",
+        )
+        .replace(
+            "min = [0.0, 0.1], max = [0.05, 0.11]",
+            "min = [0.0, 0.1, 0.0], max = [0.02, 0.11, 0.02]",
+        )
+        .replace(
+            "min = [0.0, 0.11], max = [0.05, 0.2]",
+            "min = [0.0, 0.11, 0.0], max = [0.02, 0.2, 0.02]",
+        )
+        .replace("snapshots = 4", "snapshots = 0");
+    let scene = Scene::from_text(&text, None).unwrap();
+    assert_eq!(scene.dimension(), 3);
+    let (peak, dissipated, balance) = pull(Simulation::<3, 6>::build(&scene), scene.file.time.end);
+    let (ft, gf_a) = (3.0e6, 100.0 * 0.02 * 0.02);
+    println!(
+        "3D: peak {peak:.6e} Pa ({:+.2} % of f_t), dissipated {dissipated:.6e} J ({:+.2} % of G_F A)",
+        100.0 * (peak / ft - 1.0),
+        100.0 * (dissipated / gf_a - 1.0)
+    );
+    assert!((peak / ft - 1.0).abs() < 0.02, "peak {peak}");
+    assert!(
+        (dissipated / gf_a - 1.0).abs() < 0.05,
+        "dissipated {dissipated}"
+    );
+    assert!(balance.abs() < 0.01 * gf_a, "balance {balance}");
 }
