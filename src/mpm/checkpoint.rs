@@ -294,6 +294,9 @@ mod tests {
         tracer
             .trace_simple_type::<crate::fracture::cracks::model::CrampSaved>()
             .expect("trace the explicit cracks' state");
+        tracer
+            .trace_simple_type::<crate::fracture::eigen::model::EigenSaved>()
+            .expect("trace the eigen models' state");
         let registry = tracer.registry().expect("every saved type is known");
         let layout = serde_json::to_string_pretty(&registry).expect("layout as JSON") + "\n";
         let path =
