@@ -4,8 +4,9 @@
 # with the linear hat (the same scene with shape_function = "linear"),
 # and the J integral of the initial crack (the same panel with an
 # explicit crack, no erosion, to 26 s) as the reference for the onset.
-# Prints the table of docs/eigen.md and draws docs/eigen-e1.png
-# (python3 with matplotlib). About a minute on one thread.
+# Prints the table of docs/eigen.md, draws docs/eigen-e1.png (python3
+# with matplotlib) and copies the LME run's χ at 40 s to
+# docs/eigen-e1-chi.png. About a minute on one thread.
 # Usage, from the repository root:
 #   cargo build --release -p cleave-client
 #   [CLEAVE=target/release/cleave] [OUT=/tmp/eigen_e1] bash docs/scripts/eigen_e1.sh
@@ -32,3 +33,5 @@ for k in lme linear j; do
   RAYON_NUM_THREADS=1 "$cleave" run "$out/$k.toml" --out "$out/$k" --quiet
 done
 python3 docs/scripts/eigen_e1.py "$out" docs/eigen-e1.png
+# the LME run's last χ image: the crack through the panel
+cp "$out/lme/chi_0005.png" docs/eigen-e1-chi.png
