@@ -71,7 +71,7 @@ pub struct Particles<const D: usize = 2, const V: usize = 3> {
     /// The eigen models' state of each point (Molinos et al.): the
     /// softening onset, χ and the stress scale; empty unless a material
     /// has an eigen model.
-    pub softening: Vec<crate::fracture::eigen::softening::Softening>,
+    pub softening: Vec<Softening>,
 }
 
 impl<const D: usize, const V: usize> Particles<D, V> {
@@ -110,4 +110,18 @@ impl<const D: usize, const V: usize> Particles<D, V> {
             + b(&self.grad_u)
             + b(&self.softening)
     }
+}
+
+/// One point's state under the eigen models (Molinos et al.; the law is
+/// `fracture::eigen::softening`, which re-exports this type: particle
+/// storage sits below the fracture models).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Softening {
+    /// Principal strain when softening started (eq. 19's ε_I(x⁰));
+    /// `None` while the point is intact.
+    pub onset: Option<f64>,
+    /// The cohesive opening fraction χ = w/w_c (eq. 20), 0 to 1.
+    pub chi: f64,
+    /// The stress scale: the point carries (1 − d)σ, 0 to 1.
+    pub d: f64,
 }

@@ -28,17 +28,7 @@
 //! (1 − d)σ; at χ = 1 the point carries no stress (eroded, its mass
 //! kept).
 
-/// One point's softening state.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Softening {
-    /// Principal strain when softening started (eq. 19's ε_I(x⁰));
-    /// `None` while the point is intact.
-    pub onset: Option<f64>,
-    /// The cohesive opening fraction χ = w/w_c (eq. 20), 0 to 1.
-    pub chi: f64,
-    /// The stress scale: the point carries (1 − d)σ, 0 to 1.
-    pub d: f64,
-}
+pub use crate::particles::Softening;
 
 /// A material's softening parameters, SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]
