@@ -10,11 +10,6 @@ use cleave::scene::{Format, Scene, Stage};
 
 type Sim3 = Simulation<3, 6>;
 
-fn shipped_bar() -> String {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/notched_bar_3d.toml");
-    std::fs::read_to_string(&path).expect("scenes/notched_bar_3d.toml")
-}
-
 fn scene(text: &str) -> Scene {
     match Scene::from_text(text, Some(Format::Toml)) {
         Ok(s) => s,
@@ -33,7 +28,7 @@ fn scene(text: &str) -> Scene {
 /// with nothing stored at the end, and the dissipation never decreases.
 #[test]
 fn a_notched_3d_bar_broken_by_damage_dissipates_gf_times_its_ligament() {
-    let s = scene(&shipped_bar());
+    let s = scene(&common::shipped("notched_bar_3d.toml"));
     assert_eq!(s.dimension(), 3);
     assert!(s.plan.has(Stage::Damage) && !s.plan.has(Stage::Contact));
     let mut sim = Sim3::build(&s);
@@ -74,7 +69,7 @@ fn a_notched_3d_bar_broken_by_damage_dissipates_gf_times_its_ligament() {
 /// strengths (eq. 25, drawn per particle volume h³/8).
 #[test]
 fn a_damaged_3d_run_does_not_depend_on_the_thread_count() {
-    let text = shipped_bar()
+    let text = common::shipped("notched_bar_3d.toml")
         .replace("-0.025]", "-0.05]")
         .replace(", 0.025]", ", 0.05]")
         .replace("end = 2.4e-3", "end = 7.0e-4")

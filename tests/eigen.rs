@@ -1,26 +1,12 @@
 //! Eigenerosion and eigensoftening in runs (issue 34): what a scene may
 //! ask of them, and the strip in slow tension.
 
+mod common;
+
+use common::{refused, shipped};
+
 use cleave::mpm::Simulation;
 use cleave::scene::Scene;
-use std::path::Path;
-
-fn shipped(name: &str) -> String {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name);
-    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
-fn refused(text: &str, expect: &[&str]) {
-    let e = match Scene::from_text(text, None) {
-        Ok(_) => panic!("accepted:\n{text}"),
-        Err(e) => e.to_string(),
-    };
-    for x in expect {
-        assert!(e.contains(x), "{x:?} not in: {e}");
-    }
-}
 
 /// The strip's scene with one edit.
 fn strip(from: &str, to: &str) -> String {
@@ -143,6 +129,25 @@ where
     (peak, row.fracture_energy, balance)
 }
 
+/// The strip's checks on a run's (peak stress, energy dissipated,
+/// energy balance) with cross-section `area`, m²: the peak within 2 % of
+/// the weak row's f_t = 3 MPa, the energy within 5 % of G_F·A
+/// (G_F = 100 J/m²), the balance within 1 % of G_F·A; prints them.
+fn check_strip(label: &str, (peak, dissipated, balance): (f64, f64, f64), area: f64) {
+    let (ft, gf_a) = (3.0e6, 100.0 * area);
+    println!(
+        "{label}: peak {peak:.6e} Pa ({:+.2} % of f_t), dissipated {dissipated:.6e} J ({:+.2} % of G_F A), balance {balance:.3e} J",
+        100.0 * (peak / ft - 1.0),
+        100.0 * (dissipated / gf_a - 1.0)
+    );
+    assert!((peak / ft - 1.0).abs() < 0.02, "{label}: peak {peak}");
+    assert!(
+        (dissipated / gf_a - 1.0).abs() < 0.05,
+        "{label}: dissipated {dissipated}"
+    );
+    assert!(balance.abs() < 0.01 * gf_a, "{label}: balance {balance}");
+}
+
 /// Issue 34's strip: in slow tension with its middle row of cells 10 %
 /// weaker, the mean axial stress peaks at the weak row's f_t (within 2 %)
 /// and the softening row dissipates G_F × the cross-section (within 5 %)
@@ -150,20 +155,8 @@ where
 /// numbers: `cargo test --release --test eigen strip -- --nocapture`.)
 #[test]
 fn an_eigensoftening_strip_peaks_at_its_strength_and_dissipates_gf() {
-    let (ft, gf_a) = (3.0e6, 100.0 * 0.05 * 0.01);
     for h in [0.01, 0.005, 0.0025] {
-        let (peak, dissipated, balance) = strip_run(h);
-        println!(
-            "h = {h}: peak {peak:.6e} Pa ({:+.2} % of f_t), dissipated {dissipated:.6e} J ({:+.2} % of G_F A), balance {balance:.3e} J",
-            100.0 * (peak / ft - 1.0),
-            100.0 * (dissipated / gf_a - 1.0)
-        );
-        assert!((peak / ft - 1.0).abs() < 0.02, "h {h}: peak {peak}");
-        assert!(
-            (dissipated / gf_a - 1.0).abs() < 0.05,
-            "h {h}: dissipated {dissipated}"
-        );
-        assert!(balance.abs() < 0.01 * gf_a, "h {h}: balance {balance}");
+        check_strip(&format!("h = {h}"), strip_run(h), 0.05 * 0.01);
     }
 }
 
@@ -197,17 +190,6 @@ fn the_strip_in_3d_peaks_at_its_strength_and_dissipates_gf() {
         .replace("snapshots = 4", "snapshots = 0");
     let scene = Scene::from_text(&text, None).unwrap();
     assert_eq!(scene.dimension(), 3);
-    let (peak, dissipated, balance) = pull(Simulation::<3, 6>::build(&scene), scene.file.time.end);
-    let (ft, gf_a) = (3.0e6, 100.0 * 0.02 * 0.02);
-    println!(
-        "3D: peak {peak:.6e} Pa ({:+.2} % of f_t), dissipated {dissipated:.6e} J ({:+.2} % of G_F A)",
-        100.0 * (peak / ft - 1.0),
-        100.0 * (dissipated / gf_a - 1.0)
-    );
-    assert!((peak / ft - 1.0).abs() < 0.02, "peak {peak}");
-    assert!(
-        (dissipated / gf_a - 1.0).abs() < 0.05,
-        "dissipated {dissipated}"
-    );
-    assert!(balance.abs() < 0.01 * gf_a, "balance {balance}");
+    let run = pull(Simulation::<3, 6>::build(&scene), scene.file.time.end);
+    check_strip("3D", run, 0.02 * 0.02);
 }

@@ -1,26 +1,12 @@
 //! Local maximum-entropy shape functions in runs (issue 34): what a scene
 //! may ask of them, and what they buy over the linear hat.
 
+mod common;
+
+use common::{refused, shipped};
+
 use cleave::grid::shape::{LME_GAMMA_MAX, LME_GAMMA_MIN};
 use cleave::scene::Scene;
-use std::path::Path;
-
-fn shipped(name: &str) -> String {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name);
-    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
-fn refused(text: &str, expect: &[&str]) {
-    let e = match Scene::from_text(text, None) {
-        Ok(_) => panic!("accepted:\n{text}"),
-        Err(e) => e.to_string(),
-    };
-    for x in expect {
-        assert!(e.contains(x), "{x:?} not in: {e}");
-    }
-}
 
 /// `shape_function = "lme"` with `lme_gamma`: accepted in range, in 2D
 /// and 3D; refused, naming the field and the reason, out of range, without

@@ -65,6 +65,19 @@ pub struct RowContext<'a, const D: usize = 2, const V: usize = 3> {
     pub external_work: f64,
 }
 
+impl<const D: usize, const V: usize> RowContext<'_, D, V> {
+    /// Kinetic + strain + `dissipated` − initial energy − external work,
+    /// J: what a model that releases energy has lost beyond it (0 at
+    /// t = 0).
+    pub fn energy_balance(&self, dissipated: f64) -> f64 {
+        if self.step == 0 {
+            0.0
+        } else {
+            self.energy + dissipated - self.initial_energy - self.external_work
+        }
+    }
+}
+
 /// The columns a model adds to the series. Called once to declare the
 /// names ([`SeriesOut::declaring`]: the values are ignored, and a model
 /// must skip work with side effects, such as measuring a crack tip's
@@ -115,6 +128,14 @@ impl SeriesOut {
             } else {
                 self.values.push(v);
             }
+        }
+    }
+
+    /// The four crack-tip columns of each tracked body ([`Self::push_tip`]),
+    /// suffixed `_b<i>` when several bodies report one ([`body_suffix`]).
+    pub fn push_tips(&mut self, bodies: &[usize], tips: &[CrackTip]) {
+        for (b, tip) in bodies.iter().zip(tips) {
+            self.push_tip(&body_suffix(*b, bodies.len()), tip);
         }
     }
 

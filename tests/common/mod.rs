@@ -150,3 +150,23 @@ snapshots = 0
 [phase_field_solver]
 method = "direct"
 "#;
+
+/// The text of `scenes/NAME`, a shipped scene.
+pub fn shipped(name: &str) -> String {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Asserts that `text` is refused and that the refusal holds each of
+/// `expect`.
+pub fn refused(text: &str, expect: &[&str]) {
+    let e = match cleave::scene::Scene::from_text(text, None) {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e.to_string(),
+    };
+    for x in expect {
+        assert!(e.contains(x), "{x:?} not in: {e}");
+    }
+}

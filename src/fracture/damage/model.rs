@@ -13,8 +13,7 @@ use crate::diagnostics::fragments::{FragmentFinder, Fragments};
 use crate::diagnostics::{Field, FieldData};
 use crate::fracture::damage::{DamageLaw, DamageStep};
 use crate::fracture::model::{
-    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut,
-    SetupContext, StepContext,
+    decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, SetupContext, StepContext,
 };
 use crate::fracture::tracks::CrackTracks;
 use crate::particles::Particles;
@@ -235,7 +234,6 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for DamageState {
             ([0.0; 4], vec![CrackTip::UNKNOWN; tracked.len()])
         } else {
             out.set_fracture_energy(self.dissipated);
-            let balance = at.energy + self.dissipated - at.initial_energy - at.external_work;
             let failed = at
                 .parts
                 .damage
@@ -244,7 +242,7 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for DamageState {
                 .count();
             let fragments = self.fragments(at.parts).list.len();
             let values = [
-                if at.step == 0 { 0.0 } else { balance },
+                at.energy_balance(self.dissipated),
                 failed as f64,
                 fragments as f64,
                 self.mean_speed(at.parts),
@@ -260,9 +258,7 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for DamageState {
         for (n, v) in names.into_iter().zip(values) {
             out.push(n, v);
         }
-        for (b, tip) in tracked.iter().zip(&tips) {
-            out.push_tip(&body_suffix(*b, tracked.len()), tip);
-        }
+        out.push_tips(&tracked, &tips);
     }
 
     /// The energy dissipated, J, and the number of tracked cracks.

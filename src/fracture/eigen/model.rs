@@ -9,8 +9,7 @@ use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::fragments::{FragmentFinder, Fragments};
 use crate::diagnostics::{Field, FieldData};
 use crate::fracture::model::{
-    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut,
-    SetupContext, StepContext,
+    decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, SetupContext, StepContext,
 };
 use crate::fracture::tracks::CrackTracks;
 use crate::grid::GridGeom;
@@ -170,7 +169,6 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for EigenState<D> {
             ([0.0; 4], vec![CrackTip::UNKNOWN; tracked.len()])
         } else {
             out.set_fracture_energy(self.dissipated);
-            let balance = at.energy + self.dissipated - at.initial_energy - at.external_work;
             let (mut eroded, mut softening) = (0usize, 0usize);
             for (p, s) in at.parts.softening.iter().enumerate() {
                 if self.key[p] == Neighbours::<D>::NONE {
@@ -190,7 +188,7 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for EigenState<D> {
                     softening_[p].chi > TIP_CHI
                 });
             let values = [
-                if at.step == 0 { 0.0 } else { balance },
+                at.energy_balance(self.dissipated),
                 eroded as f64,
                 softening as f64,
                 fragments as f64,
@@ -206,9 +204,7 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for EigenState<D> {
         for (n, v) in names.into_iter().zip(values) {
             out.push(n, v);
         }
-        for (b, tip) in tracked.iter().zip(&tips) {
-            out.push_tip(&body_suffix(*b, tracked.len()), tip);
-        }
+        out.push_tips(&tracked, &tips);
     }
 
     /// The energy dissipated, J, the points that started softening and

@@ -23,8 +23,7 @@
 use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::{Field, FieldData};
 use crate::fracture::model::{
-    body_suffix, decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut,
-    SetupContext, StepContext,
+    decode, encode, FractureModel, RestoreContext, RowContext, SeriesOut, SetupContext, StepContext,
 };
 use crate::fracture::phase_field::anisotropy::{Gamma, Gamma3};
 use crate::fracture::phase_field::system::{
@@ -774,9 +773,7 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for PhaseFields<D> {
                 out.push(&format!("fracture_energy_b{b}"), *e);
             }
         }
-        for (b, tip) in tracked.iter().zip(&tips) {
-            out.push_tip(&body_suffix(*b, tracked.len()), tip);
-        }
+        out.push_tips(&tracked, &tips);
     }
 
     /// The solver's times and counts ([`SolveStats`]).
