@@ -7,7 +7,7 @@
 //! [`crate::diagnostics::Observer::checkpoint`] hands to whoever writes
 //! the run's results.
 //!
-//! On disk: `b"CLEAVECKPT6\n"`, the header (version, observer state,
+//! On disk: `b"CLEAVECKPT7\n"`, the header (version, observer state,
 //! scene, method, step, time) in postcard (serde's compact binary
 //! format), the method's state in postcard, then a trailer: the length of
 //! what precedes it (u64, little-endian) and the CRC-32 (IEEE) of
@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
 use std::sync::Arc;
 
-pub(crate) const MAGIC: &[u8; 12] = b"CLEAVECKPT6\n";
+pub(crate) const MAGIC: &[u8; 12] = b"CLEAVECKPT7\n";
 /// The headers of formats this build no longer reads.
 const OLDER: &[&[u8; 12]] = &[
     b"CLEAVECKPT1\n",
@@ -35,6 +35,7 @@ const OLDER: &[&[u8; 12]] = &[
     b"CLEAVECKPT3\n",
     b"CLEAVECKPT4\n",
     b"CLEAVECKPT5\n",
+    b"CLEAVECKPT6\n",
 ];
 /// The trailer: the length before it (u64) and the CRC-32 (u32).
 const TRAILER: usize = 8 + 4;
@@ -44,9 +45,9 @@ const TRAILER: usize = 8 + 4;
 pub enum CheckpointError {
     #[error("{0}")]
     Io(#[from] std::io::Error),
-    #[error("not a cleave checkpoint (no CLEAVECKPT6 header)")]
+    #[error("not a cleave checkpoint (no CLEAVECKPT7 header)")]
     NotACheckpoint,
-    #[error("the checkpoint was written in an older format ({0}); this build reads CLEAVECKPT6: rerun from the start")]
+    #[error("the checkpoint was written in an older format ({0}); this build reads CLEAVECKPT7: rerun from the start")]
     OlderFormat(String),
     #[error("{file} is damaged ({reason}): refused, and the results written so far are kept")]
     Damaged { file: String, reason: String },
@@ -445,6 +446,8 @@ mod tests {
         let r = Checkpoint::read_from(&mut &b"CLEAVECKPT5\n\x01\x02"[..]);
         assert!(matches!(r, Err(CheckpointError::OlderFormat(_))), "{r:?}");
         let r = Checkpoint::read_from(&mut &b"CLEAVECKPT6\n\x01\x02"[..]);
+        assert!(matches!(r, Err(CheckpointError::OlderFormat(_))), "{r:?}");
+        let r = Checkpoint::read_from(&mut &b"CLEAVECKPT7\n\x01\x02"[..]);
         assert!(matches!(r, Err(CheckpointError::Damaged { .. })), "{r:?}");
     }
 

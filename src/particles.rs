@@ -72,6 +72,10 @@ pub struct Particles<const D: usize = 2, const V: usize = 3> {
     /// softening onset, χ and the stress scale; empty unless a material
     /// has an eigen model.
     pub softening: Vec<Softening>,
+    /// Acceleration a_p, m/s², carried from one step's corrector to the
+    /// next step's predictor by the Newmark predictor–corrector (Molinos
+    /// et al., Algorithm 1); empty unless `stress_update = "newmark"`.
+    pub accel: Vec<[f64; D]>,
 }
 
 impl<const D: usize, const V: usize> Particles<D, V> {
@@ -109,6 +113,7 @@ impl<const D: usize, const V: usize> Particles<D, V> {
             + b(&self.strength)
             + b(&self.grad_u)
             + b(&self.softening)
+            + b(&self.accel)
     }
 }
 

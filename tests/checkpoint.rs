@@ -225,6 +225,27 @@ fn a_resumed_eigensoftening_run_repeats_the_straight_one_bit_for_bit() {
     assert_same(&a, &b);
 }
 
+/// The same strip under Newmark's predictor–corrector: each particle's
+/// acceleration, which the next step's predictor reads, is saved with it
+/// (format 7); without it the resumed predictor would start from a = 0.
+#[test]
+fn a_resumed_newmark_run_repeats_the_straight_one_bit_for_bit() {
+    let text = scene_text(
+        "eigen_strip.toml",
+        &[
+            ("end = 6.0e-3", "end = 2.6e-3"),
+            ("series_rows = 121", "series_rows = 53"),
+            ("stress_update = \"musl\"", "stress_update = \"newmark\""),
+        ],
+    );
+    let (a, b) = straight_and_resumed(&text, 1800, 200);
+    assert!(
+        a.parts.accel.iter().any(|q| q[1] != 0.0),
+        "no particle accelerates: the test would not exercise the saved a_p"
+    );
+    assert_same(&a, &b);
+}
+
 #[test]
 fn a_resumed_run_with_explicit_cracks_repeats_the_straight_one_bit_for_bit() {
     // the centre-cracked plate to 0.1 ms, resumed at step 300: the crack

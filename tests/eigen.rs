@@ -193,3 +193,84 @@ fn the_strip_in_3d_peaks_at_its_strength_and_dissipates_gf() {
     let run = pull(Simulation::<3, 6>::build(&scene), scene.file.time.end);
     check_strip("3D", run, 0.02 * 0.02);
 }
+
+/// The Newmark predictor–corrector (Molinos et al., Algorithm 1) runs the
+/// strip as the paper runs its models: the same peak and dissipation
+/// tolerances as under MUSL, at two cell sizes.
+#[test]
+fn the_strip_under_newmark_peaks_at_its_strength_and_dissipates_gf() {
+    for h in [0.01, 0.005] {
+        let text = strip("stress_update = \"musl\"", "stress_update = \"newmark\"");
+        let text = text
+            .replace("cell_size = 0.01", &format!("cell_size = {h}"))
+            .replace(
+                "min = [0.0, 0.1], max = [0.05, 0.11]",
+                &format!("min = [0.0, 0.1], max = [0.05, {}]", 0.1 + h),
+            )
+            .replace(
+                "min = [0.0, 0.11], max = [0.05, 0.2]",
+                &format!("min = [0.0, {}], max = [0.05, 0.2]", 0.1 + h),
+            )
+            .replace("epsilon = 0.015", &format!("epsilon = {}", 1.5 * h))
+            .replace("snapshots = 4", "snapshots = 0");
+        let scene = Scene::from_text(&text, None).unwrap();
+        assert!(scene.plan.names().contains(&"newmark_corrector"));
+        let run = pull(Simulation::new(&scene), scene.file.time.end);
+        check_strip(&format!("Newmark, h = {h}"), run, 0.05 * 0.01);
+    }
+}
+
+/// What the Newmark predictor–corrector runs with, each refusal naming
+/// its field: γ in [0.5, 1] and only with it; its own particle update
+/// (FLIP/PIC blend, not APIC, XPIC(1) or FMPM(1)); one velocity field (no
+/// contact groups, no explicit cracks); no phase field.
+#[test]
+fn newmark_scenes_are_validated() {
+    let newmark = |extra: &str| {
+        strip(
+            "stress_update = \"musl\"",
+            &format!("stress_update = \"newmark\"\n{extra}"),
+        )
+    };
+    let scene = Scene::from_text(&newmark("newmark_gamma = 0.6"), None).expect("γ = 0.6");
+    assert_eq!(scene.file.transfer.newmark(), Some(0.6));
+    assert_eq!(
+        Scene::from_text(&newmark(""), None)
+            .unwrap()
+            .file
+            .transfer
+            .newmark(),
+        Some(0.5)
+    );
+    refused(
+        &newmark("newmark_gamma = 0.4"),
+        &["transfer.newmark_gamma", "[0.5, 1]"],
+    );
+    refused(&newmark("newmark_gamma = 1.5"), &["transfer.newmark_gamma"]);
+    refused(
+        &strip("stress_update = \"musl\"", "newmark_gamma = 0.5"),
+        &["transfer.newmark_gamma", "stress_update = \"newmark\""],
+    );
+    refused(
+        &newmark("").replace("scheme = \"flip\"", "scheme = \"apic\""),
+        &["transfer.scheme", "own particle update"],
+    );
+    refused(
+        &newmark("").replace(
+            "material = \"weak\"",
+            "material = \"weak\"\ncontact_group = 1",
+        ),
+        &["bodies", "contact groups"],
+    );
+    refused(
+        &newmark("").replace("[output]", "[dfg]\n\n[output]"),
+        &["dfg", "one velocity field"],
+    );
+    let pf = shipped("pf_straight_crack.toml");
+    let pf = if pf.contains("[transfer]") {
+        pf.replacen("[transfer]", "[transfer]\nstress_update = \"newmark\"", 1)
+    } else {
+        format!("{pf}\n[transfer]\nstress_update = \"newmark\"\n")
+    };
+    refused(&pf, &["material", "phase field"]);
+}

@@ -71,10 +71,11 @@ fn runs_its_plan<const D: usize, const V: usize>(
 }
 
 /// A scene without fracture or contact runs the three core stages and the
-/// re-binning, nothing else; with MUSL the gather is split around the remap.
+/// re-binning, nothing else; with MUSL the gather is split around the
+/// remap; Newmark's predictor–corrector has its own five.
 #[test]
 fn a_plain_scene_runs_only_the_core_stages() {
-    let text = |musl: bool| {
+    let text = |update: &str| {
         format!(
             r#"
 [grid]
@@ -94,12 +95,12 @@ poissons_ratio = 0.3
 shape = {{ type = "box", min = [0.02, 0.02], max = [0.08, 0.08] }}
 material = "steel"
 "#,
-            if musl { "musl" } else { "usl" }
+            update
         )
     };
-    let usl = Scene::from_text(&text(false), None).unwrap();
+    let usl = Scene::from_text(&text("usl"), None).unwrap();
     assert_eq!(usl.plan.names(), ["p2g", "grid_update", "g2p", "rebin"]);
-    let musl = Scene::from_text(&text(true), None).unwrap();
+    let musl = Scene::from_text(&text("musl"), None).unwrap();
     assert_eq!(
         musl.plan.names(),
         [
@@ -112,6 +113,22 @@ material = "steel"
         ]
     );
     let mut sim = Simulation::new(&musl);
+    sim.step().unwrap();
+    assert!(sim.stage_times().stages.iter().all(|t| t.runs == 1));
+    let newmark = Scene::from_text(&text("newmark"), None).unwrap();
+    assert_eq!(
+        newmark.plan.names(),
+        [
+            "p2g",
+            "newmark_predictor",
+            "newmark_stress",
+            "newmark_force",
+            "newmark_corrector",
+            "newmark_g2p",
+            "rebin"
+        ]
+    );
+    let mut sim = Simulation::new(&newmark);
     sim.step().unwrap();
     assert!(sim.stage_times().stages.iter().all(|t| t.runs == 1));
 }

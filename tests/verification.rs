@@ -287,14 +287,14 @@ series_rows = 41
 }
 
 #[test]
-fn a_traction_edges_work_is_the_energy_it_stores_under_usl_and_musl() {
+fn a_traction_edges_work_is_the_energy_it_stores_under_usl_musl_and_newmark() {
     // A plate on a roller, pushed by 10 MPa on its right edge (ramped over
     // 0.5 ms, then held): the energy in it must be the traction's work
     // under either stress update. Counted as F·v_p Δt with the particles'
     // own FLIP velocities, MUSL's work came out 67 J/m against 105 J/m
     // stored; counted along the particles' displacement (the grid
     // velocities they move with) it is within 0.03 %.
-    for update in ["usl", "musl"] {
+    for update in ["usl", "musl", "newmark"] {
         let text = format!(
             r#"
 [grid]
@@ -337,15 +337,21 @@ series_rows = 11
 }
 
 #[test]
-fn xpic1_and_fmpm1_move_a_falling_block_second_order_where_flip_is_first() {
+fn xpic1_fmpm1_and_newmark_move_a_falling_block_second_order_where_flip_is_first() {
     // A free block under gravity and an initial velocity: the grid
     // acceleration is g everywhere, so a second-order position update
     // lands every particle on x0 + v0 t + g t²/2 to round-off; FLIP's
     // x += Δt S v̄ runs ahead by g Δt t / 2 (here ~1e-6 m). Velocities are
-    // v0 + g t for all three.
+    // v0 + g t for all four. Newmark's predictor v + Δt a/2 is the
+    // particles' rate (their first acceleration is g).
     let g = [3.0, -9.81];
     let v0 = [1.5, 2.0];
-    for (scheme, second_order) in [("flip", false), ("xpic1", true), ("fmpm1", true)] {
+    for (scheme, update, second_order) in [
+        ("flip", "usl", false),
+        ("xpic1", "usl", true),
+        ("fmpm1", "usl", true),
+        ("flip", "newmark", true),
+    ] {
         let text = format!(
             r#"
 body_force = [{}, {}]
@@ -358,6 +364,7 @@ end = 0.02
 dt = 1e-4
 [transfer]
 scheme = "{scheme}"
+stress_update = "{update}"
 [[bodies]]
 shape = {{ type = "box", min = [0.0, 0.0], max = [0.1, 0.05] }}
 material = {{ model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }}
@@ -381,14 +388,14 @@ series_rows = 2
                 worst = worst.max((p.x[k][a] - want).abs());
                 assert!(
                     (p.v[k][a] - (v0[a] + g[a] * t)).abs() < 1e-10,
-                    "{scheme}: v {:?}",
+                    "{scheme} {update}: v {:?}",
                     p.v[k]
                 );
             }
         }
-        println!("{scheme}: worst position error {worst:.3e} m at t = {t}");
+        println!("{scheme} {update}: worst position error {worst:.3e} m at t = {t}");
         if second_order {
-            assert!(worst < 1e-12, "{scheme}: position off by {worst}");
+            assert!(worst < 1e-12, "{scheme} {update}: position off by {worst}");
         } else {
             let lag = 0.5 * 9.81 * 1e-4 * t;
             assert!(

@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """Summarise and plot E1 (docs/eigen.md) from the runs docs/scripts/eigen_e1.sh
-leaves in OUT: lme/, linear/ (eigenerosion) and j/ (the explicit crack's J).
+leaves in OUT: lme/, linear/ (eigenerosion, MUSL), lme_newmark/ and
+linear_newmark/ (the same under the Newmark predictor-corrector), and j/
+(the explicit crack's J).
 The reaction per flank is the walls' work rate over their speed,
 R = (dW_ext/dt) / (2 v), from consecutive series rows; "noise" is the RMS
 of R minus its running mean over 11 rows, over the loading before the
@@ -28,7 +30,8 @@ c = sum(v / d / d for d, v in jc[-5:]) / 5
 d_griffith = (GC / c) ** 0.5
 print(f"J of the initial crack: J = {c:.4f} d^2, J = G_c at flank displacement {d_griffith:.4e}")
 curves = {}
-for k in ("linear", "lme"):
+RUNS = ("linear", "lme", "linear_newmark", "lme_newmark")
+for k in RUNS:
     r = read(k)
     t = [float(x["time"]) for x in r]
     w = [float(x["external_work"]) for x in r]
@@ -49,6 +52,8 @@ for k in ("linear", "lme"):
     W, U, K = (float(last[c]) for c in ("external_work", "strain_energy", "kinetic_energy"))
     D = float(last["fracture_energy"])
     j_onset = c * disp(t[onset]) ** 2 if onset is not None else float("nan")
+    if t[-1] < 39.99:
+        print(f"{k}: the run ended at t = {t[-1]:.2f} s (failed), its last row below")
     print(f"{k}: first erosion at t = {t[onset] if onset else float('nan'):.2f} s, flank displacement "
           f"{disp(t[onset]) if onset else float('nan'):.4e} (J there {j_onset / GC:.3f} G_c); peak reaction "
           f"{peak:.4e} at {d[ip]:.4e}; loading noise {noise:.2e} of the peak; at the end: crack length "
@@ -63,9 +68,13 @@ try:
 except ImportError:
     sys.exit("no matplotlib: the table above, no plot")
 fig, ax = plt.subplots(figsize=(7, 4.5))
-for k, col in (("linear", "tab:red"), ("lme", "tab:blue")):
+LABELS = {"linear": ("tab:red", "-", "linear hat, MUSL"), "lme": ("tab:blue", "-", "LME, γ = 3.5, MUSL"),
+          "linear_newmark": ("tab:orange", "--", "linear hat, Newmark"),
+          "lme_newmark": ("tab:cyan", "--", "LME, γ = 3.5, Newmark")}
+for k in RUNS:
     d, R = curves[k]
-    ax.plot(d, R, color=col, lw=0.9, label="linear hat" if k == "linear" else "LME, γ = 3.5")
+    col, ls, label = LABELS[k]
+    ax.plot(d, R, color=col, ls=ls, lw=0.9, label=label)
 ax.axvline(d_griffith, color="grey", ls="--", lw=0.8, label="J = G_c (explicit crack)")
 ax.set_xlabel("flank displacement (each side)")
 ax.set_ylabel("reaction per flank (per unit thickness)")

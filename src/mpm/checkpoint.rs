@@ -112,6 +112,7 @@ fn other_layout<const D: usize, const V: usize>(
             ("strength", p.strength.len()),
             ("grad_u", p.grad_u.len()),
             ("softening", p.softening.len()),
+            ("accel", p.accel.len()),
         ]
     };
     lengths(a)
@@ -258,7 +259,7 @@ mod tests {
 
     /// postcard writes no field names nor types: a file read with another
     /// layout fails to decode, or worse decodes into other values. The
-    /// header's number (`CLEAVECKPT6`) names the layout, so that older files
+    /// header's number (`CLEAVECKPT7`) names the layout, so that older files
     /// are refused as another format; this test holds the layout that
     /// number stands for (the checkpoint's types and the observers' states
     /// it carries) and fails when a saved type changes.
@@ -307,7 +308,7 @@ mod tests {
             std::fs::write(&fresh, &layout).expect("write the new layout");
             panic!(
                 "the checkpoint's saved types changed (new layout in {}): raise the number in MAGIC \
-                 (CLEAVECKPT6 -> CLEAVECKPT7, with the old header in OLDER, so that files in the old layout are refused) and replace {} with it",
+                 (CLEAVECKPT7 -> CLEAVECKPT8, with the old header in OLDER, so that files in the old layout are refused) and replace {} with it",
                 fresh.display(),
                 path.display()
             );

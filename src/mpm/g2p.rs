@@ -295,13 +295,14 @@ fn gather<
 
 /// MUSL, last pass: the velocity gradient from the remapped grid velocities
 /// at the step's start positions, the constitutive update, then the move to
-/// `x_next` and the guards.
+/// `x_next` and the guards. Newmark's stress pass is the same without the
+/// move (`x_next` None): the gradient of the predictor velocities.
 #[allow(clippy::too_many_arguments)]
 pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
     geom: &GridGeom<D>,
     parts: &mut Particles<D, V>,
     bins: &mut Bins,
-    x_next: &[[f64; D]],
+    x_next: Option<&[[f64; D]]>,
     slots: &S,
     grid: &GridFields<D>,
     mats: &[Elastic],
@@ -328,6 +329,144 @@ pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
             )
         })
         .reduce(G2pStats::default, G2pStats::merge)
+}
+
+/// Newmark's particle update (Molinos et al., eqs. 3–5; Algorithm 1, step
+/// 9, as docs/eigen.md reads it). With S the step's shape functions at the
+/// particle, v⁰ the walled predictor (`vel_old`) and v̄ the corrected nodal
+/// velocities (`vel`): a_p ← S(v̄ − v⁰)/(γ Δt), the nodal acceleration at
+/// the particle; v_p ← α (v_p + (1 − γ) Δt a_p^old + γ Δt a_p) + (1 − α) S v̄
+/// (Newmark's corrector on the particle, blended with PIC by the FLIP
+/// fraction α); x_p ← x_p + Δt S v⁰, the motion whose gradient gave the
+/// step's strain. Then the guards, as every gather ends. The stress is
+/// the stress pass's (`musl_stress` without a move).
+#[allow(clippy::too_many_arguments)]
+pub fn newmark<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &mut Particles<D, V>,
+    bins: &mut Bins,
+    slots: &S,
+    grid: &GridFields<D>,
+    mats: &[Elastic],
+    alpha: f64,
+    gamma: f64,
+    dt: f64,
+) -> G2pStats<D> {
+    let n = parts.len();
+    let pass = NewmarkPass {
+        geom,
+        mats,
+        slots,
+        vel: &grid.vel,
+        vel_old: &grid.vel_old,
+        half_size: &parts.half_size,
+        material: &parts.material,
+        stress: &parts.stress,
+        vol: &parts.vol,
+        vol0: &parts.vol0,
+        x: SyncPtr::new(&mut parts.x),
+        v: SyncPtr::new(&mut parts.v),
+        accel: SyncPtr::new(&mut parts.accel),
+        tile_of: SyncPtr::new(&mut bins.tile_of),
+        alpha,
+        gamma,
+        dt,
+    };
+    (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        // SAFETY: the chunks are disjoint.
+        .map(|c| {
+            crate::cpu::wide(
+                #[inline(always)]
+                || unsafe { newmark_chunk::<K, S, D, V>(&pass, chunk(c, n)) },
+            )
+        })
+        .reduce(G2pStats::default, G2pStats::merge)
+}
+
+/// [`newmark`]'s view of the particles and the grid.
+struct NewmarkPass<'a, S, const D: usize, const V: usize> {
+    geom: &'a GridGeom<D>,
+    mats: &'a [Elastic],
+    slots: &'a S,
+    vel: &'a [[f64; D]],
+    vel_old: &'a [[f64; D]],
+    /// GIMP half-widths (empty: a point kernel).
+    half_size: &'a [f64],
+    material: &'a [u16],
+    stress: &'a [[f64; V]],
+    vol: &'a [f64],
+    vol0: &'a [f64],
+    x: SyncPtr<'a, [f64; D]>,
+    v: SyncPtr<'a, [f64; D]>,
+    accel: SyncPtr<'a, [f64; D]>,
+    tile_of: SyncPtr<'a, u32>,
+    alpha: f64,
+    gamma: f64,
+    dt: f64,
+}
+
+/// [`newmark`] for the particles `range`.
+///
+/// # Safety
+/// No other task accesses the particles of `range`.
+#[inline(always)]
+unsafe fn newmark_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
+    s: &NewmarkPass<'_, S, D, V>,
+    range: std::ops::Range<usize>,
+) -> G2pStats<D> {
+    let (geom, dt, alpha) = (s.geom, s.dt, s.alpha);
+    let gimp = !s.half_size.is_empty();
+    let gamma_dt = s.gamma * dt;
+    let lead = (1.0 - s.gamma) * dt;
+    let mut st = G2pStats::default();
+    for p in range {
+        // SAFETY: particle p belongs to this chunk only.
+        let (xp, vp, ap) = unsafe { (s.x.at(p), s.v.at(p), s.accel.at(p)) };
+        let lp = if gimp { s.half_size[p] } else { 0.0 };
+        let mut vbar = [0.0; D];
+        let mut vpre = [0.0; D];
+        Support::<K, D>::new(geom, *xp, lp).for_each(
+            #[inline(always)]
+            |n| {
+                let k = s.slots.slot(n.node, p);
+                let (vi, vo) = (s.vel[k], s.vel_old[k]);
+                for a in 0..D {
+                    vbar[a] += n.w * vi[a];
+                    vpre[a] += n.w * vo[a];
+                }
+            },
+        );
+        let mut vnew = [0.0; D];
+        let mut moved = [0.0; D];
+        for a in 0..D {
+            let corr = vbar[a] - vpre[a]; // γ Δt a_p
+            let newmark = vp[a] + lead * ap[a] + corr;
+            vnew[a] = alpha * newmark + (1.0 - alpha) * vbar[a];
+            ap[a] = corr / gamma_dt;
+            moved[a] = xp[a] + dt * vpre[a];
+        }
+        geom.keep_inside(&mut moved, &mut vnew);
+        *xp = moved;
+        *vp = vnew;
+        let mat = &s.mats[s.material[p] as usize];
+        let j_ratio = s.vol[p] / s.vol0[p];
+        // SAFETY: as above.
+        unsafe {
+            finish(
+                geom,
+                p,
+                moved,
+                vnew,
+                s.stress[p],
+                j_ratio,
+                mat,
+                s.tile_of,
+                &mut st,
+            )
+        };
+    }
+    st
 }
 
 /// The particles of chunk `c` of `n` particles.
@@ -561,7 +700,9 @@ struct Stress<'a, S, const D: usize, const V: usize> {
     half_size: &'a [f64],
     v: &'a [[f64; D]],
     x: SyncPtr<'a, [f64; D]>,
-    x_next: &'a [[f64; D]],
+    /// Where the particles move (MUSL); None: they stay (Newmark's stress
+    /// pass, whose particles move in its last gather).
+    x_next: Option<&'a [[f64; D]]>,
 }
 
 /// [`musl_stress`] for the particles `range`.
@@ -600,7 +741,9 @@ unsafe fn stress_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize>
                 }
             },
         );
-        *xp = x_next[p];
+        if let Some(x_next) = x_next {
+            *xp = x_next[p];
+        }
         // SAFETY: as above.
         unsafe { up.particle(p, l, *xp, v[p], &mut st) };
     }

@@ -28,17 +28,12 @@ pub fn update<const D: usize>(
     m_min: f64,
 ) -> (f64, Option<(usize, f64)>) {
     let body_force = g != [0.0; D];
-    let slots = grid.mass.len();
-    let extra_runs: Vec<Range<usize>> = (extra..slots)
-        .step_by(CHUNK)
-        .map(|a| a..(a + CHUNK).min(slots))
-        .collect();
+    let runs = runs(active, extra, grid.mass.len());
     let (mass, mom, force) = (&grid.mass, &grid.momentum, &grid.force);
     let vel_old = SyncPtr::new(&mut grid.vel_old);
     let vel = SyncPtr::new(&mut grid.vel);
-    let results: Vec<(f64, Option<(usize, f64)>)> = active
+    let results: Vec<(f64, Option<(usize, f64)>)> = runs
         .par_iter()
-        .chain(extra_runs.par_iter())
         .map(|run| {
             let mut work = 0.0;
             let mut negative = None;
@@ -81,6 +76,70 @@ pub fn update<const D: usize>(
         }
     }
     (work, negative)
+}
+
+/// Newmark's corrector (Molinos et al., eq. 2; Algorithm 1, step 8) on
+/// the active nodes and the extra slots: v_i = v_i^pred + `gamma_dt`
+/// (f_i/m_i + g) with the (walled) predictor in `vel_old`; zero below
+/// `m_min`. Returns the body force's work over the step, Σ m_i g·v_i^pred
+/// Δt: the particles move by Δt Σ N v^pred, so this is the work along
+/// their displacement (and the exact kinetic-energy change of a free
+/// fall).
+pub fn correct<const D: usize>(
+    grid: &mut GridFields<D>,
+    active: &[Range<usize>],
+    extra: usize,
+    gamma_dt: f64,
+    dt: f64,
+    g: [f64; D],
+    m_min: f64,
+) -> f64 {
+    let body_force = g != [0.0; D];
+    let runs = runs(active, extra, grid.mass.len());
+    let (mass, force, vel_old) = (&grid.mass, &grid.force, &grid.vel_old);
+    let vel = SyncPtr::new(&mut grid.vel);
+    let works: Vec<f64> = runs
+        .par_iter()
+        .map(|run| {
+            let mut work = 0.0;
+            for s in run.clone() {
+                let m = mass[s];
+                let vp = vel_old[s];
+                let vn: [f64; D] = if m > m_min {
+                    let inv = 1.0 / m;
+                    if body_force {
+                        let mut gv = g[0] * vp[0];
+                        for a in 1..D {
+                            gv += g[a] * vp[a];
+                        }
+                        work += m * dt * gv;
+                    }
+                    std::array::from_fn(|a| vp[a] + gamma_dt * (force[s][a] * inv + g[a]))
+                } else {
+                    [0.0; D]
+                };
+                // SAFETY: the runs are disjoint.
+                unsafe { *vel.at(s) = vn };
+            }
+            work
+        })
+        .collect();
+    works.iter().sum()
+}
+
+/// The active runs, then the extra slots from `extra` to `slots` in
+/// chunks of [`CHUNK`] (fixed, so that the partial sums do not depend on
+/// the thread count).
+fn runs(active: &[Range<usize>], extra: usize, slots: usize) -> Vec<Range<usize>> {
+    active
+        .iter()
+        .cloned()
+        .chain(
+            (extra..slots)
+                .step_by(CHUNK)
+                .map(|a| a..(a + CHUNK).min(slots)),
+        )
+        .collect()
 }
 
 /// The constraint of one side.

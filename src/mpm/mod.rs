@@ -149,6 +149,9 @@ pub struct Simulation<const D: usize = 2, const V: usize = 3> {
     flip: f64,
     update: g2p::ParticleUpdate,
     body_force: [f64; D],
+    /// Newmark's γ under the predictor–corrector (`stress_update =
+    /// "newmark"`), else None.
+    newmark: Option<f64>,
     m_min: f64,
     time: f64,
     step: u64,
@@ -680,8 +683,16 @@ where
             let ran = 'stage: {
                 match t.stage {
                     Stage::P2g => {
-                        let mgrad = multi.is_some() && split.is_none_or(|s| s.mass_gradients());
-                        self.scatter::<K, S>(slots, mgrad, slots_n);
+                        match self.newmark {
+                            Some(gamma) => {
+                                self.scatter_predictor::<K, S>(slots, slots_n, (1.0 - gamma) * dt)
+                            }
+                            None => {
+                                let mgrad =
+                                    multi.is_some() && split.is_none_or(|s| s.mass_gradients());
+                                self.scatter::<K, S>(slots, mgrad, slots_n);
+                            }
+                        }
                         true
                     }
                     // Tractions at mid-step: the impulse of a linear ramp is then exact
@@ -721,7 +732,88 @@ where
                         }
                     }
                     Stage::GridUpdate => {
-                        self.grid_update(dt, t_bc, multi)?;
+                        self.grid_update(dt, self.body_force, t_bc, multi, true)?;
+                        true
+                    }
+                    // v = p/m without forces (Δt = 0), the walls (their
+                    // work is the corrector's), and the walled predictor
+                    // kept as the step's v⁰
+                    Stage::NewmarkPredictor => {
+                        self.grid_update(0.0, [0.0; D], t_bc, multi, false)?;
+                        let nodes = self.geom.node_count();
+                        let g = &mut self.grid;
+                        for r in &self.bins.active {
+                            g.vel_old[r.clone()].copy_from_slice(&g.vel[r.clone()]);
+                        }
+                        g.vel_old[nodes..].copy_from_slice(&g.vel[nodes..]);
+                        true
+                    }
+                    Stage::NewmarkStress => {
+                        let stats = g2p::musl_stress::<K, S, D, V>(
+                            &self.geom,
+                            &mut self.parts,
+                            &mut self.bins,
+                            None,
+                            slots,
+                            &self.grid,
+                            &self.mats,
+                            dt,
+                        );
+                        // a bad stress ends the step here; else the last
+                        // gather's guards and signal speed count
+                        if stats.bad.is_some() {
+                            self.finish_gather(dt, stats)?;
+                        }
+                        true
+                    }
+                    Stage::NewmarkForce => {
+                        let (geom, parts, bins) = (&self.geom, &self.parts, &self.bins);
+                        p2g::scatter_forces::<K, S, D, V>(geom, parts, bins, slots, &mut self.grid);
+                        true
+                    }
+                    Stage::NewmarkCorrector => {
+                        let Some(gamma) = self.newmark else {
+                            break 'stage false;
+                        };
+                        let w = grid_update::correct(
+                            &mut self.grid,
+                            &self.bins.active,
+                            self.geom.node_count(),
+                            gamma * dt,
+                            dt,
+                            self.body_force,
+                            self.m_min,
+                        );
+                        self.add_work(w);
+                        // The walls hold the node against γ Δt (f + m g) here:
+                        // that impulse over γ is the reaction's work over the
+                        // step, −Δt R·v_bc. (The predictor's wall correction
+                        // is not work: the particles never take it, their
+                        // accelerations are the walled nodes'. Newmark's
+                        // weighting (1 − γ) R_k + γ R_{k+1} differs from R_{k+1}
+                        // by a telescoping sum: one step's worth in a run.)
+                        let w = self.boundary.apply(t_bc, &mut self.grid, multi);
+                        self.add_work(w / gamma);
+                        true
+                    }
+                    Stage::NewmarkG2p => {
+                        let Some(gamma) = self.newmark else {
+                            break 'stage false;
+                        };
+                        // the particles move with the predictor
+                        self.applied_work(dt, true);
+                        let stats = g2p::newmark::<K, S, D, V>(
+                            &self.geom,
+                            &mut self.parts,
+                            &mut self.bins,
+                            slots,
+                            &self.grid,
+                            &self.mats,
+                            self.flip,
+                            gamma,
+                            dt,
+                        );
+                        moved_tile = self.finish_gather(dt, stats)?;
                         true
                     }
                     // the split's first pass; the walls come again in `contact`
@@ -764,7 +856,7 @@ where
                         true
                     }
                     Stage::G2p => {
-                        self.applied_work(dt);
+                        self.applied_work(dt, false);
                         let stats = if self.apic {
                             g2p::g2p::<K, S, true, D, V>(
                                 &self.geom,
@@ -792,7 +884,7 @@ where
                         true
                     }
                     Stage::G2pVelocity => {
-                        self.applied_work(dt);
+                        self.applied_work(dt, false);
                         self.musl_velocities::<K, S>(dt, slots, transfer);
                         true
                     }
@@ -808,7 +900,7 @@ where
                             &self.geom,
                             &mut self.parts,
                             &mut self.bins,
-                            &self.x_next,
+                            Some(&self.x_next),
                             slots,
                             &self.grid,
                             &self.mats,
@@ -885,22 +977,34 @@ where
         }
     }
 
-    /// Nodal velocities, body force, the negative-mass guard and the walls.
+    /// Newmark's predictor scatter: clears the nodes the last scatter
+    /// wrote, then the mass and the momentum of v_p + `lead` a_p.
+    fn scatter_predictor<K: Kernel, S: FieldSlots>(
+        &mut self,
+        slots: &S,
+        slots_n: usize,
+        lead: f64,
+    ) {
+        self.grid
+            .reset(self.geom.node_count(), slots_n, false, &self.written);
+        self.written.clone_from(&self.bins.active);
+        let (geom, parts, bins, grid) = (&self.geom, &self.parts, &self.bins, &mut self.grid);
+        p2g::p2g_predictor::<K, S, D, V>(geom, parts, bins, slots, grid, lead);
+    }
+
+    /// Nodal velocities, body force `g`, the negative-mass guard and the
+    /// walls, whose work counts where `wall_work`.
     fn grid_update(
         &mut self,
         dt: f64,
+        g: [f64; D],
         t_bc: f64,
         multi: Option<&MultiField>,
+        wall_work: bool,
     ) -> Result<(), SimError> {
         let nodes = self.geom.node_count();
-        let (w, negative) = grid_update::update(
-            &mut self.grid,
-            &self.bins.active,
-            nodes,
-            dt,
-            self.body_force,
-            self.m_min,
-        );
+        let (w, negative) =
+            grid_update::update(&mut self.grid, &self.bins.active, nodes, dt, g, self.m_min);
         if let Some((slot, mass)) = negative {
             let node = match multi {
                 Some(m) if slot >= nodes => m.extra_node[slot - nodes] as usize,
@@ -919,7 +1023,9 @@ where
         }
         self.add_work(w);
         let w = self.boundary.apply(t_bc, &mut self.grid, multi);
-        self.add_work(w);
+        if wall_work {
+            self.add_work(w);
+        }
         Ok(())
     }
 
@@ -1024,12 +1130,18 @@ where
     /// stored (`tests/verification.rs`). Crack-face pressures count their
     /// own work by the surfaces' velocities: they are not forces on
     /// particles, and Σ F_i·v_i over their nodes over-counts where a share
-    /// lands on a node of little field mass (docs/cracks-c3.md).
-    fn applied_work(&mut self, dt: f64) {
+    /// lands on a node of little field mass (docs/cracks-c3.md). Under
+    /// Newmark (`predictor`) the particles move with the predictor
+    /// velocities, and the work is counted along those.
+    fn applied_work(&mut self, dt: f64, predictor: bool) {
         if self.applied.is_empty() {
             return;
         }
-        let vel = &self.grid.vel;
+        let vel = if predictor {
+            &self.grid.vel_old
+        } else {
+            &self.grid.vel
+        };
         let w: f64 = self
             .applied
             .iter()

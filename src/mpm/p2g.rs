@@ -71,15 +71,7 @@ pub fn p2g<
                                 q[a] += wm * v[a];
                             }
                         }
-                        let f = force.at(slot);
-                        for a in 0..D {
-                            // (σ ∇N)_a summed over b in order from the first term
-                            let mut t = s[voigt::<D>(a, 0)] * g[0];
-                            for b in 1..D {
-                                t += s[voigt::<D>(a, b)] * g[b];
-                            }
-                            f[a] -= vol * t;
-                        }
+                        add_internal_force(force.at(slot), vol, &s, &g);
                         if MGRAD {
                             let mg = mgrad.at(slot);
                             for a in 0..D {
@@ -87,6 +79,103 @@ pub fn p2g<
                             }
                         }
                     }
+                },
+            );
+        },
+    );
+}
+
+/// Adds a particle's internal force at a node to `f`: −V σ ∇N, each
+/// component's (σ ∇N)_a summed over b in order from the first term.
+#[inline(always)]
+fn add_internal_force<const D: usize, const V: usize>(
+    f: &mut [f64; D],
+    vol: f64,
+    s: &[f64; V],
+    g: &[f64; D],
+) {
+    for a in 0..D {
+        let mut t = s[voigt::<D>(a, 0)] * g[0];
+        for b in 1..D {
+            t += s[voigt::<D>(a, b)] * g[b];
+        }
+        f[a] -= vol * t;
+    }
+}
+
+/// Newmark's predictor scatter (Molinos et al., eq. 1 and Algorithm 1,
+/// steps 1–2): the mass Σ N m_p and the momentum Σ N m_p (v_p + `lead` a_p)
+/// with `lead` = (1 − γ) Δt. No force: it comes from the stress the
+/// predictor gives ([`scatter_forces`]). `grid` must have been reset.
+/// Coloured like [`p2g`].
+pub fn p2g_predictor<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
+    bins: &Bins,
+    slots: &S,
+    grid: &mut GridFields<D>,
+    lead: f64,
+) {
+    let mass = SyncPtr::new(&mut grid.mass);
+    let mom = SyncPtr::new(&mut grid.momentum);
+    scatter_coloured::<K, D, V>(
+        geom,
+        parts,
+        bins,
+        #[inline(always)]
+        |p, sup| {
+            let m = parts.mass[p];
+            let (v, a) = (parts.v[p], parts.accel[p]);
+            let mut u = [0.0; D];
+            for c in 0..D {
+                u[c] = v[c] + lead * a[c];
+            }
+            sup.for_each(
+                #[inline(always)]
+                |n| {
+                    let slot = slots.slot(n.node, p);
+                    let wm = n.w * m;
+                    // SAFETY: coloured scatter (see `scatter_coloured`).
+                    unsafe {
+                        *mass.at(slot) += wm;
+                        let q = mom.at(slot);
+                        for c in 0..D {
+                            q[c] += wm * u[c];
+                        }
+                    }
+                },
+            );
+        },
+    );
+}
+
+/// Newmark's internal forces (Algorithm 1, step 7): −Σ_p V_p σ_p ∇N_ip
+/// of the stress the predictor gave, added to what the nodes hold (the
+/// tractions). Coloured like [`p2g`], at the positions of the step's
+/// scatter.
+pub fn scatter_forces<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
+    bins: &Bins,
+    slots: &S,
+    grid: &mut GridFields<D>,
+) {
+    check_voigt::<D, V>();
+    let force = SyncPtr::new(&mut grid.force);
+    scatter_coloured::<K, D, V>(
+        geom,
+        parts,
+        bins,
+        #[inline(always)]
+        |p, sup| {
+            let (vol, s) = (parts.vol[p], parts.stress[p]);
+            sup.for_each(
+                #[inline(always)]
+                |n| {
+                    // SAFETY: coloured scatter (see `scatter_coloured`).
+                    unsafe {
+                        add_internal_force(force.at(slots.slot(n.node, p)), vol, &s, &n.grad)
+                    };
                 },
             );
         },

@@ -52,6 +52,8 @@ where
         .map(|m| Elastic::new(&m.elastic_constants(), file.analysis.plane))
         .collect();
     let apic = file.transfer.scheme == TransferKind::Apic;
+    let newmark = file.transfer.newmark();
+    let body_force = file.body_force.get::<D>();
     let gimp = file.grid.shape_function == ShapeFunctionKind::Gimp;
     let any_linear = mats.iter().any(|m| m.model == MaterialModel::LinearElastic);
     let any_neo = mats.iter().any(|m| m.model == MaterialModel::NeoHookean);
@@ -132,6 +134,11 @@ where
             }
             if gimp {
                 parts.half_size.push(0.5 / per_dir as f64);
+            }
+            if newmark.is_some() {
+                // the stress starts at zero: the first acceleration is
+                // the body force's (a free fall then moves exactly)
+                parts.accel.push(body_force);
             }
         }
     }
@@ -223,7 +230,8 @@ where
             TransferKind::Fmpm1 => ParticleUpdate::Fmpm1,
             _ => ParticleUpdate::Blend,
         },
-        body_force: file.body_force.get::<D>(),
+        body_force,
+        newmark,
         m_min: file.guards.min_node_mass_fraction * min_mass,
         time: 0.0,
         step: 0,
@@ -283,6 +291,7 @@ fn permute<const D: usize, const V: usize>(parts: &mut Particles<D, V>, order: &
     apply(&mut parts.half_size, order);
     apply(&mut parts.damage, order);
     apply(&mut parts.strength, order);
+    apply(&mut parts.accel, order);
 }
 
 /// Surface tractions of the grid sides that ask for one, carried by the

@@ -211,6 +211,9 @@ pub(super) fn estimate(
     if file.grid.shape_function == ShapeFunctionKind::Gimp {
         per_particle += 8;
     }
+    if file.transfer.stress_update == StressUpdate::Newmark {
+        per_particle += vector; // acceleration
+    }
     let phase_field = any(&|m| m.phase_field().is_some());
     if phase_field {
         per_particle += 16; // phase, history

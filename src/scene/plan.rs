@@ -41,6 +41,10 @@ pub enum Stage {
     PhaseFieldSolve,
     /// Nodal momentum update and boundary conditions.
     GridUpdate,
+    /// Newmark's predictor (Molinos et al., Algorithm 1, steps 2–3): the
+    /// nodal velocities of the scattered Σ N m_p (v_p + (1 − γ) Δt a_p),
+    /// then the walls. Only with `stress_update = "newmark"`.
+    NewmarkPredictor,
     /// Explicit cracks' first contact pass, on the scattered momenta
     /// (Nairn & Aimene §2.1.3, after Nairn, Bardenhagen & Smith 2018): the
     /// fields' velocities p/m before the forces' increment are corrected
@@ -63,6 +67,10 @@ pub enum Stage {
     /// Modified USL, second gather: the velocity gradient from the
     /// remapped velocities, the stress, then the particle guards.
     G2pStress,
+    /// Newmark's strain and stress (Algorithm 1, steps 4–6): the velocity
+    /// gradient of the predictor velocities at the particles, which stay
+    /// where they are until the step's last gather.
+    NewmarkStress,
     /// The phase field's history H = max ψ⁺ and the degraded stress.
     PhaseFieldHistory,
     /// Damage update and tensile stress degradation (Homel & Herbold 2017,
@@ -72,6 +80,16 @@ pub enum Stage {
     /// Algorithm 2): each point's ε-neighbourhood against G_c or f_t, the
     /// softening law, and the stress the point then carries.
     Eigen,
+    /// Newmark's forces (Algorithm 1, step 7): the internal force of the
+    /// stress just computed, −Σ V_p σ_p ∇N, added to the tractions.
+    NewmarkForce,
+    /// Newmark's corrector (Algorithm 1, step 8): v_I = v_I^pred +
+    /// γ Δt (f_I/m_I + g), then the walls.
+    NewmarkCorrector,
+    /// Newmark's particle update (Algorithm 1, step 9, as docs/eigen.md
+    /// reads it): a_p, v_p and x_p from the nodal accelerations and the
+    /// predictor velocities, then the particle guards.
+    NewmarkG2p,
     /// The particles that changed tile are re-binned (a no-op when none
     /// did).
     Rebin,
@@ -93,7 +111,7 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 20] = [
+    pub const ALL: [Stage; 25] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -101,15 +119,20 @@ impl Stage {
         Stage::CrackTraction,
         Stage::PhaseFieldSolve,
         Stage::GridUpdate,
+        Stage::NewmarkPredictor,
         Stage::ContactMomenta,
         Stage::Contact,
         Stage::G2p,
         Stage::G2pVelocity,
         Stage::Remap,
         Stage::G2pStress,
+        Stage::NewmarkStress,
         Stage::PhaseFieldHistory,
         Stage::Damage,
         Stage::Eigen,
+        Stage::NewmarkForce,
+        Stage::NewmarkCorrector,
+        Stage::NewmarkG2p,
         Stage::Rebin,
         Stage::PhaseFieldStagger,
         Stage::CrackSurfaces,
@@ -130,15 +153,20 @@ impl Stage {
             Stage::CrackTraction => "crack_traction",
             Stage::PhaseFieldSolve => "phase_field_solve",
             Stage::GridUpdate => "grid_update",
+            Stage::NewmarkPredictor => "newmark_predictor",
             Stage::ContactMomenta => "contact_momenta",
             Stage::Contact => "contact",
             Stage::G2p => "g2p",
             Stage::G2pVelocity => "g2p_velocity",
             Stage::Remap => "remap",
             Stage::G2pStress => "g2p_stress",
+            Stage::NewmarkStress => "newmark_stress",
             Stage::PhaseFieldHistory => "phase_field_history",
             Stage::Damage => "damage",
             Stage::Eigen => "eigen",
+            Stage::NewmarkForce => "newmark_force",
+            Stage::NewmarkCorrector => "newmark_corrector",
+            Stage::NewmarkG2p => "newmark_g2p",
             Stage::Rebin => "rebin",
             Stage::PhaseFieldStagger => "phase_field_stagger",
             Stage::CrackSurfaces => "crack_surfaces",
@@ -221,20 +249,27 @@ impl Plan {
         let damage = uses(|m| m.damage.is_some());
         let eigen = uses(|m| m.eigen.is_some());
         let musl = file.transfer.stress_update == StressUpdate::Musl;
+        let newmark = file.transfer.stress_update == StressUpdate::Newmark;
         // the order is `Stage::ALL`'s; each stage's condition, one arm each
         let stages = Stage::ALL
             .into_iter()
             .filter(|s| match s {
                 Stage::DamageField => dfg,
                 Stage::FieldPartition | Stage::Contact => contact,
-                Stage::P2g | Stage::GridUpdate | Stage::Rebin => true,
+                Stage::P2g | Stage::Rebin => true,
+                Stage::GridUpdate => !newmark,
+                Stage::G2p => !musl && !newmark,
                 Stage::Traction => traction,
                 Stage::CrackTraction => pressure,
                 Stage::ContactMomenta => two_passes,
                 Stage::PhaseFieldSolve | Stage::PhaseFieldHistory | Stage::PhaseFieldStagger => {
                     phase_field
                 }
-                Stage::G2p => !musl,
+                Stage::NewmarkPredictor
+                | Stage::NewmarkStress
+                | Stage::NewmarkForce
+                | Stage::NewmarkCorrector
+                | Stage::NewmarkG2p => newmark,
                 Stage::G2pVelocity | Stage::Remap | Stage::G2pStress => musl,
                 Stage::Damage => damage,
                 Stage::Eigen => eigen,

@@ -472,6 +472,13 @@ pub enum StressUpdate {
     /// those; conserves energy much better at the cost of a second scatter
     /// and gather.
     Musl,
+    /// The explicit Newmark predictor–corrector of Molinos et al.
+    /// (Algorithm 1, eqs. 1–5): the nodal predictor from the particles'
+    /// v_p + (1 − γ) Δt a_p, the strain and stress from it, the force
+    /// from that stress, the corrector v_I = v_I^pred + γ Δt f_I/m_I, and
+    /// particles that carry their acceleration. Single velocity field
+    /// only (no contact, explicit cracks, partitioning or phase field).
+    Newmark,
 }
 
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -484,7 +491,23 @@ pub struct TransferSpec {
     pub flip_blend: f64,
     #[serde(default)]
     pub stress_update: StressUpdate,
+    /// Newmark's γ for `stress_update = "newmark"`, in [0.5, 1] (default
+    /// 0.5: second order, no numerical damping; above it damps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub newmark_gamma: Option<f64>,
 }
+
+impl TransferSpec {
+    /// Newmark's γ when the stress update is the predictor–corrector.
+    pub fn newmark(&self) -> Option<f64> {
+        (self.stress_update == StressUpdate::Newmark)
+            .then(|| self.newmark_gamma.unwrap_or(NEWMARK_GAMMA_DEFAULT))
+    }
+}
+
+/// Newmark's γ unless the scene gives one: the average-acceleration
+/// value, second order and without numerical damping.
+pub const NEWMARK_GAMMA_DEFAULT: f64 = 0.5;
 
 impl Default for TransferSpec {
     fn default() -> Self {
@@ -492,6 +515,7 @@ impl Default for TransferSpec {
             scheme: TransferKind::Flip,
             flip_blend: default_flip_blend(),
             stress_update: StressUpdate::Usl,
+            newmark_gamma: None,
         }
     }
 }

@@ -386,6 +386,7 @@ impl Scene {
             );
         }
         check_contact(&mut c, &file.contact, &groups);
+        check_newmark(&mut c, &file, groups.len());
         let eigen_body = file.bodies.iter().position(|b| {
             file.material_of(&b.material)
                 .is_some_and(|m| m.eigen.is_some())
@@ -848,6 +849,72 @@ fn check_time(c: &mut Checker, t: &TimeSpec) {
     }
     if t.max_steps == Some(0) {
         c.err("time.max_steps", "must be >= 1, got 0");
+    }
+}
+
+/// The Newmark predictor–corrector's γ and what it runs with: one
+/// velocity field (its corrector has no contact pass), no phase field
+/// (whose stagger re-solves on the step's own nodal state), and the
+/// particle update of its own (PIC/FLIP blend only: APIC, XPIC(1) and
+/// FMPM(1) are other particle updates).
+fn check_newmark(c: &mut Checker, file: &SceneFile, groups: usize) {
+    let t = &file.transfer;
+    let Some(gamma) = t.newmark() else {
+        if t.newmark_gamma.is_some() {
+            c.err(
+                "transfer.newmark_gamma",
+                "is the Newmark predictor-corrector's gamma: give it with stress_update = \"newmark\" or remove it",
+            );
+        }
+        return;
+    };
+    let why = "the Newmark predictor-corrector (transfer.stress_update = \"newmark\")";
+    if c.finite("transfer.newmark_gamma", gamma) && !(0.5..=1.0).contains(&gamma) {
+        c.err(
+            "transfer.newmark_gamma",
+            format!("must be in [0.5, 1], got {gamma}: below 0.5 the explicit scheme amplifies every mode, 0.5 is second order, above it damps"),
+        );
+    }
+    if matches!(
+        t.scheme,
+        TransferKind::Apic | TransferKind::Xpic1 | TransferKind::Fmpm1
+    ) {
+        c.err(
+            "transfer.scheme",
+            format!("{why} has its own particle update (blended with PIC by flip_blend): use scheme = \"flip\" or \"pic\""),
+        );
+    }
+    if groups > 1 {
+        c.err(
+            "bodies",
+            format!("{why} runs one velocity field; these bodies are in {groups} contact groups: put them in one group or use usl or musl"),
+        );
+    }
+    if file.dfg.is_some() {
+        c.err(
+            "dfg",
+            format!("{why} runs one velocity field, without partitioning: use usl or musl"),
+        );
+    }
+    if let Some(b) = file
+        .bodies
+        .iter()
+        .position(|b| !b.explicit_cracks.is_empty())
+    {
+        c.err(
+            &format!("bodies[{b}].explicit_cracks"),
+            format!("{why} runs one velocity field, without crack fields: use usl or musl"),
+        );
+    }
+    if let Some(b) = file
+        .bodies
+        .iter()
+        .position(|b| phase_field_of(file, &b.material).is_some())
+    {
+        c.err(
+            &format!("bodies[{b}].material"),
+            format!("{why} does not run the phase field (its staggered solves are written for usl and musl): use usl or musl"),
+        );
     }
 }
 
