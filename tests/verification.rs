@@ -477,3 +477,102 @@ fn every_shipped_scene_is_valid() {
     }
     assert!(n >= 17, "only {n} scenes found in {}", dir.display());
 }
+
+#[test]
+fn wall_reactions_and_body_momenta_balance_the_momentum() {
+    // Two blocks in one velocity field fall under gravity onto a fixed
+    // floor: each step the walls' forces times Δt plus the weight's
+    // impulse is the change of the total momentum (pure FLIP conserves it
+    // to round-off on the grid; under Newmark the step's impulse is
+    // Δt((1 − γ)R_k + γR_{k+1}), the force it reports being R_{k+1}), and
+    // the bodies' momenta sum to the total.
+    for update in ["usl", "musl", "newmark"] {
+        let text = format!(
+            r#"
+body_force = [0.0, -9.81]
+[grid]
+cell_size = 0.01
+min = [0.0, 0.0]
+max = [0.3, 0.2]
+[grid.boundary]
+bottom = "fixed"
+left = "roller"
+[time]
+end = 0.02
+cfl = 0.4
+[transfer]
+flip_blend = 1.0
+stress_update = "{update}"
+[[bodies]]
+name = "lower"
+shape = {{ type = "box", min = [0.0, 0.0], max = [0.1, 0.05] }}
+material = {{ model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }}
+velocity = [0.5, -1.0]
+[[bodies]]
+shape = {{ type = "box", min = [0.0, 0.05], max = [0.1, 0.1] }}
+material = {{ model = "linear_elastic", density = 2000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3 }}
+velocity = [0.5, -1.0]
+[output]
+reactions = true
+body_momenta = true
+"#
+        );
+        let scene = Scene::from_text(&text, None).unwrap();
+        let mut sim = Simulation::new(&scene);
+        let cols = sim.series_columns();
+        for name in [
+            "reaction_left_x",
+            "reaction_left_y",
+            "reaction_bottom_x",
+            "reaction_bottom_y",
+            "momentum_y_lower",
+            "momentum_x_b1",
+        ] {
+            assert!(
+                cols.iter().any(|c| c == name),
+                "{update}: no {name} in {cols:?}"
+            );
+        }
+        let r0 = sim.row();
+        let mass = r0.total_mass;
+        let mut p = [r0.momentum_x, r0.momentum_y];
+        let (mut worst, mut scale): (f64, f64) = (0.0, 0.0);
+        let mut pushed = 0.0;
+        let mut before = [0.0; 2];
+        let gamma = if update == "newmark" { 0.5 } else { 1.0 };
+        while sim.time() < scene.file.time.end {
+            let t0 = sim.time();
+            sim.step().unwrap();
+            let dt = sim.time() - t0;
+            let r = sim.row();
+            let get = |n: &str| r.get(&cols, n).unwrap();
+            let walls = [
+                get("reaction_left_x") + get("reaction_bottom_x"),
+                get("reaction_left_y") + get("reaction_bottom_y"),
+            ];
+            let now = [r.momentum_x, r.momentum_y];
+            let weight = [0.0, -9.81 * mass];
+            for a in 0..2 {
+                let impulse = (1.0 - gamma) * before[a] + gamma * walls[a];
+                let want = p[a] + (impulse + weight[a]) * dt;
+                worst = worst.max((now[a] - want).abs());
+                scale = scale.max(now[a].abs());
+            }
+            pushed = f64::max(pushed, get("reaction_bottom_y"));
+            let bodies = get("momentum_y_lower") + get("momentum_y_b1");
+            assert!(
+                (bodies - r.momentum_y).abs() <= 1e-12 * r.momentum_y.abs().max(1e-9),
+                "{update}: bodies {bodies} vs total {}",
+                r.momentum_y
+            );
+            p = now;
+            before = walls;
+        }
+        println!("{update}: worst momentum balance error {worst:.2e} kg m/s of {scale:.2e}, floor's largest push {pushed:.3} N");
+        assert!(
+            pushed > 9.81 * mass,
+            "{update}: the floor never stopped the blocks"
+        );
+        assert!(worst < 1e-9 * scale, "{update}: momentum off by {worst}");
+    }
+}

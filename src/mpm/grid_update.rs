@@ -156,6 +156,8 @@ enum Constraint {
 #[derive(Debug, Clone, Default)]
 pub struct Boundary {
     sides: Vec<(Constraint, Vec<u32>)>,
+    /// The scene's name of each side in `sides` (`left`, …, `front`).
+    names: Vec<&'static str>,
 }
 
 impl Boundary {
@@ -180,7 +182,9 @@ impl Boundary {
                 .map(|k| k as u32)
                 .collect()
         };
+        const NAMES: [&str; 6] = ["left", "right", "bottom", "top", "back", "front"];
         let mut sides = Vec::new();
+        let mut names = Vec::new();
         for (k, cond) in conds.into_iter().enumerate().take(2 * D) {
             let normal_axis = k / 2;
             let c = match cond {
@@ -192,8 +196,9 @@ impl Boundary {
                 }
             };
             sides.push((c, side_nodes(normal_axis, k % 2 == 1)));
+            names.push(NAMES[k]);
         }
-        Boundary { sides }
+        Boundary { sides, names }
     }
 
     /// Imposes the conditions at time `t` on the new velocities of every
@@ -206,9 +211,30 @@ impl Boundary {
         grid: &mut GridFields<D>,
         multi: Option<&MultiField>,
     ) -> f64 {
+        self.apply_measured(t, grid, multi, &mut [])
+    }
+
+    /// The names of the constrained sides, in the order of the impulses
+    /// [`Boundary::apply_measured`] reports.
+    pub fn names(&self) -> &[&'static str] {
+        &self.names
+    }
+
+    /// [`Boundary::apply`], adding each constrained side's impulse on the
+    /// material, Σ m (v_bc − v) over its nodes (N·s: the wall's force times
+    /// the step), to `impulses` (one per side in [`Boundary::names`]'
+    /// order, or empty: not measured).
+    pub fn apply_measured<const D: usize>(
+        &self,
+        t: f64,
+        grid: &mut GridFields<D>,
+        multi: Option<&MultiField>,
+        impulses: &mut [[f64; D]],
+    ) -> f64 {
         let nodes = grid.mass.len() - multi.map_or(0, |m| m.extra_node.len());
         let mut work = 0.0;
-        for (c, list) in &self.sides {
+        for (k, (c, list)) in self.sides.iter().enumerate() {
+            let mut impulse = [0.0; D];
             let target: [Option<f64>; D] = match c {
                 Constraint::Fixed => [Some(0.0); D],
                 Constraint::Roller(a) => {
@@ -233,9 +259,15 @@ impl Boundary {
                             // the node moves at v_bc throughout the step, so the
                             // constraint's power is R·v_bc with R Δt = m (v_bc − v)
                             work += m * (vb - v[a]) * vb;
+                            impulse[a] += m * (vb - v[a]);
                             v[a] = vb;
                         }
                     }
+                }
+            }
+            if let Some(i) = impulses.get_mut(k) {
+                for a in 0..D {
+                    i[a] += impulse[a];
                 }
             }
         }

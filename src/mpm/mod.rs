@@ -152,6 +152,12 @@ pub struct Simulation<const D: usize = 2, const V: usize = 3> {
     /// Newmark's γ under the predictor–corrector (`stress_update =
     /// "newmark"`), else None.
     newmark: Option<f64>,
+    /// With `[output] reactions`: each constrained side's force on the
+    /// material over the last step, N (in `Boundary::names`' order); else
+    /// empty.
+    reactions: Vec<[f64; D]>,
+    /// Scratch for the sides' impulses (as `reactions`).
+    impulses: Vec<[f64; D]>,
     m_min: f64,
     time: f64,
     step: u64,
@@ -255,6 +261,7 @@ where
         if D == 3 {
             c.extend(COLUMNS_3D.iter().map(|s| s.to_string()));
         }
+        c.extend(self.measured_columns());
         let mut out = SeriesOut::declare();
         let (at, models) = self.reporting(0.0);
         for m in models {
@@ -262,6 +269,47 @@ where
         }
         c.extend(out.names());
         c
+    }
+
+    /// The columns `[output] reactions` and `body_momenta` ask for: each
+    /// constrained side's force, then each body's momentum (a body by its
+    /// name, or `b<index>` without one).
+    fn measured_columns(&self) -> Vec<String> {
+        const AXES: [&str; 3] = ["x", "y", "z"];
+        let mut c = Vec::new();
+        if !self.reactions.is_empty() {
+            for side in self.boundary.names() {
+                c.extend(AXES[..D].iter().map(|a| format!("reaction_{side}_{a}")));
+            }
+        }
+        if self.scene.file.output.body_momenta {
+            for (i, b) in self.scene.file.bodies.iter().enumerate() {
+                let name = if b.name.is_empty() {
+                    format!("b{i}")
+                } else {
+                    b.name.clone()
+                };
+                c.extend(AXES[..D].iter().map(|a| format!("momentum_{a}_{name}")));
+            }
+        }
+        c
+    }
+
+    /// The values of [`Simulation::measured_columns`], in their order.
+    fn measured_values(&self) -> Vec<f64> {
+        let mut v: Vec<f64> = self.reactions.iter().flatten().copied().collect();
+        if self.scene.file.output.body_momenta {
+            let p = &self.parts;
+            let mut per_body = vec![[0.0; D]; self.scene.file.bodies.len()];
+            for k in 0..p.len() {
+                let b = &mut per_body[p.body[k] as usize];
+                for a in 0..D {
+                    b[a] += p.mass[k] * p.v[k][a];
+                }
+            }
+            v.extend(per_body.iter().flatten());
+        }
+        v
     }
 
     /// The scene's fracture models, read-only.
@@ -792,7 +840,7 @@ where
                         // accelerations are the walled nodes'. Newmark's
                         // weighting (1 − γ) R_k + γ R_{k+1} differs from R_{k+1}
                         // by a telescoping sum: one step's worth in a run.)
-                        let w = self.boundary.apply(t_bc, &mut self.grid, multi);
+                        let w = self.walls(t_bc, multi, gamma * dt, true);
                         self.add_work(w / gamma);
                         true
                     }
@@ -851,7 +899,7 @@ where
                             self.contact_steps += 1;
                         }
                         // contact must not undo the walls
-                        let w = self.boundary.apply(t_bc, &mut self.grid, multi);
+                        let w = self.walls(t_bc, multi, dt, false);
                         self.add_work(w);
                         true
                     }
@@ -1022,11 +1070,37 @@ where
             });
         }
         self.add_work(w);
-        let w = self.boundary.apply(t_bc, &mut self.grid, multi);
         if wall_work {
+            let w = self.walls(t_bc, multi, dt, true);
             self.add_work(w);
+        } else {
+            self.boundary.apply(t_bc, &mut self.grid, multi);
         }
         Ok(())
+    }
+
+    /// The walls at `t_bc`, returning their work; with `[output]
+    /// reactions`, each side's impulse over `span` (the step, or the share
+    /// of it the impulse stands for) is its force, put in
+    /// `self.reactions` (`fresh`: the step's first imposition) or added to
+    /// it.
+    fn walls(&mut self, t_bc: f64, multi: Option<&MultiField>, span: f64, fresh: bool) -> f64 {
+        if self.reactions.is_empty() {
+            return self.boundary.apply(t_bc, &mut self.grid, multi);
+        }
+        let mut imp = std::mem::take(&mut self.impulses);
+        imp.fill([0.0; D]);
+        let w = self
+            .boundary
+            .apply_measured(t_bc, &mut self.grid, multi, &mut imp);
+        for (r, i) in self.reactions.iter_mut().zip(&imp) {
+            for a in 0..D {
+                let f = i[a] / span;
+                r[a] = if fresh { f } else { r[a] + f };
+            }
+        }
+        self.impulses = imp;
+        w
     }
 
     /// After the gather that moves the particles: the clock advances, then
@@ -1192,6 +1266,9 @@ where
         } else {
             m.angular[2]
         };
+        // the measured columns after the 3D ones, before the models'
+        let at = if D == 3 { 4 } else { 0 };
+        extra.splice(at..at, self.measured_values());
         let fracture_energy = fracture_energy.unwrap_or(0.0);
         let e = m.kinetic + m.strain;
         let row = SeriesRow {

@@ -205,9 +205,15 @@ where
         }
     }
     let tractions = Tractions::<D>::new(scene, &parts);
+    let boundary = Boundary::new(&geom, &file.grid.boundary);
+    let sides = if file.output.reactions {
+        boundary.names().len()
+    } else {
+        0
+    };
     Simulation {
         scene: scene.clone(),
-        boundary: Boundary::new(&geom, &file.grid.boundary),
+        boundary,
         geom,
         mats,
         grid: GridFields::default(),
@@ -232,6 +238,8 @@ where
         },
         body_force,
         newmark,
+        reactions: vec![[0.0; D]; sides],
+        impulses: vec![[0.0; D]; sides],
         m_min: file.guards.min_node_mass_fraction * min_mass,
         time: 0.0,
         step: 0,

@@ -727,6 +727,19 @@ pub struct OutputSpec {
     /// for the fragment count (connected components, Homel & Herbold 2017, section 3.4).
     #[serde(default = "default_fragment_damage")]
     pub fragment_damage: f64,
+    /// Series columns `reaction_<side>_<axis>`: the force each
+    /// constrained grid side exerts on the material over the row's step,
+    /// N (its constraint impulse over Δt).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub reactions: bool,
+    /// Series columns `momentum_<axis>_<body>`: each body's momentum,
+    /// kg·m/s (its rate is the force on the body: an impactor's force).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub body_momenta: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 impl Default for OutputSpec {
@@ -736,6 +749,8 @@ impl Default for OutputSpec {
             snapshots: default_snapshots(),
             grid_fields: true,
             fragment_damage: default_fragment_damage(),
+            reactions: false,
+            body_momenta: false,
         }
     }
 }

@@ -919,6 +919,18 @@ fn check_newmark(c: &mut Checker, file: &SceneFile, groups: usize) {
 }
 
 fn check_output_and_guards(c: &mut Checker, file: &SceneFile) {
+    if file.output.body_momenta {
+        // each body's columns are named by the body: names must tell them apart
+        let mut seen = std::collections::BTreeSet::new();
+        for (i, b) in file.bodies.iter().enumerate() {
+            if !b.name.is_empty() && !seen.insert(b.name.as_str()) {
+                c.err(
+                    &format!("bodies[{i}].name"),
+                    format!("`{}` names another body too, and output.body_momenta names each body's columns by it: give the bodies distinct names", b.name),
+                );
+            }
+        }
+    }
     let pf = &file.phase_field_solver;
     if c.finite("phase_field_solver.tolerance", pf.tolerance)
         && !(pf.tolerance > 0.0 && pf.tolerance < 1.0)
