@@ -16,7 +16,8 @@ curves = {}
 for k in runs:
     r = list(csv.DictReader(open(f"{out}/{k}/series.csv")))
     t = [float(x["time"]) for x in r]
-    p = [float(x["momentum_y_hammer"]) for x in r]
+    # the hammer, and its weight where the variant makes it a body of its own
+    p = [float(x["momentum_y_hammer"]) + float(x.get("momentum_y_weight", 0.0)) for x in r]
     # the beam pushes the falling hammer up: its momentum (negative) rises
     f = [(p[i + 1] - p[i - 1]) / (t[i + 1] - t[i - 1]) for i in range(1, len(t) - 1)]
     tf = t[1:-1]
