@@ -90,7 +90,15 @@ fn eigen_scenes_are_validated() {
 /// the mean axial stress, Pa, the energy dissipated, J, and the energy
 /// balance at the end, J.
 fn strip_run(h: f64) -> (f64, f64, f64) {
-    let text = strip("cell_size = 0.01", &format!("cell_size = {h}"))
+    let scene = Scene::from_text(&strip_at(shipped("eigen_strip.toml"), h), None).unwrap();
+    pull(Simulation::new(&scene), scene.file.time.end)
+}
+
+/// The strip scene `text` at cell size `h`: the weak row one cell high,
+/// ε = 1.5 h, no snapshots.
+fn strip_at(text: String, h: f64) -> String {
+    assert!(text.contains("cell_size = 0.01"));
+    text.replace("cell_size = 0.01", &format!("cell_size = {h}"))
         .replace(
             "min = [0.0, 0.1], max = [0.05, 0.11]",
             &format!("min = [0.0, 0.1], max = [0.05, {}]", 0.1 + h),
@@ -100,9 +108,7 @@ fn strip_run(h: f64) -> (f64, f64, f64) {
             &format!("min = [0.0, {}], max = [0.05, 0.2]", 0.1 + h),
         )
         .replace("epsilon = 0.015", &format!("epsilon = {}", 1.5 * h))
-        .replace("snapshots = 4", "snapshots = 0");
-    let scene = Scene::from_text(&text, None).unwrap();
-    pull(Simulation::new(&scene), scene.file.time.end)
+        .replace("snapshots = 4", "snapshots = 0")
 }
 
 /// Runs `sim` to `end`: the peak of the mean axial stress (the volume
@@ -200,19 +206,10 @@ fn the_strip_in_3d_peaks_at_its_strength_and_dissipates_gf() {
 #[test]
 fn the_strip_under_newmark_peaks_at_its_strength_and_dissipates_gf() {
     for h in [0.01, 0.005] {
-        let text = strip("stress_update = \"musl\"", "stress_update = \"newmark\"");
-        let text = text
-            .replace("cell_size = 0.01", &format!("cell_size = {h}"))
-            .replace(
-                "min = [0.0, 0.1], max = [0.05, 0.11]",
-                &format!("min = [0.0, 0.1], max = [0.05, {}]", 0.1 + h),
-            )
-            .replace(
-                "min = [0.0, 0.11], max = [0.05, 0.2]",
-                &format!("min = [0.0, {}], max = [0.05, 0.2]", 0.1 + h),
-            )
-            .replace("epsilon = 0.015", &format!("epsilon = {}", 1.5 * h))
-            .replace("snapshots = 4", "snapshots = 0");
+        let text = strip_at(
+            strip("stress_update = \"musl\"", "stress_update = \"newmark\""),
+            h,
+        );
         let scene = Scene::from_text(&text, None).unwrap();
         assert!(scene.plan.names().contains(&"newmark_corrector"));
         let run = pull(Simulation::new(&scene), scene.file.time.end);
