@@ -10,6 +10,7 @@ pub mod checkpoint;
 pub mod contact;
 pub mod cpu;
 pub mod diagnostics;
+pub mod dpm;
 pub mod fracture;
 pub mod geometry;
 pub mod grid;
