@@ -9,6 +9,7 @@
 //! scene section, time stepping, boundary conditions, damage with the
 //! energy regularisation) comes next; docs/dpm.md keeps the record.
 
+pub mod damage;
 pub mod explicit;
 pub mod rk;
 pub mod scni;
