@@ -11,9 +11,10 @@
 //! - the run seam (`run.rs`: the `Method` trait and what methods share)
 //!   knows no method either; `methods.rs` is the one place that names
 //!   them;
-//! - a method (the grid MPM) knows nothing of who drives it;
+//! - a method (the grid MPM, the damage particle method) knows nothing of
+//!   who drives it, nor of the other method;
 //! - the drivers (jobs, the service, studies) build methods through
-//!   `methods.rs`, never the grid MPM itself.
+//!   `methods.rs`, never a method itself.
 //!
 //! A source check rather than a compiler one: the modules are one crate,
 //! so only reading their files shows which way an import points.
@@ -39,6 +40,7 @@ const LAYERS: &[(&str, &[&str], &[&str])] = &[
         &[
             "scene",
             "mpm",
+            "dpm",
             "fracture",
             "run",
             "methods",
@@ -53,7 +55,7 @@ const LAYERS: &[(&str, &[&str], &[&str])] = &[
         "fracture models",
         &["src/fracture"],
         &[
-            "mpm", "run", "methods", "output", "study", "jobs", "service",
+            "mpm", "dpm", "run", "methods", "output", "study", "jobs", "service",
         ],
     ),
     (
@@ -69,12 +71,17 @@ const LAYERS: &[(&str, &[&str], &[&str])] = &[
     (
         "methods",
         &["src/mpm"],
-        &["methods", "study", "jobs", "service"],
+        &["dpm", "methods", "study", "jobs", "service"],
+    ),
+    (
+        "the damage particle method (a method beside the grid MPM)",
+        &["src/dpm"],
+        &["mpm", "fracture", "methods", "study", "jobs", "service"],
     ),
     (
         "drivers",
         &["src/jobs", "src/service", "src/study.rs"],
-        &["mpm"],
+        &["mpm", "dpm"],
     ),
 ];
 

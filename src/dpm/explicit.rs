@@ -456,6 +456,8 @@ mod tests {
         u_zero: f64,
         work: f64,
         damaged: usize,
+        /// (u, F) every 20 steps.
+        curve: Vec<(f64, f64)>,
     }
 
     /// The bar: L = 100, A = 10, E = 2e6, ν = 0, G_F = 1.885, f_t = 200,
@@ -468,7 +470,9 @@ mod tests {
         a[0] <= 50.0 + 1e-9 && b[0] >= 50.0 - 1e-9
     }
 
-    fn bar(nodes: usize, regularised: bool) -> BarResult {
+    /// `one_column`: only the cells right of the plane are weak (and
+    /// candidates).
+    fn bar(nodes: usize, regularised: bool, one_column: bool) -> BarResult {
         let (l, area, e, f_t, g_f, rho) = (100.0f64, 10.0f64, 2.0e6f64, 200.0f64, 1.885f64, 1.0f64);
         let nx = nodes - 1;
         let s = l / nx as f64;
@@ -501,7 +505,12 @@ mod tests {
         );
         let mut run = Explicit::<2, 3>::new(scni, vol, vec![0; n], vec![m]);
         let k0 = f_t / e;
-        let weak: Vec<bool> = lo.iter().zip(&hi).map(|(a, b)| weak_of(a, b)).collect();
+        let weak: Vec<bool> = lo
+            .iter()
+            .zip(&hi)
+            .zip(&x)
+            .map(|((a, b), p)| weak_of(a, b) && !(one_column && p[0] < 50.0))
+            .collect();
         let kappa_0 = weak
             .iter()
             .map(|&w| if w { 0.999 * k0 } else { k0 })
@@ -558,6 +567,7 @@ mod tests {
         let steps = ((0.022 / speed + 15.0 * l / c) / dt).ceil() as usize;
         let (mut peak, mut work, mut u_zero) = (0.0f64, 0.0, f64::NAN);
         let (mut u_prev, mut f_prev) = (0.0, 0.0);
+        let mut curve = vec![];
         // the speed ramps up over 30 transits, so that the bar does not
         // ring by more than the weak plane's 0.1 %
         let ramp = 30.0 * l / c;
@@ -580,6 +590,9 @@ mod tests {
                 u_zero = u;
             }
             (u_prev, f_prev) = (u, f);
+            if k % 20 == 0 {
+                curve.push((u, f));
+            }
         }
         let st = run.damage.as_ref().unwrap();
         let damaged = st.damage.iter().filter(|&&d| d > 0.0).count();
@@ -588,6 +601,7 @@ mod tests {
             u_zero,
             work,
             damaged,
+            curve,
         }
     }
 
@@ -598,7 +612,7 @@ mod tests {
         // whatever the spacing; unregularised, the work falls with it
         let mut unreg = vec![];
         for nodes in [16, 64] {
-            let r = bar(nodes, true);
+            let r = bar(nodes, true, false);
             eprintln!(
                 "{nodes} nodes: peak {:.2}, u at F = 0 {:.5e}, work {:.4}, {} damaged",
                 r.peak, r.u_zero, r.work, r.damaged
@@ -608,7 +622,7 @@ mod tests {
             assert!((r.peak / 2000.0 - 1.0).abs() < 5e-3, "peak {}", r.peak);
             assert!((r.u_zero / 1.885e-2 - 1.0).abs() < 5e-3, "u {}", r.u_zero);
             assert!((r.work / 18.85 - 1.0).abs() < 5e-3, "work {}", r.work);
-            let u = bar(nodes, false);
+            let u = bar(nodes, false, false);
             eprintln!(
                 "  unregularised: u at F = 0 {:.5e}, work {:.4}",
                 u.u_zero, u.work
@@ -617,5 +631,51 @@ mod tests {
         }
         // κ_c of the 16-node cell: the same there, 46 % less at 64 nodes
         assert!(unreg[1] < 0.6 * unreg[0], "{unreg:?}");
+    }
+
+    #[test]
+    fn a_crack_through_one_column_of_cells_does_not_cut_the_bar() {
+        // one-point SCNI on a lattice: cell i's strain takes the
+        // coefficients of columns i − 1 and i + 1 (its face values are
+        // averages), so the odd and the even columns form two chains and a
+        // broken cell cuts one of them; the other carries the load on,
+        // elastic, past f_t A (docs/dpm.md)
+        let r = bar(16, true, true);
+        assert_eq!(r.damaged, 3);
+        assert!(r.u_zero.is_nan(), "the force never fell");
+        assert!(r.peak > 2000.0 * 1.05, "peak {}", r.peak);
+    }
+
+    /// The bar at the paper's four resolutions, regularised and not, with
+    /// its force–displacement curves written to `$DPM_BAR_CSV` (default
+    /// `target/dpm-bar.csv`): `cargo test --release --lib
+    /// dpm::explicit::tests::the_bar_at_four_resolutions -- --ignored
+    /// --nocapture`, then `python3 docs/scripts/dpm_bar.py` (docs/dpm.md).
+    #[test]
+    #[ignore]
+    fn the_bar_at_four_resolutions() {
+        use std::io::Write;
+        let path = std::env::var("DPM_BAR_CSV").unwrap_or_else(|_| "target/dpm-bar.csv".into());
+        let mut out = std::fs::File::create(&path).unwrap();
+        writeln!(out, "nodes,regularised,u,force").unwrap();
+        for nodes in [16, 32, 64, 128] {
+            for regularised in [true, false] {
+                let r = bar(nodes, regularised, false);
+                println!(
+                    "{nodes:4} nodes, {}: peak {:.2}, u at F = 0 {:.5e} ({:+.2} %), work {:.4} ({:+.2} %), {} damaged",
+                    if regularised { "regularised  " } else { "unregularised" },
+                    r.peak,
+                    r.u_zero,
+                    100.0 * (r.u_zero / 1.885e-2 - 1.0),
+                    r.work,
+                    100.0 * (r.work / 18.85 - 1.0),
+                    r.damaged
+                );
+                for (u, f) in &r.curve {
+                    writeln!(out, "{nodes},{},{u:.6e},{f:.6e}", regularised as u8).unwrap();
+                }
+            }
+        }
+        println!("curves in {path}");
     }
 }

@@ -4,10 +4,12 @@
 //! ([`scni`]). It has no background grid (no P2G or G2P) and plugs in at
 //! the method seam ([`crate::run::Method`]) beside the grid MPM.
 //!
-//! Built so far (issue 35's first slice): the discretisation, verified by
-//! the reproducing conditions and the patch test. The method itself (its
-//! scene section, time stepping, boundary conditions, damage with the
-//! energy regularisation) comes next; docs/dpm.md keeps the record.
+//! Built so far (issue 35's first slices): the discretisation, verified by
+//! the reproducing conditions and the patch test; explicit central
+//! differences ([`explicit`]) with held particles (singular kernels) and
+//! the damage of [`damage`] with its energy regularisation, verified on
+//! the paper's bar. Its scene section and its `Method` come next;
+//! docs/dpm.md keeps the record.
 
 pub mod damage;
 pub mod explicit;
