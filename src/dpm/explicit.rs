@@ -16,7 +16,7 @@
 
 use super::damage::{ahead, chord_2d, damage, mazars, regularised_kappa_c, section_3d};
 use super::scni::Scni;
-use crate::material::Elastic;
+use crate::material::{Elastic, PlaneKind};
 use crate::tensor::{check_voigt, contract, resize, sym_eigen3};
 use rayon::prelude::*;
 
@@ -195,7 +195,16 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
             let Some(p) = params[self.material[l] as usize] else {
                 continue;
             };
-            let eq = mazars(&self.strain[l], 0.0);
+            let m = &self.materials[self.material[l] as usize];
+            // plane stress stretches or squeezes the thickness:
+            // ε_zz = −ν/(1 − ν)(ε_xx + ε_yy); plane strain and 3D: none
+            let e = &self.strain[l];
+            let e_zz = if D == 2 && m.plane == PlaneKind::PlaneStress {
+                -m.poissons_ratio / (1.0 - m.poissons_ratio) * (e[0] + e[1])
+            } else {
+                0.0
+            };
+            let eq = mazars(e, e_zz);
             if st.kappa_c[l] == 0.0 {
                 if !st.candidate[l] || eq < st.kappa_0[l] {
                     continue;
@@ -269,8 +278,10 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
         self.accelerations();
         self.kick(0.5 * dt);
         if self.damage.is_some() {
-            let params = self.damage_params.clone();
+            // the parameters lent out while the state changes (no copy)
+            let params = std::mem::take(&mut self.damage_params);
             self.track(|m| params[m as usize].map_or(0.0, |p| p.tol));
+            self.damage_params = params;
         }
     }
 
@@ -331,7 +342,7 @@ fn hooke<const D: usize, const V: usize>(m: &Elastic, e: [f64; V]) -> [f64; V] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::{ElasticConstants, MaterialModel, PlaneKind};
+    use crate::material::{ElasticConstants, MaterialModel};
 
     /// A column of material in uniaxial strain: nodes on the vertices of
     /// [0, L] × [0, H], rollers on the left (x held) and on the top and
@@ -677,5 +688,73 @@ mod tests {
             }
         }
         println!("curves in {path}");
+    }
+
+    #[test]
+    fn plane_stress_counts_the_thickness_stretch() {
+        // biaxial compression in plane stress stretches the thickness,
+        // ε_zz = −ν/(1 − ν)(ε_xx + ε_yy) = ⅔ ε at ν = ¼: Mazars counts it
+        // and damage starts; in plane strain it does not
+        for (plane, starts) in [
+            (PlaneKind::PlaneStress, true),
+            (PlaneKind::PlaneStrain, false),
+        ] {
+            let s = 1.0;
+            let (mut x, mut lo, mut hi) = (vec![], vec![], vec![]);
+            for j in 0..=3 {
+                for i in 0..=3 {
+                    let p = [i as f64 * s, j as f64 * s];
+                    x.push(p);
+                    lo.push(p.map(|c| (c - 0.5 * s).max(0.0)));
+                    hi.push(p.map(|c| (c + 0.5 * s).min(3.0 * s)));
+                }
+            }
+            let n = x.len();
+            let scni = Scni::build(&x, &lo, &hi, &vec![1.5 * s; n], &[], &vec![0; n]).unwrap();
+            let (e, nu): (f64, f64) = (1e9, 0.25);
+            let m = Elastic::new(
+                &ElasticConstants {
+                    model: MaterialModel::LinearElastic,
+                    density: 1000.0,
+                    youngs_modulus: e,
+                    poissons_ratio: nu,
+                    lambda: e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+                    mu: e / (2.0 * (1.0 + nu)),
+                    wave_speed: 1000.0,
+                },
+                plane,
+            );
+            let vol = scni.cell.clone();
+            let mut run = Explicit::<2, 3>::new(scni, vol, vec![0; n], vec![m]);
+            let k0 = 1e-4;
+            run.damage = Some(DamageState::new(
+                x.clone(),
+                lo,
+                hi,
+                vec![k0; n],
+                vec![true; n],
+            ));
+            run.damage_params = vec![Some(DamageParams {
+                g_f: 100.0,
+                f_t: e * k0,
+                regularised: true,
+                kappa_c: 0.0,
+                tol: 0.3,
+            })];
+            for (d, p) in run.d.iter_mut().zip(&x) {
+                *d = [-2e-4 * p[0], -2e-4 * p[1]];
+            }
+            run.accelerations();
+            let st = run.damage.as_ref().unwrap();
+            let started = st.kappa_c.iter().filter(|&&k| k > 0.0).count();
+            assert_eq!(started == n, starts, "{plane:?}: {started} of {n} started");
+            if starts {
+                // ε_eq = ⅔ · 2e-4, κ_c = (G_F/f_t)(A/V) of each cell
+                assert!(st
+                    .kappa
+                    .iter()
+                    .all(|&k| (k - 2e-4 * 2.0 / 3.0).abs() < 1e-15));
+            }
+        }
     }
 }
