@@ -342,7 +342,29 @@ fn hooke<const D: usize, const V: usize>(m: &Elastic, e: [f64; V]) -> [f64; V] {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::material::{ElasticConstants, MaterialModel};
+    use crate::material::ElasticConstants;
+
+    /// Particles on the vertices of an `nx × ny` lattice of spacing `s`
+    /// from the origin, each with its cell clipped to [0, size]: positions,
+    /// cells' lower and upper corners.
+    #[allow(clippy::type_complexity)]
+    fn vertex_lattice(
+        nx: usize,
+        ny: usize,
+        s: f64,
+        size: [f64; 2],
+    ) -> (Vec<[f64; 2]>, Vec<[f64; 2]>, Vec<[f64; 2]>) {
+        let (mut x, mut lo, mut hi) = (vec![], vec![], vec![]);
+        for j in 0..=ny {
+            for i in 0..=nx {
+                let p = [i as f64 * s, j as f64 * s];
+                x.push(p);
+                lo.push([(p[0] - 0.5 * s).max(0.0), (p[1] - 0.5 * s).max(0.0)]);
+                hi.push([(p[0] + 0.5 * s).min(size[0]), (p[1] + 0.5 * s).min(size[1])]);
+            }
+        }
+        (x, lo, hi)
+    }
 
     /// A column of material in uniaxial strain: nodes on the vertices of
     /// [0, L] × [0, H], rollers on the left (x held) and on the top and
@@ -351,37 +373,16 @@ mod tests {
     fn column(nx: usize, ny: usize, l: f64) -> (Explicit<2, 3>, Vec<[f64; 2]>, f64) {
         let s = l / nx as f64;
         let h = ny as f64 * s;
-        let (mut x, mut lo, mut hi) = (vec![], vec![], vec![]);
-        for j in 0..=ny {
-            for i in 0..=nx {
-                let p = [i as f64 * s, j as f64 * s];
-                x.push(p);
-                lo.push([(p[0] - 0.5 * s).max(0.0), (p[1] - 0.5 * s).max(0.0)]);
-                hi.push([(p[0] + 0.5 * s).min(l), (p[1] + 0.5 * s).min(h)]);
-            }
-        }
+        let (x, lo, hi) = vertex_lattice(nx, ny, s, [l, h]);
         let n = x.len();
         let singular: Vec<bool> = x
             .iter()
             .map(|p| p[0] == 0.0 || p[1] == 0.0 || p[1] == h)
             .collect();
         let scni = Scni::build(&x, &lo, &hi, &vec![1.5 * s; n], &singular, &vec![0; n]).unwrap();
-        let (e, nu, rho): (f64, f64, f64) = (2.0e9, 0.25, 2000.0);
-        let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
-        let mu = e / (2.0 * (1.0 + nu));
-        let c = ((lambda + 2.0 * mu) / rho).sqrt();
-        let m = Elastic::new(
-            &ElasticConstants {
-                model: MaterialModel::LinearElastic,
-                density: rho,
-                youngs_modulus: e,
-                poissons_ratio: nu,
-                lambda,
-                mu,
-                wave_speed: c,
-            },
-            PlaneKind::PlaneStrain,
-        );
+        let consts = ElasticConstants::linear_elastic(2000.0, 2.0e9, 0.25);
+        let c = consts.wave_speed;
+        let m = Elastic::new(&consts, PlaneKind::PlaneStrain);
         let vol = scni.cell.clone();
         let mut run = Explicit::<2, 3>::new(scni, vol, vec![0; n], vec![m]);
         for (p, q) in x.iter().enumerate() {
@@ -489,29 +490,13 @@ mod tests {
         let s = l / nx as f64;
         let h = 2.0 * s;
         let thick = area / h;
-        let (mut x, mut lo, mut hi) = (vec![], vec![], vec![]);
-        for j in 0..=2 {
-            for i in 0..=nx {
-                let p = [i as f64 * s, j as f64 * s];
-                x.push(p);
-                lo.push([(p[0] - 0.5 * s).max(0.0), (p[1] - 0.5 * s).max(0.0)]);
-                hi.push([(p[0] + 0.5 * s).min(l), (p[1] + 0.5 * s).min(h)]);
-            }
-        }
+        let (x, lo, hi) = vertex_lattice(nx, 2, s, [l, h]);
         let n = x.len();
         let ends: Vec<bool> = x.iter().map(|p| p[0] == 0.0 || p[0] == l).collect();
         let scni = Scni::build(&x, &lo, &hi, &vec![1.5 * s; n], &ends, &vec![0; n]).unwrap();
         let vol: Vec<f64> = scni.cell.iter().map(|c| c * thick).collect();
         let m = Elastic::new(
-            &ElasticConstants {
-                model: MaterialModel::LinearElastic,
-                density: rho,
-                youngs_modulus: e,
-                poissons_ratio: 0.0,
-                lambda: 0.0,
-                mu: 0.5 * e,
-                wave_speed: (e / rho).sqrt(),
-            },
+            &ElasticConstants::linear_elastic(rho, e, 0.0),
             PlaneKind::PlaneStrain,
         );
         let mut run = Explicit::<2, 3>::new(scni, vol, vec![0; n], vec![m]);
@@ -700,30 +685,11 @@ mod tests {
             (PlaneKind::PlaneStrain, false),
         ] {
             let s = 1.0;
-            let (mut x, mut lo, mut hi) = (vec![], vec![], vec![]);
-            for j in 0..=3 {
-                for i in 0..=3 {
-                    let p = [i as f64 * s, j as f64 * s];
-                    x.push(p);
-                    lo.push(p.map(|c| (c - 0.5 * s).max(0.0)));
-                    hi.push(p.map(|c| (c + 0.5 * s).min(3.0 * s)));
-                }
-            }
+            let (x, lo, hi) = vertex_lattice(3, 3, s, [3.0 * s; 2]);
             let n = x.len();
             let scni = Scni::build(&x, &lo, &hi, &vec![1.5 * s; n], &[], &vec![0; n]).unwrap();
-            let (e, nu): (f64, f64) = (1e9, 0.25);
-            let m = Elastic::new(
-                &ElasticConstants {
-                    model: MaterialModel::LinearElastic,
-                    density: 1000.0,
-                    youngs_modulus: e,
-                    poissons_ratio: nu,
-                    lambda: e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
-                    mu: e / (2.0 * (1.0 + nu)),
-                    wave_speed: 1000.0,
-                },
-                plane,
-            );
+            let e = 1e9;
+            let m = Elastic::new(&ElasticConstants::linear_elastic(1000.0, e, 0.25), plane);
             let vol = scni.cell.clone();
             let mut run = Explicit::<2, 3>::new(scni, vol, vec![0; n], vec![m]);
             let k0 = 1e-4;

@@ -64,6 +64,30 @@ pub struct Elastic {
     pub wave_speed: f64,
 }
 
+impl ElasticConstants {
+    /// The constants of an isotropic linear elastic material from its
+    /// density, Young's modulus and Poisson's ratio: the Lamé constants
+    /// and the dilatational wave speed √((λ + 2μ)/ρ).
+    pub fn linear_elastic(
+        density: f64,
+        youngs_modulus: f64,
+        poissons_ratio: f64,
+    ) -> ElasticConstants {
+        let (e, nu) = (youngs_modulus, poissons_ratio);
+        let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        let mu = e / (2.0 * (1.0 + nu));
+        ElasticConstants {
+            model: MaterialModel::LinearElastic,
+            density,
+            youngs_modulus: e,
+            poissons_ratio: nu,
+            lambda,
+            mu,
+            wave_speed: ((lambda + 2.0 * mu) / density).sqrt(),
+        }
+    }
+}
+
 impl Elastic {
     pub fn new(m: &ElasticConstants, plane: PlaneKind) -> Elastic {
         let (lambda, mu, e, nu) = (m.lambda, m.mu, m.youngs_modulus, m.poissons_ratio);
