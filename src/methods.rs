@@ -8,7 +8,7 @@ use crate::run::{Method, MethodEntry, Resumed};
 use crate::scene::{MaterialRef, Scene, SceneError};
 
 /// Every method, the first whose `runs` accepts a scene runs it.
-pub const METHODS: &[MethodEntry] = &[crate::mpm::METHOD];
+pub const METHODS: &[MethodEntry] = &[crate::mpm::METHOD, crate::dpm::method::METHOD];
 
 /// The method `scene` runs.
 fn entry(scene: &Scene) -> &'static MethodEntry {
@@ -73,7 +73,7 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
 /// no method runs ([`runnable`]).
 pub fn build(scene: &Scene) -> Result<Box<dyn Method>, SceneError> {
     runnable(scene)?;
-    Ok((entry(scene).build)(scene))
+    (entry(scene).build)(scene)
 }
 
 /// The run of `scene` at `cp`, by the method that wrote it (which must be

@@ -50,6 +50,19 @@ pub trait Method: Send + AsAny {
 
     /// Wall time spent in each stage of the plan so far.
     fn stage_times(&self) -> &StageTimes;
+
+    /// The series row of the present state (as [`Method::run`] writes
+    /// one), with a value for every one of [`Method::series_columns`].
+    fn row(&mut self) -> SeriesRow;
+}
+
+/// The run loop's position, as a checkpoint keeps it: the next series row
+/// and snapshot to write, and the last row written.
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+pub struct RunClock {
+    pub next_row: u64,
+    pub next_snap: u64,
+    pub last: SeriesRow,
 }
 
 /// A method's run resumed from a checkpoint it wrote.
@@ -61,8 +74,10 @@ pub struct MethodEntry {
     pub name: &'static str,
     /// Whether a validated scene runs this method.
     pub runs: fn(&Scene) -> bool,
-    /// Sets up the scene's run.
-    pub build: fn(&Scene) -> Box<dyn Method>,
+    /// Sets up the scene's run, or says why the scene cannot run (what
+    /// only setting it up finds, such as a support too small for the
+    /// damage particle method's moment matrices).
+    pub build: fn(&Scene) -> Result<Box<dyn Method>, crate::scene::SceneError>,
     /// The run at a checkpoint this method wrote.
     pub resume: fn(&Scene, Checkpoint<'_>) -> Resumed,
 }

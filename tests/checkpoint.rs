@@ -541,3 +541,58 @@ fn resumes_3d(text: String, at: u64, lost: u64) {
     assert!(straight.0.lines().count() > 5);
     assert!(straight.1 == resumed.1, "the particles differ");
 }
+
+/// The damage particle method resumes bit for bit: its bar checkpointed
+/// while its weak plane is damaging, lost 500 steps later and resumed,
+/// writes the straight run's series and snapshots (the SCNI tables are
+/// rebuilt from the scene; the checkpoint keeps d, v, a, the walls'
+/// reactions and the damage state).
+#[test]
+fn a_resumed_damage_particle_run_repeats_the_straight_one_bit_for_bit() {
+    let text = scene_text("dpm_bar.toml", &[("end = 22.3", "end = 14.0")]);
+    let scene = Scene::from_text(&text, None).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let (a, b) = (tmp.path().join("straight"), tmp.path().join("resumed"));
+    let mut w = OutputWriter::create(&a).unwrap();
+    let mut sim = cleave::methods::build(&scene).unwrap();
+    assert_eq!(sim.name(), "damage_particle");
+    let summary = sim.run(&mut w).unwrap();
+    w.finish().unwrap();
+    // damage has started before the checkpoint
+    let at = 8000;
+    assert!(summary.steps > at + 600, "{} steps", summary.steps);
+    let mut obs = Interrupted {
+        writer: OutputWriter::create(&b).unwrap(),
+        at,
+        lost: 500,
+    };
+    let mut sim = cleave::methods::build(&scene).unwrap();
+    assert!(sim.run(&mut obs).unwrap().cancelled);
+    obs.writer.finish().unwrap();
+    let mut cp = OutputWriter::load_checkpoint(&b).unwrap();
+    assert_eq!((cp.method(), cp.step()), ("damage_particle", at));
+    let state = std::mem::take(&mut cp.observer);
+    let mut sim = cleave::methods::resume(&scene, cp).unwrap();
+    let mut w = OutputWriter::resume(&b, &state).unwrap();
+    assert!(!sim.run(&mut w).unwrap().cancelled);
+    w.finish().unwrap();
+    let read = |d: &Path, f: &str| std::fs::read(d.join(f)).unwrap();
+    let series = String::from_utf8(read(&a, "series.csv")).unwrap();
+    let fracture: Vec<f64> = series
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(11).unwrap().parse().unwrap())
+        .collect();
+    let k = (fracture.len() as f64 * 8000.0 / summary.steps as f64) as usize;
+    assert!(fracture[k] > 0.0, "no damage at the checkpoint");
+    assert_eq!(read(&a, "series.csv"), read(&b, "series.csv"));
+    assert_eq!(read(&a, "particles.pvd"), read(&b, "particles.pvd"));
+    let last = std::fs::read_dir(&a)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".vtp"))
+        .max()
+        .unwrap();
+    assert_eq!(read(&a, &last), read(&b, &last));
+}

@@ -64,6 +64,15 @@ impl SeriesRow {
 
     /// The row back from [`SeriesRow::values`]; None if `v` is shorter
     /// than the core columns. Values past them become `extra`.
+    /// The columns a 3D run adds right after [`SeriesRow::COLUMNS`]
+    /// (`angular_momentum` is then |L|).
+    pub const COLUMNS_3D: [&'static str; 4] = [
+        "momentum_z",
+        "angular_momentum_x",
+        "angular_momentum_y",
+        "angular_momentum_z",
+    ];
+
     pub fn from_values(v: &[f64]) -> Option<SeriesRow> {
         if v.len() < Self::COLUMNS.len() {
             return None;

@@ -155,6 +155,16 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
     /// Strain, stress, internal force and acceleration at the present d
     /// (once before the first step, and inside every step).
     pub fn accelerations(&mut self) {
+        self.stresses();
+        if self.damage.is_some() {
+            self.degrade();
+        }
+        self.forces();
+    }
+
+    /// The smoothed strain of every cell (eq. 37) and the elastic stress
+    /// C ε (eq. 35 before damage).
+    pub fn stresses(&mut self) {
         self.scni.strain(&self.d, &mut self.strain);
         let (mats, material) = (&self.materials, &self.material);
         self.stress
@@ -162,9 +172,11 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
             .zip(&self.strain)
             .zip(material)
             .for_each(|((s, e), &m)| *s = hooke::<D, V>(&mats[m as usize], *e));
-        if self.damage.is_some() {
-            self.degrade();
-        }
+    }
+
+    /// The internal force of the stress (eq. 39) and the acceleration
+    /// (f_ext − f_int)/m + g.
+    pub fn forces(&mut self) {
         self.scni
             .internal_force(&self.stress, &self.vol, &mut self.force);
         let g = self.body_force;
@@ -180,15 +192,33 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
             });
     }
 
+    /// The damage stage of a step: damage and the degraded stress
+    /// ([`Explicit::degrade`]), then the candidates its new segments make
+    /// (criterion 27). Returns the energy dissipated, J.
+    pub fn damage_step(&mut self) -> f64 {
+        if self.damage.is_none() {
+            return 0.0;
+        }
+        let dissipated = self.degrade();
+        // the parameters lent out while the state changes (no copy)
+        let params = std::mem::take(&mut self.damage_params);
+        self.track(|m| params[m as usize].map_or(0.0, |p| p.tol));
+        self.damage_params = params;
+        dissipated
+    }
+
     /// Damage from the smoothed strain (eqs. 2–6, 33) and the stress it
     /// leaves (eq. 35): a candidate starts to damage when its equivalent
     /// strain reaches κ₀, with its segment's normal along the largest
     /// principal stress and κ_c from its cell's section (or constant);
-    /// then σ = (1 − D) C ε.
-    fn degrade(&mut self) {
+    /// then σ = (1 − D) C ε. Returns the energy the step's damage
+    /// dissipated, Σ ½ ε:C:ε ΔD V (J): with D = 1 − (κ₀/κ)(κ_c − κ)/(κ_c − κ₀)
+    /// this sums to ½ f_t κ_c V, the cell's G_F A_L under eq. 33.
+    fn degrade(&mut self) -> f64 {
         let Some(st) = self.damage.as_mut() else {
-            return;
+            return 0.0;
         };
+        let mut dissipated = 0.0;
         let params = &self.damage_params;
         let cell = &self.scni.cell;
         for l in 0..self.stress.len() {
@@ -237,12 +267,18 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
                 st.started[l] = true;
             }
             st.kappa[l] = st.kappa[l].max(eq);
-            st.damage[l] = st.damage[l].max(damage(st.kappa[l], st.kappa_0[l], st.kappa_c[l]));
+            let before = st.damage[l];
+            st.damage[l] = before.max(damage(st.kappa[l], st.kappa_0[l], st.kappa_c[l]));
+            dissipated += 0.5
+                * contract::<D, V>(&self.stress[l], &self.strain[l])
+                * (st.damage[l] - before)
+                * self.vol[l];
             let keep = 1.0 - st.damage[l];
             for c in self.stress[l].iter_mut() {
                 *c *= keep;
             }
         }
+        dissipated
     }
 
     /// Criterion (27) after a step: the neighbours of each particle whose
@@ -267,26 +303,35 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
         }
     }
 
-    /// One step of Δt = `dt`.
+    /// One step of Δt = `dt`: [`Explicit::advance`], [`Explicit::stresses`],
+    /// [`Explicit::damage_step`] (with damage), [`Explicit::finish`].
     pub fn step(&mut self, dt: f64) {
+        self.advance(dt);
+        self.stresses();
+        self.damage_step();
+        self.finish(dt);
+    }
+
+    /// The step's first half: v ← v + Δt/2 a, the held components, then
+    /// d ← d + Δt v.
+    pub fn advance(&mut self, dt: f64) {
         self.kick(0.5 * dt);
         self.d.par_iter_mut().zip(&self.v).for_each(|(d, v)| {
             for k in 0..D {
                 d[k] += dt * v[k];
             }
         });
-        self.accelerations();
+    }
+
+    /// The step's second half: the forces and accelerations at the new d,
+    /// v ← v + Δt/2 a, the held components.
+    pub fn finish(&mut self, dt: f64) {
+        self.forces();
         self.kick(0.5 * dt);
-        if self.damage.is_some() {
-            // the parameters lent out while the state changes (no copy)
-            let params = std::mem::take(&mut self.damage_params);
-            self.track(|m| params[m as usize].map_or(0.0, |p| p.tol));
-            self.damage_params = params;
-        }
     }
 
     /// v ← v + h a, then the held components.
-    fn kick(&mut self, h: f64) {
+    pub fn kick(&mut self, h: f64) {
         self.v.par_iter_mut().zip(&self.a).for_each(|(v, a)| {
             for k in 0..D {
                 v[k] += h * a[k];
@@ -342,28 +387,17 @@ fn hooke<const D: usize, const V: usize>(m: &Elastic, e: [f64; V]) -> [f64; V] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dpm::section::{box_lattice, BoxLattice};
     use crate::material::ElasticConstants;
 
     /// Particles on the vertices of an `nx × ny` lattice of spacing `s`
     /// from the origin, each with its cell clipped to [0, size]: positions,
     /// cells' lower and upper corners.
     #[allow(clippy::type_complexity)]
-    fn vertex_lattice(
-        nx: usize,
-        ny: usize,
-        s: f64,
-        size: [f64; 2],
-    ) -> (Vec<[f64; 2]>, Vec<[f64; 2]>, Vec<[f64; 2]>) {
-        let (mut x, mut lo, mut hi) = (vec![], vec![], vec![]);
-        for j in 0..=ny {
-            for i in 0..=nx {
-                let p = [i as f64 * s, j as f64 * s];
-                x.push(p);
-                lo.push([(p[0] - 0.5 * s).max(0.0), (p[1] - 0.5 * s).max(0.0)]);
-                hi.push([(p[0] + 0.5 * s).min(size[0]), (p[1] + 0.5 * s).min(size[1])]);
-            }
-        }
-        (x, lo, hi)
+    fn vertex_lattice(nx: usize, ny: usize, s: f64, size: [f64; 2]) -> BoxLattice<2> {
+        let l = box_lattice([0.0, 0.0], size, s);
+        assert_eq!(l.0.len(), (nx + 1) * (ny + 1));
+        l
     }
 
     /// A column of material in uniaxial strain: nodes on the vertices of

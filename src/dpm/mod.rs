@@ -8,10 +8,13 @@
 //! the reproducing conditions and the patch test; explicit central
 //! differences ([`explicit`]) with held particles (singular kernels) and
 //! the damage of [`damage`] with its energy regularisation, verified on
-//! the paper's bar. Its scene section and its `Method` come next;
+//! the paper's bar; its scene section ([`section`]: `method =
+//! "damage_particle"`) and its [`crate::run::Method`] ([`method`]).
 //! docs/dpm.md keeps the record.
 
 pub mod damage;
 pub mod explicit;
+pub mod method;
 pub mod rk;
 pub mod scni;
+pub mod section;

@@ -24,7 +24,6 @@
 
 use super::{Saved, Simulation, StageTimes};
 use crate::checkpoint::{Checkpoint, CheckpointError, SaveState};
-use crate::diagnostics::SeriesRow;
 use crate::fracture::model::RestoreContext;
 use crate::particles::Particles;
 use crate::scene::Scene;
@@ -32,14 +31,7 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::sync::Arc;
 
-/// The run loop's position: the next series row and snapshot to write,
-/// and the last row written.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub(super) struct RunClock {
-    pub next_row: u64,
-    pub next_snap: u64,
-    pub last: SeriesRow,
-}
+pub(super) use crate::run::RunClock;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(bound(

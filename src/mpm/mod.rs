@@ -36,16 +36,16 @@ use grid_update::Boundary;
 use std::time::Instant;
 
 /// The grid MPM in the method registry ([`crate::methods`]): it runs
-/// every scene (the only method so far).
+/// every scene that does not ask for another method.
 pub const METHOD: MethodEntry = MethodEntry {
     name: "grid_mpm",
-    runs: |_| true,
+    runs: |scene| scene.file.method == crate::scene::MethodKind::GridMpm,
     build: |scene| {
-        if scene.dimension() == 3 {
+        Ok(if scene.dimension() == 3 {
             Box::new(Simulation::<3, 6>::build(scene))
         } else {
             Box::new(Simulation::new(scene))
-        }
+        })
     },
     resume: |scene, cp| {
         if scene.dimension() == 3 {
@@ -58,12 +58,7 @@ pub const METHOD: MethodEntry = MethodEntry {
 
 /// The series' columns after [`SeriesRow::COLUMNS`] in 3D, where
 /// `angular_momentum` is |L|.
-pub const COLUMNS_3D: [&str; 4] = [
-    "momentum_z",
-    "angular_momentum_x",
-    "angular_momentum_y",
-    "angular_momentum_z",
-];
+pub const COLUMNS_3D: [&str; 4] = SeriesRow::COLUMNS_3D;
 
 /// What a particle array must be to go into a checkpoint: every concrete
 /// dimension's is (serde's arrays stop at length 32, so a generic `D`
@@ -107,6 +102,9 @@ where
     }
     fn stage_times(&self) -> &StageTimes {
         Simulation::stage_times(self)
+    }
+    fn row(&mut self) -> SeriesRow {
+        Simulation::row(self)
     }
 }
 

@@ -4,7 +4,7 @@
 //! `cleave validate` prints is what runs: a stage that no body or option
 //! asks for is not in the plan and its code never runs.
 
-use super::schema::{SceneFile, SideCondition, StressUpdate};
+use super::schema::{MethodKind, SceneFile, SideCondition, StressUpdate};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -106,12 +106,26 @@ pub enum Stage {
     /// where K_I^max reaches K_Ic (Nairn & Aimene, section 3.5). Only in
     /// a scene with `[cramp] growth`.
     CrackGrowth,
+    /// The damage particle method (Wei & Chen; no grid): the first half
+    /// of central differences, v ← v + Δt/2 a with the held components,
+    /// then d ← d + Δt v.
+    DpmAdvance,
+    /// The damage particle method: each smoothing cell's strain by SCNI
+    /// (eq. 37) and its elastic stress.
+    DpmStrain,
+    /// The damage particle method's damage (eqs. 2–6, 33): the degraded
+    /// stress (eq. 35) and the candidates of criterion 27. Only with
+    /// `[damage_particle.damage]`.
+    DpmDamage,
+    /// The damage particle method: the internal force (eq. 39), the
+    /// accelerations, v ← v + Δt/2 a and the held components.
+    DpmForce,
 }
 
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 25] = [
+    pub const ALL: [Stage; 29] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -137,6 +151,10 @@ impl Stage {
         Stage::PhaseFieldStagger,
         Stage::CrackSurfaces,
         Stage::CrackGrowth,
+        Stage::DpmAdvance,
+        Stage::DpmStrain,
+        Stage::DpmDamage,
+        Stage::DpmForce,
     ];
 
     /// The stage of a [`name`](Stage::name).
@@ -171,6 +189,10 @@ impl Stage {
             Stage::PhaseFieldStagger => "phase_field_stagger",
             Stage::CrackSurfaces => "crack_surfaces",
             Stage::CrackGrowth => "crack_growth",
+            Stage::DpmAdvance => "dpm_advance",
+            Stage::DpmStrain => "dpm_strain",
+            Stage::DpmDamage => "dpm_damage",
+            Stage::DpmForce => "dpm_force",
         }
     }
 
@@ -224,6 +246,22 @@ pub struct Plan {
 
 impl Plan {
     pub(super) fn build(file: &SceneFile, contact_groups: &[u32]) -> Plan {
+        if file.method == MethodKind::DamageParticle {
+            // a method without a grid: none of the grid MPM's stages
+            let damage = file
+                .damage_particle
+                .as_ref()
+                .is_some_and(|d| d.damage.is_some());
+            let stages = Stage::ALL
+                .into_iter()
+                .filter(|s| match s {
+                    Stage::DpmAdvance | Stage::DpmStrain | Stage::DpmForce => true,
+                    Stage::DpmDamage => damage,
+                    _ => false,
+                })
+                .collect();
+            return Plan { stages };
+        }
         let b = &file.grid.boundary;
         let traction = [&b.left, &b.right, &b.bottom, &b.top]
             .into_iter()
@@ -275,6 +313,7 @@ impl Plan {
                 Stage::Eigen => eigen,
                 Stage::CrackSurfaces => cracks,
                 Stage::CrackGrowth => growth,
+                Stage::DpmAdvance | Stage::DpmStrain | Stage::DpmDamage | Stage::DpmForce => false,
             })
             .collect();
         Plan { stages }

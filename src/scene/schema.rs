@@ -16,6 +16,7 @@ pub use crate::grid::shape::ShapeFunctionKind;
 pub use crate::material::{MaterialModel, PlaneKind};
 // Each fracture model owns its scene section (its types and their checks
 // live in the model's folder); the scene file names them.
+pub use crate::dpm::section::{DpmDamageSpec, DpmSpec, InitiationSpec, MethodKind};
 pub use crate::fracture::cracks::section::{CrampSpec, ExplicitCrackSpec, SurfaceUpdate};
 pub use crate::fracture::damage::section::{DamageModel, DamageSpec, WeibullSpec};
 pub use crate::fracture::dfg::section::DfgSpec;
@@ -29,6 +30,14 @@ pub struct SceneFile {
     /// Free-form metadata (name, description); not used by the solver.
     #[serde(default)]
     pub meta: Meta,
+    /// The method that runs the scene: the grid MPM (default) or the
+    /// damage particle method (`damage_particle`, with its options in
+    /// `[damage_particle]`).
+    #[serde(default, skip_serializing_if = "MethodKind::is_grid_mpm")]
+    pub method: MethodKind,
+    /// The damage particle method's options (Wei & Chen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damage_particle: Option<DpmSpec>,
     pub grid: GridSpec,
     /// Plane strain or plane stress, and the out-of-plane thickness.
     #[serde(default)]

@@ -443,6 +443,20 @@ impl Scene {
             );
         }
 
+        let mut particle_counts = particle_counts;
+        if file.method == MethodKind::DamageParticle {
+            let models: Vec<_> = body_material
+                .iter()
+                .map(|&k| materials.get(k).map(|m: &ResolvedMaterial| m.model))
+                .collect();
+            particle_counts = crate::dpm::section::check(&mut c, &file, &models);
+        } else if file.damage_particle.is_some() {
+            c.err(
+                "damage_particle",
+                "is the damage particle method's table: add method = \"damage_particle\" (the scene runs the grid MPM)",
+            );
+        }
+
         if !c.errors.is_empty() {
             return Err(SceneError { errors: c.errors });
         }
@@ -538,7 +552,11 @@ fn write_defaults(file: &mut SceneFile, dim: usize) {
     for body in &mut file.bodies {
         body.velocity = body.velocity.or_zero(dim);
         body.velocity_gradient = body.velocity_gradient.or_zero(dim);
-        body.particles_per_cell = Some(body.ppc(dim));
+        // the damage particle method has one particle per lattice vertex:
+        // a written count is refused, not filled in
+        if file.method == MethodKind::GridMpm {
+            body.particles_per_cell = Some(body.ppc(dim));
+        }
     }
 }
 

@@ -1,0 +1,935 @@
+//! The damage particle method as a [`Method`]: a scene with `method =
+//! "damage_particle"` set up as particles on the lattice's vertices
+//! ([`super::section`]), run by explicit central differences
+//! ([`Explicit`]) whose stages are the scene's plan (`dpm_advance →
+//! dpm_strain → [dpm_damage →] dpm_force`), with the series, snapshots,
+//! progress and checkpoints of every method.
+//!
+//! Walls hold the particles that lie on them: a `fixed` side every
+//! component, a `roller` side the normal one, a `velocity` side the
+//! components it gives; the held particles carry singular kernels, so
+//! that their coefficient is their displacement (Chen & Wang's singular
+//! kernel method, as Wei & Chen impose essential conditions). A particle
+//! on two walls is held by both; where both hold the same component the
+//! first side in the order left, right, bottom, top, back, front decides
+//! it. The force a wall exerts on the material (its reaction, the
+//! `[output] reactions` columns) is what holds its components:
+//! R = m (v_held(t + Δt) − v_held(t + Δt/2)) / (Δt/2) − m a_free, and its
+//! work, counted with the trapezoid rule over each step's held
+//! displacement, is the series' `external_work` (with gravity's).
+
+use super::explicit::{DamageParams, DamageState, Explicit, Held};
+use super::scni::Scni;
+use super::section::{box_corners, box_lattice};
+use crate::checkpoint::{Checkpoint, CheckpointError, SaveState};
+use crate::diagnostics::{measure, Control, Field, FieldData, Observer, Progress, SeriesRow};
+use crate::material::Elastic;
+use crate::particles::Particles;
+use crate::run::{Method, MethodEntry, RunClock, RunSummary, SimError, StageTimes};
+use crate::scene::{MethodKind, Scene, SceneError, SideCondition, Stage, TimeFunction};
+use crate::tensor::resize;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The damage particle method in the method registry
+/// ([`crate::methods`]): it runs the scenes with `method =
+/// "damage_particle"`.
+pub const METHOD: MethodEntry = MethodEntry {
+    name: "damage_particle",
+    runs: |scene| scene.file.method == MethodKind::DamageParticle,
+    build: |scene| {
+        Ok(if scene.dimension() == 3 {
+            Box::new(Dpm::<3, 6>::build(scene)?)
+        } else {
+            Box::new(Dpm::<2, 3>::build(scene)?)
+        })
+    },
+    resume: |scene, cp| {
+        Ok(if scene.dimension() == 3 {
+            Box::new(Dpm::<3, 6>::resume(scene, cp)?)
+        } else {
+            Box::new(Dpm::<2, 3>::resume(scene, cp)?)
+        })
+    },
+};
+
+/// What a held component follows: zero, or a side's velocity function.
+#[derive(Debug, Clone)]
+struct Hold {
+    /// The side holding it (an index into `Dpm::sides`).
+    side: usize,
+    velocity: Option<TimeFunction>,
+}
+
+/// A run of the damage particle method in `D` dimensions (`V`: the Voigt
+/// length).
+pub struct Dpm<const D: usize, const V: usize> {
+    scene: Scene,
+    run: Explicit<D, V>,
+    /// Reference positions (the particles move to x₀ + d).
+    x0: Vec<[f64; D]>,
+    /// The output's view of the particles (ids, bodies, materials, masses
+    /// and volumes fixed; positions, velocities, stress and strain filled
+    /// at each row and snapshot).
+    view: Particles<D, V>,
+    mats: Vec<Elastic>,
+    /// What each of `run.held` follows.
+    holds: Vec<Hold>,
+    /// The constrained sides' names, in the order of `reactions`.
+    sides: Vec<&'static str>,
+    /// Each held component's reaction at the end of the last step, N.
+    reaction: Vec<f64>,
+    /// With `[output] reactions`: each side's force on the material at the
+    /// end of the last step (else empty).
+    reactions: Vec<[f64; D]>,
+    /// The grid's box grown by a spacing on every side: a particle outside
+    /// stops the run.
+    lo: [f64; D],
+    hi: [f64; D],
+    h: f64,
+    /// The fastest dilatational wave speed, m/s.
+    wave: f64,
+    time: f64,
+    step: u64,
+    dt: f64,
+    external_work: f64,
+    abs_work: f64,
+    dissipated: f64,
+    initial_energy: f64,
+    energy_floor: f64,
+    times: StageTimes,
+    snapshot_index: u32,
+    resumed: Option<RunClock>,
+}
+
+impl<const D: usize, const V: usize> Dpm<D, V> {
+    /// Sets up a validated scene's run: the particles of each body on the
+    /// lattice, their SCNI tables (refused, naming the particle, where a
+    /// cell's face is covered by too few particles for the moment matrix),
+    /// the held components, the initial velocities and the damage state.
+    pub fn build(scene: &Scene) -> Result<Self, SceneError> {
+        crate::tensor::check_voigt::<D, V>();
+        let file = &scene.file;
+        let h = file.grid.cell_size;
+        let spec = file
+            .damage_particle
+            .clone()
+            .unwrap_or(super::section::DpmSpec {
+                support: 1.5,
+                damage: None,
+            });
+        let (mut x, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut body, mut material, mut velocity) = (Vec::new(), Vec::new(), Vec::new());
+        for (b, spec_b) in file.bodies.iter().enumerate() {
+            let Some((a, z)) = box_corners(&spec_b.shape) else {
+                continue; // validation refuses it
+            };
+            let (px, plo, phi) = box_lattice::<D>(
+                std::array::from_fn(|d| a[d]),
+                std::array::from_fn(|d| z[d]),
+                h,
+            );
+            let v: [f64; D] = std::array::from_fn(|d| {
+                spec_b.velocity.components().get(d).copied().unwrap_or(0.0)
+            });
+            body.extend(std::iter::repeat_n(b as u16, px.len()));
+            material.extend(std::iter::repeat_n(scene.body_material[b] as u16, px.len()));
+            velocity.extend(std::iter::repeat_n(v, px.len()));
+            x.extend(px);
+            lo.extend(plo);
+            hi.extend(phi);
+        }
+        let n = x.len();
+        let glo: [f64; D] = std::array::from_fn(|d| file.grid.min.components()[d]);
+        let ghi: [f64; D] = std::array::from_fn(|d| file.grid.max.components()[d]);
+        // the held components, side by side
+        let bc = &file.grid.boundary;
+        let named: [(&'static str, Option<&SideCondition>, usize, bool); 6] = [
+            ("left", Some(&bc.left), 0, false),
+            ("right", Some(&bc.right), 0, true),
+            ("bottom", Some(&bc.bottom), 1, false),
+            ("top", Some(&bc.top), 1, true),
+            ("back", bc.back.as_ref(), 2, false),
+            ("front", bc.front.as_ref(), 2, true),
+        ];
+        let mut sides = Vec::new();
+        let mut held = Vec::new();
+        let mut holds = Vec::new();
+        let mut taken = std::collections::HashSet::new();
+        for (name, cond, axis, far) in named {
+            if axis >= D {
+                continue;
+            }
+            let targets: Vec<(usize, Option<TimeFunction>)> = match cond {
+                None | Some(SideCondition::Free) | Some(SideCondition::Traction { .. }) => continue,
+                Some(SideCondition::Fixed) => (0..D).map(|a| (a, None)).collect(),
+                Some(SideCondition::Roller) => vec![(axis, None)],
+                Some(SideCondition::Velocity { x, y, z }) => [x, y, z]
+                    .into_iter()
+                    .enumerate()
+                    .take(D)
+                    .filter_map(|(a, f)| f.clone().map(|f| (a, Some(f))))
+                    .collect(),
+            };
+            let side = sides.len();
+            sides.push(name);
+            let plane = if far { ghi[axis] } else { glo[axis] };
+            for (p, q) in x.iter().enumerate() {
+                if (q[axis] - plane).abs() > 1e-9 * h {
+                    continue;
+                }
+                for (a, f) in &targets {
+                    if taken.insert((p, *a)) {
+                        held.push(Held {
+                            particle: p as u32,
+                            axis: *a as u8,
+                            velocity: 0.0,
+                        });
+                        holds.push(Hold {
+                            side,
+                            velocity: f.clone(),
+                        });
+                    }
+                }
+            }
+        }
+        let mut singular = vec![false; n];
+        for c in &held {
+            singular[c.particle as usize] = true;
+        }
+        let radius = vec![spec.support * h; n];
+        let scni = Scni::<D>::build(&x, &lo, &hi, &radius, &singular, &body).map_err(|e| {
+            let p = e.particle as usize;
+            SceneError::single(
+                "damage_particle.support",
+                format!(
+                    "bodies[{}]: the smoothing cell of the particle at {:?} m: {}: a support of {} spacings does not cover it with enough particles for the linear basis (make the body wider or the support larger)",
+                    body[p], x[p], e.source, spec.support
+                ),
+            )
+        })?;
+        let mats: Vec<Elastic> = scene
+            .materials
+            .iter()
+            .map(|m| Elastic::new(&m.elastic_constants(), file.analysis.plane))
+            .collect();
+        let thickness = if D == 2 { file.analysis.thickness } else { 1.0 };
+        let vol: Vec<f64> = scni.cell.iter().map(|a| a * thickness).collect();
+        let mut run = Explicit::<D, V>::new(scni, vol.clone(), material.clone(), mats.clone());
+        run.v = velocity;
+        run.held = held;
+        run.body_force =
+            std::array::from_fn(|d| file.body_force.components().get(d).copied().unwrap_or(0.0));
+        if let Some(dmg) = &spec.damage {
+            run.damage_params = scene
+                .materials
+                .iter()
+                .map(|_| {
+                    Some(DamageParams {
+                        g_f: dmg.fracture_energy,
+                        f_t: dmg.strength,
+                        regularised: dmg.regularised,
+                        kappa_c: dmg.kappa_c.unwrap_or(0.0),
+                        tol: dmg.tol,
+                    })
+                })
+                .collect();
+            let mut kappa_0 = Vec::with_capacity(n);
+            let mut candidate = Vec::with_capacity(n);
+            for (p, q) in x.iter().enumerate() {
+                let e = scene.materials[material[p] as usize].youngs_modulus;
+                let inside = dmg.initiation.as_ref().map(|i| {
+                    let inside = if D == 2 {
+                        crate::geometry::contains(&i.shape, resize(*q))
+                    } else {
+                        crate::geometry::contains_3d(&i.shape, resize(*q))
+                    };
+                    (inside, i.strength_factor)
+                });
+                let (cand, factor) = match inside {
+                    None => (true, 1.0),
+                    Some((true, f)) => (true, f),
+                    Some((false, _)) => (false, 1.0),
+                };
+                kappa_0.push(factor * dmg.strength / e);
+                candidate.push(cand);
+            }
+            run.damage = Some(DamageState::new(x.clone(), lo, hi, kappa_0, candidate));
+        }
+        // the forces of the initial state (zero strain: gravity only)
+        run.accelerations();
+        let ids: Vec<u32> = (0..n as u32).collect();
+        let view = Particles::<D, V> {
+            id: ids,
+            body: body.clone(),
+            material,
+            group: vec![0; n],
+            x: x.clone(),
+            v: run.v.clone(),
+            mass: run.mass.clone(),
+            vol,
+            stress: vec![[0.0; V]; n],
+            strain: vec![[0.0; V]; n],
+            damage: if run.damage.is_some() {
+                vec![0.0; n]
+            } else {
+                Vec::new()
+            },
+            ..Default::default()
+        };
+        let wave = mats.iter().map(|m| m.wave_speed).fold(0.0, f64::max);
+        let scale = view
+            .mass
+            .iter()
+            .map(|m| m * (wave * wave))
+            .sum::<f64>()
+            .max(f64::MIN_POSITIVE);
+        let reactions = if file.output.reactions {
+            vec![[0.0; D]; sides.len()]
+        } else {
+            Vec::new()
+        };
+        Ok(Dpm {
+            reaction: vec![0.0; run.held.len()],
+            run,
+            x0: x,
+            view,
+            mats,
+            holds,
+            sides,
+            reactions,
+            lo: std::array::from_fn(|d| glo[d] - h),
+            hi: std::array::from_fn(|d| ghi[d] + h),
+            h,
+            wave,
+            time: 0.0,
+            step: 0,
+            dt: 0.0,
+            external_work: 0.0,
+            abs_work: 0.0,
+            dissipated: 0.0,
+            initial_energy: 0.0,
+            energy_floor: 1e-9 * scale,
+            times: StageTimes::new(&scene.plan),
+            snapshot_index: 0,
+            resumed: None,
+            scene: scene.clone(),
+        })
+    }
+
+    /// The held components' velocities at `t`.
+    fn hold_at(&mut self, t: f64) {
+        for (c, h) in self.run.held.iter_mut().zip(&self.holds) {
+            c.velocity = h.velocity.as_ref().map_or(0.0, |f| f.eval(t));
+        }
+    }
+
+    /// The next time step: fixed (checked against h / max(c + |v|)) or
+    /// `time.cfl` × that, clipped to land on `end`.
+    fn next_dt(&self, end: f64) -> Result<f64, SimError> {
+        let (fastest, speed) = self.fastest();
+        let signal = self.wave + speed;
+        let limit = self.h / signal.max(1e-300);
+        let dt = match self.scene.file.time.dt {
+            Some(dt) if dt > limit => {
+                return Err(SimError::CflViolated {
+                    step: self.step,
+                    time: self.time,
+                    dt,
+                    limit,
+                    particle: fastest,
+                })
+            }
+            Some(dt) => dt,
+            None => self.scene.cfl() * limit,
+        };
+        let left = end - self.time;
+        let dt = if dt > left || left - dt < 1e-9 * dt {
+            left
+        } else {
+            dt
+        };
+        if !dt.is_normal() || self.time + dt == self.time {
+            return Err(SimError::NoProgress {
+                step: self.step,
+                time: self.time,
+                dt,
+                h: self.h,
+                signal,
+                particle: fastest,
+            });
+        }
+        Ok(dt)
+    }
+
+    /// The fastest particle and its speed.
+    fn fastest(&self) -> (u32, f64) {
+        let mut best = (0u32, 0.0);
+        for (p, v) in self.run.v.iter().enumerate() {
+            let s = crate::tensor::norm(*v);
+            if s > best.1 {
+                best = (p as u32, s);
+            }
+        }
+        best
+    }
+
+    /// One step of Δt: the plan's stages in order, each timed; then the
+    /// walls' reactions and work, and the guards.
+    pub fn advance(&mut self, dt: f64) -> Result<(), SimError> {
+        let t = self.time;
+        let mut times = std::mem::take(&mut self.times.stages);
+        let mut mid = Vec::new();
+        for st in times.iter_mut() {
+            let t0 = Instant::now();
+            match st.stage {
+                Stage::DpmAdvance => {
+                    self.hold_at(t + 0.5 * dt);
+                    self.run.advance(dt);
+                    mid.extend(self.run.held.iter().map(|c| c.velocity));
+                    if self.run.body_force.iter().any(|&g| g != 0.0) {
+                        let g = self.run.body_force;
+                        let w: f64 = self
+                            .run
+                            .v
+                            .par_iter()
+                            .zip(&self.run.mass)
+                            .map(|(v, m)| m * (0..D).map(|k| g[k] * v[k]).sum::<f64>())
+                            .sum();
+                        self.external_work += w * dt;
+                        self.abs_work += (w * dt).abs();
+                    }
+                }
+                Stage::DpmStrain => self.run.stresses(),
+                Stage::DpmDamage => self.dissipated += self.run.damage_step(),
+                Stage::DpmForce => {
+                    self.hold_at(t + dt);
+                    self.run.finish(dt);
+                }
+                _ => {}
+            }
+            st.seconds += t0.elapsed().as_secs_f64();
+            st.runs += 1;
+        }
+        self.times.stages = times;
+        self.walls(dt, &mid);
+        self.time += dt;
+        self.step += 1;
+        self.dt = dt;
+        self.guard()
+    }
+
+    /// The held components' reactions at the end of the step and their
+    /// work over it (`mid`: their velocities over the step).
+    fn walls(&mut self, dt: f64, mid: &[f64]) {
+        for r in self.reactions.iter_mut() {
+            *r = [0.0; D];
+        }
+        let mut work = 0.0;
+        for (k, c) in self.run.held.iter().enumerate() {
+            let (p, a) = (c.particle as usize, c.axis as usize);
+            let m = self.run.mass[p];
+            let r = m * ((c.velocity - mid[k]) / (0.5 * dt) - self.run.a[p][a]);
+            work += 0.5 * (r + self.reaction[k]) * mid[k] * dt;
+            self.reaction[k] = r;
+            if let Some(s) = self.reactions.get_mut(self.holds[k].side) {
+                s[a] += r;
+            }
+        }
+        self.external_work += work;
+        self.abs_work += work.abs();
+    }
+
+    /// The particle guards: a non-finite displacement or velocity, a
+    /// particle outside the grid's box.
+    fn guard(&self) -> Result<(), SimError> {
+        let (lo, hi) = (self.lo, self.hi);
+        let bad = (0..self.x0.len()).into_par_iter().find_first(|&p| {
+            let (d, v) = (self.run.d[p], self.run.v[p]);
+            (0..D).any(|k| {
+                let x = self.x0[p][k] + d[k];
+                !(x.is_finite() && v[k].is_finite()) || x < lo[k] || x > hi[k]
+            })
+        });
+        let Some(p) = bad else {
+            return Ok(());
+        };
+        let (d, v) = (self.run.d[p], self.run.v[p]);
+        let x: [f64; D] = std::array::from_fn(|k| self.x0[p][k] + d[k]);
+        if let Some(q) = [("displacement", d), ("velocity", v)]
+            .into_iter()
+            .find(|(_, a)| a.iter().any(|c| !c.is_finite()))
+        {
+            return Err(SimError::NonFinite {
+                step: self.step,
+                time: self.time,
+                particle: p as u32,
+                quantity: q.0,
+            });
+        }
+        Err(SimError::LeftGrid {
+            step: self.step,
+            time: self.time,
+            particle: p as u32,
+            x: x[0],
+            y: x[1],
+            z: (D == 3).then(|| x[D - 1]),
+        })
+    }
+
+    /// The output's view at the present state.
+    fn fill_view(&mut self) {
+        let (run, x0, view) = (&self.run, &self.x0, &mut self.view);
+        for (p, x) in view.x.iter_mut().enumerate() {
+            *x = std::array::from_fn(|k| x0[p][k] + run.d[p][k]);
+        }
+        view.v.copy_from_slice(&run.v);
+        view.stress.copy_from_slice(&run.stress);
+        view.strain.copy_from_slice(&run.strain);
+        if let Some(st) = &run.damage {
+            view.damage.copy_from_slice(&st.damage);
+        }
+    }
+
+    /// The series' columns: the core's, the 3D ones, the walls' reactions,
+    /// the bodies' momenta, then the damage's.
+    pub fn series_columns(&self) -> Vec<String> {
+        const AXES: [&str; 3] = ["x", "y", "z"];
+        let mut c: Vec<String> = SeriesRow::COLUMNS.iter().map(|s| s.to_string()).collect();
+        if D == 3 {
+            c.extend(SeriesRow::COLUMNS_3D.iter().map(|s| s.to_string()));
+        }
+        if !self.reactions.is_empty() {
+            for side in &self.sides {
+                c.extend(AXES[..D].iter().map(|a| format!("reaction_{side}_{a}")));
+            }
+        }
+        if self.scene.file.output.body_momenta {
+            for (i, b) in self.scene.file.bodies.iter().enumerate() {
+                let name = if b.name.is_empty() {
+                    format!("b{i}")
+                } else {
+                    b.name.clone()
+                };
+                c.extend(AXES[..D].iter().map(|a| format!("momentum_{a}_{name}")));
+            }
+        }
+        if self.run.damage.is_some() {
+            c.extend(["damaged_particles", "broken_particles", "energy_balance"].map(String::from));
+        }
+        c
+    }
+
+    /// The series row of the present state.
+    pub fn row(&mut self) -> SeriesRow {
+        let t0 = Instant::now();
+        self.fill_view();
+        let m = measure::measure(&self.view, &self.mats, None);
+        let mut extra = Vec::new();
+        let angular = if D == 3 {
+            extra.extend([m.momentum[2], m.angular[0], m.angular[1], m.angular[2]]);
+            crate::tensor::norm(m.angular)
+        } else {
+            m.angular[2]
+        };
+        extra.extend(self.reactions.iter().flatten());
+        if self.scene.file.output.body_momenta {
+            let mut per_body = vec![[0.0; D]; self.scene.file.bodies.len()];
+            for p in 0..self.view.len() {
+                let b = &mut per_body[self.view.body[p] as usize];
+                for a in 0..D {
+                    b[a] += self.view.mass[p] * self.view.v[p][a];
+                }
+            }
+            extra.extend(per_body.iter().flatten());
+        }
+        let e = m.kinetic + m.strain;
+        if let Some(st) = &self.run.damage {
+            let damaged = st.damage.iter().filter(|&&d| d > 0.0).count();
+            let broken = st.damage.iter().filter(|&&d| d >= BROKEN).count();
+            extra.extend([
+                damaged as f64,
+                broken as f64,
+                e + self.dissipated - self.initial_energy - self.external_work,
+            ]);
+        }
+        let row = SeriesRow {
+            step: self.step,
+            time: self.time,
+            kinetic_energy: m.kinetic,
+            strain_energy: m.strain,
+            external_work: self.external_work,
+            energy_error: if self.step == 0 {
+                0.0
+            } else {
+                e - self.initial_energy - self.external_work
+            },
+            total_mass: m.mass,
+            momentum_x: m.momentum[0],
+            momentum_y: m.momentum[1],
+            angular_momentum: angular,
+            dt: self.dt,
+            fracture_energy: self.dissipated,
+            extra,
+        };
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+        row
+    }
+
+    fn check_energy(&self, row: &SeriesRow) -> Result<(), SimError> {
+        let energy = row.kinetic_energy + row.strain_energy;
+        let bound = self.scene.file.guards.energy_growth
+            * (self.initial_energy + self.abs_work + self.energy_floor);
+        if !(energy <= bound) {
+            return Err(SimError::EnergyRunaway {
+                step: row.step,
+                time: row.time,
+                energy,
+                bound,
+            });
+        }
+        Ok(())
+    }
+
+    fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
+        let t0 = Instant::now();
+        self.fill_view();
+        let mut snap = measure::snapshot(
+            self.snapshot_index,
+            self.step,
+            self.time,
+            &self.view,
+            &self.mats,
+            None,
+        );
+        snap.fields.push(Field {
+            name: "displacement".into(),
+            components: D,
+            data: FieldData::F64(self.run.d.iter().flatten().copied().collect()),
+        });
+        if let Some(st) = &self.run.damage {
+            snap.fields.push(Field {
+                name: "candidate".into(),
+                components: 1,
+                data: FieldData::U32(st.candidate.iter().map(|&c| c as u32).collect()),
+            });
+        }
+        self.snapshot_index += 1;
+        self.times.diagnostics += t0.elapsed().as_secs_f64();
+        obs.snapshot(&snap).map_err(SimError::Observer)
+    }
+
+    /// Runs to `time.end` (or on from a checkpoint): rows at
+    /// `output.series_rows` evenly spaced times, snapshots likewise,
+    /// progress after every step, checkpoints when the observer asks.
+    pub fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {
+        let wall = Instant::now();
+        let end = self.scene.file.time.end;
+        let rows = self.scene.file.output.series_rows.max(2) as u64;
+        let snaps = self.scene.file.output.snapshots as u64;
+        let max_steps = self.scene.file.time.max_steps.unwrap_or(10_000_000);
+        let row_time = |k: u64| end * k as f64 / (rows - 1) as f64;
+        let snap_time = |k: u64| {
+            if snaps <= 1 {
+                end
+            } else {
+                end * k as f64 / (snaps - 1) as f64
+            }
+        };
+        let (mut last, mut next_row, mut next_snap) = match self.resumed.take() {
+            Some(c) => (c.last, c.next_row, c.next_snap),
+            None => {
+                obs.series_columns(&self.series_columns())
+                    .map_err(SimError::Observer)?;
+                let last = self.row();
+                self.initial_energy = last.kinetic_energy + last.strain_energy;
+                obs.series_row(&last).map_err(SimError::Observer)?;
+                let mut next_snap = 0;
+                if snaps > 0 && snap_time(0) <= 0.0 {
+                    self.emit_snapshot(obs)?;
+                    next_snap = 1;
+                }
+                (last, 1, next_snap)
+            }
+        };
+        let mut cancelled = false;
+        while self.time < end * (1.0 - 1e-12) {
+            if self.step >= max_steps {
+                return Err(SimError::MaxSteps {
+                    step: self.step,
+                    time: self.time,
+                });
+            }
+            let dt = self.next_dt(end)?;
+            self.advance(dt)?;
+            let at_end = self.time >= end * (1.0 - 1e-12);
+            if next_row < rows && (self.time >= row_time(next_row) * (1.0 - 1e-12) || at_end) {
+                while next_row < rows && row_time(next_row) <= self.time * (1.0 + 1e-12) {
+                    next_row += 1;
+                }
+                last = self.row();
+                self.check_energy(&last)?;
+                obs.series_row(&last).map_err(SimError::Observer)?;
+            }
+            if next_snap < snaps && (self.time >= snap_time(next_snap) * (1.0 - 1e-12) || at_end) {
+                while next_snap < snaps && snap_time(next_snap) <= self.time * (1.0 + 1e-12) {
+                    next_snap += 1;
+                }
+                self.emit_snapshot(obs)?;
+            }
+            let progress = Progress {
+                step: self.step,
+                time: self.time,
+                end_time: end,
+                kinetic_energy: last.kinetic_energy,
+                strain_energy: last.strain_energy,
+            };
+            match obs.progress(&progress) {
+                Control::Continue => {}
+                Control::Stop => {
+                    cancelled = true;
+                    break;
+                }
+                Control::Checkpoint => {
+                    let cp = self.checkpoint_at(RunClock {
+                        next_row,
+                        next_snap,
+                        last: last.clone(),
+                    });
+                    obs.checkpoint(cp).map_err(SimError::Observer)?;
+                }
+            }
+        }
+        if !cancelled && last.step != self.step {
+            last = self.row();
+            obs.series_row(&last).map_err(SimError::Observer)?;
+        }
+        let mut fracture = serde_json::Map::new();
+        if let Some(st) = &self.run.damage {
+            fracture.insert(
+                "damage_particle".into(),
+                serde_json::json!({
+                    "damaged_particles": st.damage.iter().filter(|&&d| d > 0.0).count(),
+                    "broken_particles": st.damage.iter().filter(|&&d| d >= BROKEN).count(),
+                    "dissipated": self.dissipated,
+                }),
+            );
+        }
+        Ok(RunSummary {
+            steps: self.step,
+            time: self.time,
+            wall_seconds: wall.elapsed().as_secs_f64(),
+            particles: self.x0.len(),
+            stages: self.scene.plan.names(),
+            cancelled,
+            last_row: last,
+            stage_seconds: self.times.clone(),
+            contact_steps: 0,
+            fracture,
+        })
+    }
+
+    /// The state at the end of the present step, with the run loop at
+    /// `clock` (the SCNI tables and everything else are rebuilt from the
+    /// scene on resume).
+    fn checkpoint_at(&self, clock: RunClock) -> Checkpoint<'_> {
+        let flat = |a: &[[f64; D]]| a.iter().flatten().copied().collect::<Vec<f64>>();
+        let state = State {
+            step: self.step,
+            time: self.time,
+            dt: self.dt,
+            external_work: self.external_work,
+            abs_work: self.abs_work,
+            dissipated: self.dissipated,
+            initial_energy: self.initial_energy,
+            snapshot_index: self.snapshot_index,
+            times: self.times.clone(),
+            clock,
+            d: flat(&self.run.d),
+            v: flat(&self.run.v),
+            a: flat(&self.run.a),
+            reaction: self.reaction.clone(),
+            reactions: flat(&self.reactions),
+            damage: self.run.damage.as_ref().map(|st| SavedDamage {
+                kappa: st.kappa.clone(),
+                kappa_c: st.kappa_c.clone(),
+                normal: flat(&st.normal),
+                damage: st.damage.clone(),
+                candidate: st.candidate.clone(),
+            }),
+        };
+        Checkpoint::new(
+            &self.scene,
+            METHOD.name,
+            self.step,
+            self.time,
+            Arc::new(state),
+        )
+    }
+
+    /// The run of `scene` at a checkpoint this method wrote: the setup is
+    /// rebuilt from the scene (the same tables, bit for bit), the state
+    /// read back; [`Dpm::run`] then goes on from its step.
+    pub fn resume(scene: &Scene, cp: Checkpoint<'_>) -> Result<Self, CheckpointError> {
+        cp.check_scene(scene, &[])?;
+        let bad = CheckpointError::Inconsistent;
+        let mut dpm = Dpm::<D, V>::build(scene).map_err(|e| bad(e.to_string()))?;
+        let s: State = postcard::from_bytes(cp.state_bytes().unwrap_or_default())
+            .map_err(|e| CheckpointError::Decode(e.to_string()))?;
+        let n = dpm.x0.len();
+        let unflat =
+            |a: &[f64], what: &str, len: usize| -> Result<Vec<[f64; D]>, CheckpointError> {
+                if a.len() != D * len {
+                    return Err(bad(format!(
+                        "its `{what}` holds {} values, the scene's run {}",
+                        a.len(),
+                        D * len
+                    )));
+                }
+                Ok(a.chunks_exact(D)
+                    .map(|c| std::array::from_fn(|k| c[k]))
+                    .collect())
+            };
+        if !s
+            .times
+            .stages
+            .iter()
+            .map(|t| t.stage)
+            .eq(dpm.times.stages.iter().map(|t| t.stage))
+        {
+            return Err(bad("its stages are not the scene's".into()));
+        }
+        dpm.run.d = unflat(&s.d, "d", n)?;
+        dpm.run.v = unflat(&s.v, "v", n)?;
+        dpm.run.a = unflat(&s.a, "a", n)?;
+        if s.reaction.len() != dpm.reaction.len() {
+            return Err(bad("its held components are not the scene's".into()));
+        }
+        dpm.reaction = s.reaction;
+        dpm.reactions = unflat(&s.reactions, "reactions", dpm.reactions.len())?;
+        match (dpm.run.damage.as_mut(), s.damage) {
+            (None, None) => {}
+            (Some(st), Some(sd)) => {
+                if [
+                    sd.kappa.len(),
+                    sd.kappa_c.len(),
+                    sd.damage.len(),
+                    sd.candidate.len(),
+                ]
+                .iter()
+                .any(|&l| l != n)
+                {
+                    return Err(bad(
+                        "its damage arrays do not have the scene's length".into()
+                    ));
+                }
+                st.kappa = sd.kappa;
+                st.kappa_c = sd.kappa_c;
+                st.normal = unflat(&sd.normal, "normal", n)?;
+                st.damage = sd.damage;
+                st.candidate = sd.candidate;
+            }
+            _ => return Err(bad("the scene's damage is not the checkpoint's".into())),
+        }
+        // the strain and the (degraded) stress of the saved state; the
+        // accelerations are the saved ones, the next step recomputes the
+        // forces
+        dpm.run.stresses();
+        if let Some(st) = &dpm.run.damage {
+            for (s, d) in dpm.run.stress.iter_mut().zip(&st.damage) {
+                for c in s.iter_mut() {
+                    *c *= 1.0 - d;
+                }
+            }
+        }
+        dpm.time = s.time;
+        dpm.step = s.step;
+        dpm.dt = s.dt;
+        dpm.external_work = s.external_work;
+        dpm.abs_work = s.abs_work;
+        dpm.dissipated = s.dissipated;
+        dpm.initial_energy = s.initial_energy;
+        dpm.snapshot_index = s.snapshot_index;
+        dpm.times = s.times;
+        dpm.resumed = Some(s.clock);
+        Ok(dpm)
+    }
+}
+
+/// Damage from which a particle counts as broken in the series.
+const BROKEN: f64 = 0.99;
+
+/// What a checkpoint of this method holds (vectors flattened).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct State {
+    step: u64,
+    time: f64,
+    dt: f64,
+    external_work: f64,
+    abs_work: f64,
+    dissipated: f64,
+    initial_energy: f64,
+    snapshot_index: u32,
+    times: StageTimes,
+    clock: RunClock,
+    d: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    reaction: Vec<f64>,
+    reactions: Vec<f64>,
+    damage: Option<SavedDamage>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct SavedDamage {
+    kappa: Vec<f64>,
+    kappa_c: Vec<f64>,
+    normal: Vec<f64>,
+    damage: Vec<f64>,
+    candidate: Vec<bool>,
+}
+
+impl SaveState for State {
+    fn write(&self, out: &mut dyn std::io::Write) -> Result<(), String> {
+        postcard::to_io(self, out)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    }
+}
+
+impl<const D: usize, const V: usize> Method for Dpm<D, V> {
+    fn name(&self) -> &'static str {
+        METHOD.name
+    }
+    fn scene(&self) -> &Scene {
+        &self.scene
+    }
+    fn particle_count(&self) -> usize {
+        self.x0.len()
+    }
+    fn time(&self) -> f64 {
+        self.time
+    }
+    fn steps(&self) -> u64 {
+        self.step
+    }
+    fn series_columns(&mut self) -> Vec<String> {
+        Dpm::series_columns(self)
+    }
+    fn step(&mut self) -> Result<f64, SimError> {
+        let dt = self.next_dt(self.scene.file.time.end)?;
+        self.advance(dt)?;
+        Ok(dt)
+    }
+    fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {
+        Dpm::run(self, obs)
+    }
+    fn stage_times(&self) -> &StageTimes {
+        &self.times
+    }
+    fn row(&mut self) -> SeriesRow {
+        Dpm::row(self)
+    }
+}

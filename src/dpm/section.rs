@@ -1,0 +1,369 @@
+//! The damage particle method's scene section: `method =
+//! "damage_particle"` and the `[damage_particle]` table, their serde types
+//! and their checks, which [`crate::scene::Scene::validate`] runs with the
+//! field paths.
+//!
+//! What a scene of this method is: box bodies whose corners lie on the
+//! lattice of the grid (`grid.min` + k `grid.cell_size`), one particle on
+//! each vertex of the lattice inside the box (its outline included: the
+//! support must cover the cells' faces, and held particles must lie on the
+//! walls they are held by; docs/dpm.md), linear elastic materials, walls
+//! (`fixed`, `roller`, `velocity`) that hold the particles lying on them,
+//! and the damage of [`DpmDamageSpec`]. The grid sets the spacing, the
+//! walls' planes and the domain (a particle more than one spacing outside
+//! it stops the run: a wall that pulls moves its particles out of the
+//! box); the method has no grid otherwise, so the grid MPM's options are
+//! refused.
+
+use crate::scene::schema::{MaterialModel, SceneFile, ShapeSpec, SideCondition};
+use crate::scene::Checker;
+use serde::{Deserialize, Serialize};
+
+/// The method a scene runs (`method = ...`, a top-level key).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MethodKind {
+    /// The grid MPM (the default).
+    #[default]
+    GridMpm,
+    /// The damage particle method of Wei & Chen (`[damage_particle]`).
+    DamageParticle,
+}
+
+impl MethodKind {
+    pub fn is_grid_mpm(&self) -> bool {
+        *self == MethodKind::GridMpm
+    }
+}
+
+/// `[damage_particle]`: the method's options.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DpmSpec {
+    /// The kernel's support radius over the particle spacing (Wei & Chen
+    /// use 1.5), in [1.2, 4]: below, a face point of a smoothing cell is
+    /// covered by too few particles for the moment matrix.
+    #[serde(default = "default_support")]
+    pub support: f64,
+    /// The damage of every body (absent: elastic).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damage: Option<DpmDamageSpec>,
+}
+
+fn default_support() -> f64 {
+    1.5
+}
+
+/// `[damage_particle.damage]`: Wei & Chen's damage (eq. 2 with Mazars'
+/// equivalent strain, eq. 6) with linear softening regularised by eq. 33.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DpmDamageSpec {
+    /// Tensile strength f_t, Pa (κ₀ = f_t / E).
+    pub strength: f64,
+    /// Fracture energy G_F, J/m².
+    pub fracture_energy: f64,
+    /// κ_c from each damaged cell's section (eq. 33; true, the method), or
+    /// the constant `kappa_c` (false: the unregularised contrast).
+    #[serde(default = "yes")]
+    pub regularised: bool,
+    /// The strain where a particle is fully damaged, with `regularised =
+    /// false` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kappa_c: Option<f64>,
+    /// Criterion 27's tolerance: a neighbour of a particle whose damage
+    /// started becomes a candidate when the cosine of its direction
+    /// against the segment's normal is below `tol`, |n·r|/|r| < tol (0:
+    /// none; 1: every neighbour off the normal).
+    #[serde(default = "default_tol")]
+    pub tol: f64,
+    /// Where damage may start: only the particles in `shape` are
+    /// candidates at the start (the others become candidates by criterion
+    /// 27), their strength scaled by `strength_factor`. Absent: every
+    /// particle is a candidate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initiation: Option<InitiationSpec>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn default_tol() -> f64 {
+    0.3
+}
+
+/// Where damage starts ([`DpmDamageSpec::initiation`]).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct InitiationSpec {
+    pub shape: ShapeSpec,
+    /// The strength there over `strength`, in (0, 1] (a weak plane).
+    #[serde(default = "one")]
+    pub strength_factor: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// How far off the lattice a box corner may be, in spacings.
+const ON_LATTICE: f64 = 1e-9;
+
+/// Particle positions with their smoothing cells' lower and upper
+/// corners.
+pub type BoxLattice<const D: usize> = (Vec<[f64; D]>, Vec<[f64; D]>, Vec<[f64; D]>);
+
+/// The particles of a box body on the lattice of spacing `h` from
+/// `origin`: their positions and smoothing cells (`lo..hi`, the vertex's
+/// Voronoi cell clipped to the box), in lexicographic order (x fastest).
+/// `lo`, `hi` are the box's corners, on the lattice.
+pub fn box_lattice<const D: usize>(lo: [f64; D], hi: [f64; D], h: f64) -> BoxLattice<D> {
+    let n: [usize; D] = std::array::from_fn(|d| ((hi[d] - lo[d]) / h).round() as usize);
+    let total: usize = n.iter().map(|k| k + 1).product();
+    let (mut x, mut clo, mut chi) = (
+        Vec::with_capacity(total),
+        Vec::with_capacity(total),
+        Vec::with_capacity(total),
+    );
+    for k in 0..total {
+        let mut rest = k;
+        let mut p = [0.0; D];
+        let mut a = [0.0; D];
+        let mut b = [0.0; D];
+        for d in 0..D {
+            let i = rest % (n[d] + 1);
+            rest /= n[d] + 1;
+            // the last vertex exactly on the far side
+            p[d] = if i == n[d] {
+                hi[d]
+            } else {
+                lo[d] + i as f64 * h
+            };
+            a[d] = (p[d] - 0.5 * h).max(lo[d]);
+            b[d] = (p[d] + 0.5 * h).min(hi[d]);
+        }
+        x.push(p);
+        clo.push(a);
+        chi.push(b);
+    }
+    (x, clo, chi)
+}
+
+/// The corners of a box body, or None for another shape.
+pub fn box_corners(shape: &ShapeSpec) -> Option<(Vec<f64>, Vec<f64>)> {
+    match shape {
+        ShapeSpec::Box { min, max } => Some((min.components().to_vec(), max.components().to_vec())),
+        _ => None,
+    }
+}
+
+/// Checks a scene that runs the damage particle method (`file.method` is
+/// `damage_particle`), with each material's model (`models[b]`: body b's);
+/// returns the particles of each body.
+pub(crate) fn check(
+    c: &mut Checker,
+    file: &SceneFile,
+    models: &[Option<MaterialModel>],
+) -> Vec<usize> {
+    let dim = file.dimension();
+    let h = file.grid.cell_size;
+    let not_here =
+        "the damage particle method (method = \"damage_particle\") has no background grid";
+    let default = DpmSpec {
+        support: default_support(),
+        damage: None,
+    };
+    let spec = file.damage_particle.as_ref().unwrap_or(&default);
+    if c.finite("damage_particle.support", spec.support) && !(1.2..=4.0).contains(&spec.support) {
+        c.err(
+            "damage_particle.support",
+            format!(
+                "must be in [1.2, 4] particle spacings, got {}: below 1.2 a smoothing cell's face is covered by too few particles for the linear basis (Wei & Chen use 1.5)",
+                spec.support
+            ),
+        );
+    }
+    if let Some(d) = &spec.damage {
+        let q = "damage_particle.damage";
+        c.positive(&format!("{q}.strength"), d.strength);
+        c.positive(&format!("{q}.fracture_energy"), d.fracture_energy);
+        c.in_range(&format!("{q}.tol"), d.tol, 0.0, 1.0);
+        match (d.regularised, d.kappa_c) {
+            (true, Some(_)) => c.err(
+                &format!("{q}.kappa_c"),
+                "is for regularised = false: regularised, κ_c comes from each cell (eq. 33)",
+            ),
+            (false, None) => c.err(
+                &format!("{q}.kappa_c"),
+                "regularised = false needs the strain κ_c where a particle is fully damaged",
+            ),
+            (false, Some(k)) => {
+                c.positive(&format!("{q}.kappa_c"), k);
+            }
+            (true, None) => {}
+        }
+        if let Some(i) = &d.initiation {
+            let f = i.strength_factor;
+            if c.finite(&format!("{q}.initiation.strength_factor"), f) && !(f > 0.0 && f <= 1.0) {
+                c.err(
+                    &format!("{q}.initiation.strength_factor"),
+                    format!("must be in (0, 1], got {f}"),
+                );
+            }
+        }
+    }
+    // what belongs to the grid MPM
+    if file.grid.shape_function != Default::default() || file.grid.lme_gamma.is_some() {
+        c.err(
+            "grid.shape_function",
+            format!("{not_here}: the particles' reproducing kernels replace the grid's shape functions (remove it)"),
+        );
+    }
+    if serde_json::to_value(&file.transfer).ok()
+        != serde_json::from_str::<crate::scene::schema::TransferSpec>("{}")
+            .ok()
+            .and_then(|t| serde_json::to_value(t).ok())
+    {
+        c.err(
+            "transfer",
+            format!("{not_here}: there is no particle–grid transfer to set (remove [transfer])"),
+        );
+    }
+    if file.dfg.is_some() {
+        c.err(
+            "dfg",
+            format!("{not_here}: partitioning is the grid MPM's (remove [dfg])"),
+        );
+    }
+    if file.cramp.is_some() {
+        c.err(
+            "cramp",
+            format!("{not_here}: explicit cracks are the grid MPM's (remove [cramp])"),
+        );
+    }
+    let b = &file.grid.boundary;
+    for (name, side) in [
+        ("left", Some(&b.left)),
+        ("right", Some(&b.right)),
+        ("bottom", Some(&b.bottom)),
+        ("top", Some(&b.top)),
+        ("back", b.back.as_ref()),
+        ("front", b.front.as_ref()),
+    ] {
+        if let Some(SideCondition::Traction { .. }) = side {
+            c.err(
+                &format!("grid.boundary.{name}"),
+                "tractions are not yet applied by the damage particle method (hold the side with fixed, roller or velocity)",
+            );
+        }
+    }
+    let glo = file.grid.min.components();
+    let mut counts = vec![0; file.bodies.len()];
+    for (i, body) in file.bodies.iter().enumerate() {
+        let path = format!("bodies[{i}]");
+        if let Some(Some(m)) = models.get(i) {
+            if *m != MaterialModel::LinearElastic {
+                c.err(
+                    &format!("{path}.material"),
+                    "the damage particle method is small-strain (Wei & Chen): use a linear_elastic material",
+                );
+            }
+        }
+        if let Some(spec) = file.material_of(&body.material) {
+            for (key, set) in [
+                ("phase_field", spec.phase_field.is_some()),
+                ("damage", spec.damage.is_some()),
+                ("eigen", spec.eigen.is_some()),
+            ] {
+                if set {
+                    let at = match &body.material {
+                        crate::scene::MaterialRef::Name(n) => format!("materials.{n}.{key}"),
+                        crate::scene::MaterialRef::Inline(_) => format!("{path}.material.{key}"),
+                    };
+                    c.err(
+                        &at,
+                        "is a grid MPM fracture model: the damage particle method's damage is [damage_particle.damage]",
+                    );
+                }
+            }
+        }
+        for (key, set) in [
+            ("holes", !body.holes.is_empty()),
+            ("cracks", !body.cracks.is_empty()),
+            ("crack_origin", body.crack_origin.is_some()),
+            ("explicit_cracks", !body.explicit_cracks.is_empty()),
+            ("particles_per_cell", body.particles_per_cell.is_some()),
+            (
+                "velocity_gradient",
+                body.velocity_gradient
+                    .rows()
+                    .iter()
+                    .any(|r| r.components().iter().any(|&c| c != 0.0)),
+            ),
+        ] {
+            if set {
+                let why = match key {
+                    "particles_per_cell" => "the damage particle method puts one particle on each vertex of the grid's lattice: remove it",
+                    "velocity_gradient" => "is not yet taken by the damage particle method (give a uniform velocity)",
+                    _ => "is not yet taken by the damage particle method (box bodies only, without holes or initial cracks)",
+                };
+                c.err(&format!("{path}.{key}"), why);
+            }
+        }
+        let Some((lo, hi)) = box_corners(&body.shape) else {
+            c.err(
+                &format!("{path}.shape"),
+                "the damage particle method takes box bodies (their particles on the lattice's vertices)",
+            );
+            continue;
+        };
+        if lo.len() != dim || hi.len() != dim || glo.len() != dim {
+            continue; // the general checks name it
+        }
+        let mut n = 1usize;
+        for d in 0..dim {
+            for (k, v) in [("min", lo[d]), ("max", hi[d])] {
+                let off = (v - glo[d]) / h;
+                if (off - off.round()).abs() > ON_LATTICE * off.abs().max(1.0) {
+                    c.err(
+                        &format!("{path}.shape.{k}[{d}]"),
+                        format!(
+                            "{v} is not on the grid's lattice (grid.min[{d}] + k × grid.cell_size): the particles sit on its vertices"
+                        ),
+                    );
+                }
+            }
+            let cells = ((hi[d] - lo[d]) / h).round();
+            if cells < 1.0 {
+                c.err(
+                    &format!("{path}.shape"),
+                    format!("is less than one grid.cell_size wide along axis {d}"),
+                );
+            } else {
+                n = n.saturating_mul(cells as usize + 1);
+            }
+        }
+        counts[i] = n;
+    }
+    counts
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_box_lattice_has_its_outline_and_clipped_cells() {
+        let (x, lo, hi) = box_lattice([0.0, 1.0], [2.0, 1.5], 0.5);
+        assert_eq!(x.len(), 5 * 2);
+        assert_eq!(x[0], [0.0, 1.0]);
+        assert_eq!(x[9], [2.0, 1.5]);
+        // corner cells a quarter, edge cells a half, interior a whole
+        let area = |k: usize| (hi[k][0] - lo[k][0]) * (hi[k][1] - lo[k][1]);
+        assert_eq!(area(0), 0.0625);
+        assert_eq!(area(1), 0.125);
+        let total: f64 = (0..x.len()).map(area).sum();
+        assert!((total - 1.0).abs() < 1e-15);
+    }
+}

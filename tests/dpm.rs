@@ -1,0 +1,125 @@
+//! The damage particle method (Wei & Chen) run from scene files: the bar
+//! of their section 4.1 through the method registry, and the scene
+//! section's checks.
+
+use cleave::diagnostics::Recorder;
+use cleave::scene::Scene;
+use std::path::Path;
+
+fn scene_text(file: &str) -> String {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::read_to_string(dir.join(file)).unwrap()
+}
+
+/// The right end's displacement at `t` under `dpm_bar.toml`'s pull: a
+/// linear ramp of the speed to `v` over `ramp`, then `v`.
+fn pulled(t: f64) -> f64 {
+    let (v, ramp) = (1.0370899e-3, 2.1213203);
+    if t < ramp {
+        0.5 * v * t * t / ramp
+    } else {
+        v * (t - 0.5 * ramp)
+    }
+}
+
+#[test]
+fn the_bar_scene_dissipates_its_fracture_energy() {
+    // Wei & Chen, section 4.1: the force is gone at u = 2 G_F / f_t =
+    // 1.885e-2, the work done and the energy dissipated are G_F A = 18.85
+    let scene = Scene::from_text(&scene_text("dpm_bar.toml"), None).unwrap();
+    assert_eq!(
+        scene.plan.names(),
+        ["dpm_advance", "dpm_strain", "dpm_damage", "dpm_force"]
+    );
+    assert_eq!(scene.total_particles(), 26 * 3);
+    let mut sim = cleave::methods::build(&scene).unwrap();
+    assert_eq!(sim.name(), "damage_particle");
+    let mut rec = Recorder::series_only();
+    let summary = sim.run(&mut rec).unwrap();
+    let col = |name: &str| rec.column(name).unwrap_or_else(|| panic!("no {name}"));
+    let (t, f) = (col("time"), col("reaction_right_x"));
+    let u: Vec<f64> = t.iter().map(|&t| pulled(t)).collect();
+    let peak = f.iter().cloned().fold(0.0, f64::max);
+    let top = f.iter().position(|&x| x == peak).unwrap();
+    let gone = (top..f.len())
+        .find(|&k| f[k] < 1e-3 * peak)
+        .map(|k| u[k])
+        .expect("the force never fell to zero");
+    let work: f64 = (1..f.len())
+        .map(|k| 0.5 * (f[k] + f[k - 1]) * (u[k] - u[k - 1]))
+        .sum();
+    let dissipated = *col("fracture_energy").last().unwrap();
+    let balance = col("energy_balance");
+    let worst = balance.iter().map(|b| b.abs()).fold(0.0, f64::max);
+    eprintln!(
+        "peak {peak:.2}, u at F = 0 {gone:.5e}, work {work:.4}, dissipated {dissipated:.4}, \
+         |balance| <= {worst:.3e}, {} steps, damaged {:?}",
+        summary.steps,
+        col("damaged_particles").last()
+    );
+    assert!((peak / 2000.0 - 1.0).abs() < 5e-3, "peak {peak}");
+    assert!((gone / 1.885e-2 - 1.0).abs() < 5e-3, "u at F = 0: {gone}");
+    assert!((work / 18.85 - 1.0).abs() < 5e-3, "work {work}");
+    assert!(
+        (dissipated / 18.85 - 1.0).abs() < 5e-3,
+        "dissipated {dissipated}"
+    );
+    assert!(worst < 5e-3 * 18.85, "energy balance off by {worst}");
+    assert_eq!(*col("broken_particles").last().unwrap(), 6.0);
+}
+
+/// The scene with `from` replaced by `to`, validated: the errors' paths
+/// and reasons, joined.
+fn refused(from: &str, to: &str) -> String {
+    let text = scene_text("dpm_bar.toml");
+    assert!(text.contains(from), "no {from:?}");
+    match Scene::from_text(&text.replace(from, to), None) {
+        Ok(_) => panic!("{to:?} was accepted"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn damage_particle_scenes_are_validated() {
+    let cases = [
+        ("support = 1.5", "support = 1.0", "damage_particle.support"),
+        ("support = 1.5", "support = 1.5\nspacing = 2.0", "spacing"),
+        ("tol = 0.3", "tol = 0.3\nkappa_c = 1e-3", "damage_particle.damage.kappa_c"),
+        ("tol = 0.3", "tol = 0.3\nregularised = false", "damage_particle.damage.kappa_c"),
+        ("strength = 200.0", "strength = -200.0", "damage_particle.damage.strength"),
+        ("strength_factor = 0.999", "strength_factor = 1.5", "strength_factor"),
+        (
+            "material = \"bar\"",
+            "material = \"bar\"\nparticles_per_cell = 4",
+            "bodies[0].particles_per_cell",
+        ),
+        (
+            "shape = { type = \"box\", min = [0.0, 0.0], max = [100.0, 8.0] }",
+            "shape = { type = \"disk\", center = [50.0, 4.0], radius = 4.0 }",
+            "bodies[0].shape",
+        ),
+        (
+            "max = [100.0, 8.0] }",
+            "max = [100.0, 7.0] }",
+            "bodies[0].shape.max[1]",
+        ),
+        ("[analysis]", "[transfer]\nscheme = \"apic\"\n\n[analysis]", "transfer"),
+        ("cell_size = 4.0", "cell_size = 4.0\nshape_function = \"linear\"", "grid.shape_function"),
+        (
+            "left = \"fixed\"",
+            "left = { type = \"traction\", normal = 1.0 }",
+            "grid.boundary.left",
+        ),
+        ("poissons_ratio = 0.0", "poissons_ratio = 0.0\ndamage = { model = \"rankine\", strength = 1.0, fracture_energy = 1.0 }", "materials.bar.damage"),
+        ("model = \"linear_elastic\"", "model = \"neo_hookean\"", "materials.bar.model"),
+    ];
+    for (from, to, field) in cases {
+        let e = refused(from, to);
+        assert!(e.contains(field), "{to:?}: {e}");
+    }
+    // the method's table without the method, and an unknown method
+    let e = refused("method = \"damage_particle\"", "");
+    assert!(e.contains("damage_particle") && e.contains("method"), "{e}");
+    let e = refused("method = \"damage_particle\"", "method = \"sph\"");
+    assert!(e.contains("method"), "{e}");
+}
