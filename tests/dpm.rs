@@ -123,3 +123,51 @@ fn damage_particle_scenes_are_validated() {
     let e = refused("method = \"damage_particle\"", "method = \"sph\"");
     assert!(e.contains("method"), "{e}");
 }
+
+#[test]
+fn the_bar_in_3d_dissipates_its_fracture_energy() {
+    // the same bar as a 3D box, 8 × 8 in section (A = 64): one code path
+    // for both dimensions, the 3D section of each cell (eq. 33's A_L)
+    let text = scene_text("dpm_bar.toml")
+        .replace("min = [0.0, -4.0]", "min = [0.0, -4.0, -4.0]")
+        .replace("max = [100.0, 12.0]", "max = [100.0, 12.0, 12.0]")
+        .replace(
+            "min = [0.0, 0.0], max = [100.0, 8.0]",
+            "min = [0.0, 0.0, 0.0], max = [100.0, 8.0, 8.0]",
+        )
+        .replace(
+            "min = [47.0, -1.0], max = [53.0, 9.0]",
+            "min = [47.0, -1.0, -1.0], max = [53.0, 9.0, 9.0]",
+        )
+        .replace("y = 0.0 }", "y = 0.0, z = 0.0 }")
+        .replace("plane = \"plane_stress\"\n", "")
+        .replace("thickness = 1.25\n", "")
+        .replace("[analysis]\n", "");
+    let scene = Scene::from_text(&text, None).unwrap();
+    assert_eq!(scene.dimension(), 3);
+    assert_eq!(scene.total_particles(), 26 * 3 * 3);
+    let mut sim = cleave::methods::build(&scene).unwrap();
+    let mut rec = Recorder::series_only();
+    sim.run(&mut rec).unwrap();
+    let col = |name: &str| rec.column(name).unwrap_or_else(|| panic!("no {name}"));
+    let (t, f) = (col("time"), col("reaction_right_x"));
+    let u: Vec<f64> = t.iter().map(|&t| pulled(t)).collect();
+    let peak = f.iter().cloned().fold(0.0, f64::max);
+    let top = f.iter().position(|&x| x == peak).unwrap();
+    let gone = (top..f.len())
+        .find(|&k| f[k] < 1e-3 * peak)
+        .map(|k| u[k])
+        .expect("the force never fell to zero");
+    let dissipated = *col("fracture_energy").last().unwrap();
+    let (ga, fa) = (1.885 * 64.0, 200.0 * 64.0);
+    eprintln!(
+        "3D: peak {peak:.2} (f_t A {fa}), u at F = 0 {gone:.5e}, dissipated {dissipated:.4} (G_F A {ga}), broken {:?}",
+        col("broken_particles").last()
+    );
+    assert!((peak / fa - 1.0).abs() < 5e-3, "peak {peak}");
+    assert!((gone / 1.885e-2 - 1.0).abs() < 5e-3, "u at F = 0: {gone}");
+    assert!(
+        (dissipated / ga - 1.0).abs() < 5e-3,
+        "dissipated {dissipated}"
+    );
+}
