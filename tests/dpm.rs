@@ -171,3 +171,24 @@ fn the_bar_in_3d_dissipates_its_fracture_energy() {
         "dissipated {dissipated}"
     );
 }
+
+#[test]
+fn a_support_too_small_for_the_moment_matrix_is_a_clear_error() {
+    // validation keeps the support in [1.2, 4]; below it (here forced
+    // past validation) a face point of a cell is covered by one row of
+    // particles: the setup refuses the scene, naming the key, the body,
+    // the particle and the condition, instead of a singular solve
+    let mut scene = Scene::from_text(&scene_text("dpm_bar.toml"), None).unwrap();
+    scene.file.damage_particle.as_mut().unwrap().support = 0.9;
+    let e = match cleave::methods::build(&scene) {
+        Ok(_) => panic!("a support of 0.9 spacings was set up"),
+        Err(e) => e.to_string(),
+    };
+    eprintln!("{e}");
+    assert!(
+        e.contains("damage_particle.support")
+            && e.contains("bodies[0]")
+            && e.contains("particle at"),
+        "{e}"
+    );
+}
