@@ -63,9 +63,18 @@ pub enum CheckpointError {
     Inconsistent(String),
 }
 
-/// What a method saves: it writes itself (postcard) into the file.
+/// What a method saves: it writes itself (postcard) into the file. Every
+/// serialisable state does so as postcard.
 pub trait SaveState: Send + Sync {
     fn write(&self, out: &mut dyn Write) -> Result<(), String>;
+}
+
+impl<T: Serialize + Send + Sync> SaveState for T {
+    fn write(&self, out: &mut dyn Write) -> Result<(), String> {
+        postcard::to_io(self, out)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    }
 }
 
 /// The method's state in a checkpoint.

@@ -13,7 +13,7 @@
 //! summary.
 
 use crate::checkpoint::{Checkpoint, CheckpointError};
-use crate::diagnostics::{Observer, SeriesRow};
+use crate::diagnostics::{Control, Observer, Progress, SeriesRow};
 use crate::fracture::model::AsAny;
 use crate::scene::{Plan, Scene, Stage};
 use serde::Serialize;
@@ -261,4 +261,225 @@ impl RunSummary {
             .get(name)
             .and_then(|v| serde_json::from_value(v.clone()).ok())
     }
+}
+
+/// What the one run loop ([`drive`]) needs of a method: its clock, a step,
+/// its rows, snapshots, guards and checkpoints. Every method runs a scene
+/// through the same loop, so that rows, snapshots, progress, cancelling
+/// and checkpoints mean the same whatever the method.
+pub(crate) trait Stepper {
+    fn scene(&self) -> &Scene;
+    /// Simulated time reached, s.
+    fn now(&self) -> f64;
+    /// Steps taken.
+    fn steps_taken(&self) -> u64;
+    /// The loop's position a resume left (taken once).
+    fn take_resumed(&mut self) -> Option<RunClock>;
+    /// The kinetic + strain energy of the first row, which the energy
+    /// guard and the energy error count from.
+    fn set_initial_energy(&mut self, energy: f64);
+    fn series_columns(&mut self) -> Vec<String>;
+    /// The next Δt, clipped to land on `end`.
+    fn next_dt(&self, end: f64) -> Result<f64, SimError>;
+    /// Told before each step whether it ends on a series row and on any
+    /// output (row or snapshot).
+    fn step_ends_on(&mut self, _row: bool, _output: bool) {}
+    /// One step of Δt.
+    fn advance(&mut self, dt: f64) -> Result<(), SimError>;
+    fn row(&mut self) -> SeriesRow;
+    /// The runaway-energy guard on a row ([`energy_guard`]).
+    fn check_energy(&self, row: &SeriesRow) -> Result<(), SimError>;
+    fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError>;
+    fn checkpoint_at(&self, clock: RunClock) -> Checkpoint<'_>;
+    /// The summary's method-specific parts: the particle count, the steps
+    /// with contact, each fracture model's part.
+    fn summary_parts(&self) -> (usize, u64, serde_json::Map<String, serde_json::Value>);
+    fn times(&self) -> &StageTimes;
+}
+
+/// Runs `m` to `time.end` (or on from a checkpoint): rows at
+/// `output.series_rows` evenly spaced times, snapshots likewise, progress
+/// after every step, checkpoints when the observer asks. Returns early
+/// (with `cancelled`) when the observer asks to stop.
+pub(crate) fn drive<S: Stepper + ?Sized>(
+    m: &mut S,
+    obs: &mut dyn Observer,
+) -> Result<RunSummary, SimError> {
+    let wall = std::time::Instant::now();
+    let file = &m.scene().file;
+    let end = file.time.end;
+    let rows = file.output.series_rows.max(2) as u64;
+    let snaps = file.output.snapshots as u64;
+    let max_steps = file.time.max_steps.unwrap_or(10_000_000);
+    let row_time = |k: u64| end * k as f64 / (rows - 1) as f64;
+    let snap_time = |k: u64| {
+        if snaps <= 1 {
+            end
+        } else {
+            end * k as f64 / (snaps - 1) as f64
+        }
+    };
+    let (mut last, mut next_row, mut next_snap) = match m.take_resumed() {
+        // a resumed run's header, rows and snapshots up to the
+        // checkpoint were written before it
+        Some(c) => (c.last, c.next_row, c.next_snap),
+        None => {
+            obs.series_columns(&m.series_columns())
+                .map_err(SimError::Observer)?;
+            let last = m.row();
+            m.set_initial_energy(last.kinetic_energy + last.strain_energy);
+            obs.series_row(&last).map_err(SimError::Observer)?;
+            let mut next_snap = 0;
+            if snaps > 0 && snap_time(0) <= 0.0 {
+                m.emit_snapshot(obs)?;
+                next_snap = 1;
+            }
+            (last, 1, next_snap)
+        }
+    };
+    let mut cancelled = false;
+    while m.now() < end * (1.0 - 1e-12) {
+        if m.steps_taken() >= max_steps {
+            return Err(SimError::MaxSteps {
+                step: m.steps_taken(),
+                time: m.now(),
+            });
+        }
+        let dt = m.next_dt(end)?;
+        let t = m.now() + dt;
+        let ends = t >= end * (1.0 - 1e-12);
+        let row_due = next_row < rows && (t >= row_time(next_row) * (1.0 - 1e-12) || ends);
+        let output_due =
+            row_due || (next_snap < snaps && (t >= snap_time(next_snap) * (1.0 - 1e-12) || ends));
+        m.step_ends_on(row_due, output_due);
+        m.advance(dt)?;
+        let time = m.now();
+        let at_end = time >= end * (1.0 - 1e-12);
+        if next_row < rows && (time >= row_time(next_row) * (1.0 - 1e-12) || at_end) {
+            while next_row < rows && row_time(next_row) <= time * (1.0 + 1e-12) {
+                next_row += 1;
+            }
+            last = m.row();
+            m.check_energy(&last)?;
+            obs.series_row(&last).map_err(SimError::Observer)?;
+        }
+        if next_snap < snaps && (time >= snap_time(next_snap) * (1.0 - 1e-12) || at_end) {
+            while next_snap < snaps && snap_time(next_snap) <= time * (1.0 + 1e-12) {
+                next_snap += 1;
+            }
+            m.emit_snapshot(obs)?;
+        }
+        let progress = Progress {
+            step: m.steps_taken(),
+            time,
+            end_time: end,
+            kinetic_energy: last.kinetic_energy,
+            strain_energy: last.strain_energy,
+        };
+        match obs.progress(&progress) {
+            Control::Continue => {}
+            Control::Stop => {
+                cancelled = true;
+                break;
+            }
+            Control::Checkpoint => {
+                let cp = m.checkpoint_at(RunClock {
+                    next_row,
+                    next_snap,
+                    last: last.clone(),
+                });
+                obs.checkpoint(cp).map_err(SimError::Observer)?;
+            }
+        }
+    }
+    if !cancelled && last.step != m.steps_taken() {
+        last = m.row();
+        obs.series_row(&last).map_err(SimError::Observer)?;
+    }
+    let (particles, contact_steps, fracture) = m.summary_parts();
+    Ok(RunSummary {
+        steps: m.steps_taken(),
+        time: m.now(),
+        wall_seconds: wall.elapsed().as_secs_f64(),
+        particles,
+        stages: m.scene().plan.names(),
+        cancelled,
+        last_row: last,
+        stage_seconds: m.times().clone(),
+        contact_steps,
+        fracture,
+    })
+}
+
+/// The step a method takes next: the scene's fixed `time.dt` (refused
+/// above the stability `limit`, h / max(c + |v|)) or `time.cfl` × the
+/// limit, clipped to land on `end` (a step within 1e-9 of what is left
+/// takes all of it). A zero, subnormal or non-finite step, or one too
+/// small to move the clock, would repeat until `max_steps`: it stops the
+/// run at once and says why. `fastest` names the particle that sets the
+/// limit (asked only for an error).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn clip_dt(
+    scene: &Scene,
+    step: u64,
+    time: f64,
+    end: f64,
+    h: f64,
+    signal: f64,
+    fastest: impl Fn() -> u32,
+) -> Result<f64, SimError> {
+    let limit = h / signal.max(1e-300);
+    let dt = match scene.file.time.dt {
+        Some(dt) if dt > limit => {
+            return Err(SimError::CflViolated {
+                step,
+                time,
+                dt,
+                limit,
+                particle: fastest(),
+            })
+        }
+        Some(dt) => dt,
+        None => scene.cfl() * limit,
+    };
+    let left = end - time;
+    let dt = if dt > left || left - dt < 1e-9 * dt {
+        left
+    } else {
+        dt
+    };
+    if !dt.is_normal() || time + dt == time {
+        return Err(SimError::NoProgress {
+            step,
+            time,
+            dt,
+            h,
+            signal,
+            particle: fastest(),
+        });
+    }
+    Ok(dt)
+}
+
+/// The runaway-energy guard: a row's kinetic + strain energy above
+/// `guards.energy_growth` × (the initial energy + the work put in, in
+/// absolute value, + a floor) stops the run.
+pub(crate) fn energy_guard(
+    scene: &Scene,
+    row: &SeriesRow,
+    initial_energy: f64,
+    abs_work: f64,
+    floor: f64,
+) -> Result<(), SimError> {
+    let energy = row.kinetic_energy + row.strain_energy;
+    let bound = scene.file.guards.energy_growth * (initial_energy + abs_work + floor);
+    if !(energy <= bound) {
+        return Err(SimError::EnergyRunaway {
+            step: row.step,
+            time: row.time,
+            energy,
+            bound,
+        });
+    }
+    Ok(())
 }

@@ -1041,8 +1041,18 @@ fn run_valid(
                     })
                 );
             } else {
+                // the energy error counts no dissipation: with fracture,
+                // say how much of it the cracks took
+                let fractured = if row.fracture_energy != 0.0 {
+                    format!(
+                        ", {:.3e} J of it dissipated by fracture",
+                        row.fracture_energy
+                    )
+                } else {
+                    String::new()
+                };
                 eprintln!(
-                    "done: {} steps to t = {:.6e} s in {:.2} s; kinetic {:.6e} J, strain {:.6e} J, energy balance error {:.3e} J ({:.2e} of the largest kinetic + strain); results in {}",
+                    "done: {} steps to t = {:.6e} s in {:.2} s; kinetic {:.6e} J, strain {:.6e} J, energy balance error {:.3e} J ({:.2e} of the largest kinetic + strain){fractured}; results in {}",
                     summary.steps,
                     summary.time,
                     summary.wall_seconds,

@@ -52,6 +52,9 @@ pub struct DamageState<const D: usize> {
     pub candidate: Vec<bool>,
     /// Particles whose damage started in the last step.
     started: Vec<bool>,
+    /// Criterion 27's neighbourhoods when not the shape functions'
+    /// (`tracking_radius`): `list[start[l]..start[l + 1]]` are l's.
+    pub tracking: Option<(Vec<u32>, Vec<u32>)>,
     /// Reference positions and cells (A_L and V_L of eq. 33).
     x: Vec<[f64; D]>,
     lo: Vec<[f64; D]>,
@@ -77,6 +80,7 @@ impl<const D: usize> DamageState<D> {
             damage: vec![0.0; n],
             candidate,
             started: vec![false; n],
+            tracking: None,
             x,
             lo,
             hi,
@@ -283,7 +287,8 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
 
     /// Criterion (27) after a step: the neighbours of each particle whose
     /// damage started in it (those its shape functions cover, the cells
-    /// about it) that lie along its segment become candidates.
+    /// about it, or those of `tracking`) that lie along its segment
+    /// become candidates.
     fn track(&mut self, tol_of: impl Fn(u16) -> f64) {
         let Some(st) = self.damage.as_mut() else {
             return;
@@ -293,7 +298,10 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
                 continue;
             }
             let tol = tol_of(self.material[l]);
-            let (nodes, _) = self.scni.values(l);
+            let nodes = match &st.tracking {
+                Some((start, list)) => &list[start[l] as usize..start[l + 1] as usize],
+                None => self.scni.values(l).0,
+            };
             for &i in nodes {
                 let i = i as usize;
                 if ahead(st.x[l], st.normal[l], st.x[i], tol) {

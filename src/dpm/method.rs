@@ -18,11 +18,12 @@
 //! work, counted with the trapezoid rule over each step's held
 //! displacement, is the series' `external_work` (with gravity's).
 
+use super::crack::Cuts;
 use super::explicit::{DamageParams, DamageState, Explicit, Held};
 use super::scni::Scni;
 use super::section::{box_corners, box_lattice};
-use crate::checkpoint::{Checkpoint, CheckpointError, SaveState};
-use crate::diagnostics::{measure, Control, Field, FieldData, Observer, Progress, SeriesRow};
+use crate::checkpoint::{Checkpoint, CheckpointError};
+use crate::diagnostics::{measure, Field, FieldData, Observer, SeriesRow};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::run::{Method, MethodEntry, RunClock, RunSummary, SimError, StageTimes};
@@ -77,8 +78,9 @@ pub struct Dpm<const D: usize, const V: usize> {
     mats: Vec<Elastic>,
     /// What each of `run.held` follows.
     holds: Vec<Hold>,
-    /// The constrained sides' names, in the order of `reactions`.
-    sides: Vec<&'static str>,
+    /// The constrained sides' and held regions' names, in the order of
+    /// `reactions`.
+    sides: Vec<String>,
     /// Each held component's reaction at the end of the last step, N.
     reaction: Vec<f64>,
     /// With `[output] reactions`: each side's force on the material at the
@@ -91,6 +93,9 @@ pub struct Dpm<const D: usize, const V: usize> {
     h: f64,
     /// The fastest dilatational wave speed, m/s.
     wave: f64,
+    /// The particles' greatest speed, m/s (measured by the guards after
+    /// each step).
+    max_speed: f64,
     time: f64,
     step: u64,
     dt: f64,
@@ -119,6 +124,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             .unwrap_or(super::section::DpmSpec {
                 support: 1.5,
                 damage: None,
+                held: Vec::new(),
             });
         let (mut x, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new());
         let (mut body, mut material, mut velocity) = (Vec::new(), Vec::new(), Vec::new());
@@ -174,7 +180,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                     .collect(),
             };
             let side = sides.len();
-            sides.push(name);
+            sides.push(name.to_string());
             let plane = if far { ghi[axis] } else { glo[axis] };
             for (p, q) in x.iter().enumerate() {
                 if (q[axis] - plane).abs() > 1e-9 * h {
@@ -195,12 +201,82 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                 }
             }
         }
+        // the held regions, after the walls
+        for (k, region) in spec.held.iter().enumerate() {
+            let targets: Vec<(usize, TimeFunction)> = [&region.x, &region.y, &region.z]
+                .into_iter()
+                .enumerate()
+                .take(D)
+                .filter_map(|(a, f)| f.clone().map(|f| (a, f)))
+                .collect();
+            let side = sides.len();
+            sides.push(region.label(k));
+            let mut holds_any = false;
+            for (p, q) in x.iter().enumerate() {
+                if !inside(&region.shape, *q) {
+                    continue;
+                }
+                holds_any = true;
+                for (a, f) in &targets {
+                    if taken.insert((p, *a)) {
+                        held.push(Held {
+                            particle: p as u32,
+                            axis: *a as u8,
+                            velocity: 0.0,
+                        });
+                        holds.push(Hold {
+                            side,
+                            velocity: Some(f.clone()),
+                        });
+                    }
+                }
+            }
+            if !holds_any {
+                return Err(SceneError::single(
+                    format!("damage_particle.held[{k}].shape"),
+                    format!("holds no particle (the particles sit on the vertices of the grid's lattice, spacing {h} m)"),
+                ));
+            }
+        }
+        // the pre-existing cracks (2D), diffracting the supports
+        let mut cuts = Cuts::<D>::none();
+        let mut crack_of = Vec::new();
+        if D == 2 {
+            for (b, spec_b) in file.bodies.iter().enumerate() {
+                let Some((a, z)) = box_corners(&spec_b.shape) else {
+                    continue;
+                };
+                for (k, crack) in spec_b.cracks.iter().enumerate() {
+                    let pts: Vec<[f64; D]> = crack
+                        .points
+                        .iter()
+                        .map(|v| std::array::from_fn(|d| v.components()[d]))
+                        .collect();
+                    let tol = 1e-9 * h;
+                    cuts.add(b as u16, &pts, |p| {
+                        (0..D).all(|d| p[d] > a[d] + tol && p[d] < z[d] - tol)
+                    });
+                    crack_of.push((b, k));
+                }
+            }
+            for (p, q) in x.iter().enumerate() {
+                if let Some(line) = cuts.on_crack(body[p], *q, 1e-9 * h) {
+                    let (b, k) = crack_of[line];
+                    return Err(SceneError::single(
+                        format!("bodies[{b}].cracks[{k}]"),
+                        format!(
+                            "passes through the particle at {q:?} m: a particle on a crack belongs to neither face (move the crack off the lattice's vertices, by half a spacing for instance)"
+                        ),
+                    ));
+                }
+            }
+        }
         let mut singular = vec![false; n];
         for c in &held {
             singular[c.particle as usize] = true;
         }
         let radius = vec![spec.support * h; n];
-        let scni = Scni::<D>::build(&x, &lo, &hi, &radius, &singular, &body).map_err(|e| {
+        let scni = Scni::<D>::build_cut(&x, &lo, &hi, &radius, &singular, &body, &cuts).map_err(|e| {
             let p = e.particle as usize;
             SceneError::single(
                 "damage_particle.support",
@@ -240,14 +316,10 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             let mut candidate = Vec::with_capacity(n);
             for (p, q) in x.iter().enumerate() {
                 let e = scene.materials[material[p] as usize].youngs_modulus;
-                let inside = dmg.initiation.as_ref().map(|i| {
-                    let inside = if D == 2 {
-                        crate::geometry::contains(&i.shape, resize(*q))
-                    } else {
-                        crate::geometry::contains_3d(&i.shape, resize(*q))
-                    };
-                    (inside, i.strength_factor)
-                });
+                let inside = dmg
+                    .initiation
+                    .as_ref()
+                    .map(|i| (inside(&i.shape, *q), i.strength_factor));
                 let (cand, factor) = match inside {
                     None => (true, 1.0),
                     Some((true, f)) => (true, f),
@@ -256,7 +328,11 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                 kappa_0.push(factor * dmg.strength / e);
                 candidate.push(cand);
             }
-            run.damage = Some(DamageState::new(x.clone(), lo, hi, kappa_0, candidate));
+            let mut state = DamageState::new(x.clone(), lo, hi, kappa_0, candidate);
+            if let Some(r) = dmg.tracking_radius {
+                state.tracking = Some(tracking_lists(&x, &body, &cuts, r * h));
+            }
+            run.damage = Some(state);
         }
         // the forces of the initial state (zero strain: gravity only)
         run.accelerations();
@@ -291,6 +367,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         } else {
             Vec::new()
         };
+        let speed = max_speed(&run.v);
         Ok(Dpm {
             reaction: vec![0.0; run.held.len()],
             run,
@@ -304,6 +381,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             hi: std::array::from_fn(|d| ghi[d] + h),
             h,
             wave,
+            max_speed: speed,
             time: 0.0,
             step: 0,
             dt: 0.0,
@@ -329,43 +407,19 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
     /// The next time step: fixed (checked against h / max(c + |v|)) or
     /// `time.cfl` × that, clipped to land on `end`.
     fn next_dt(&self, end: f64) -> Result<f64, SimError> {
-        let (fastest, speed) = self.fastest();
-        let signal = self.wave + speed;
-        let limit = self.h / signal.max(1e-300);
-        let dt = match self.scene.file.time.dt {
-            Some(dt) if dt > limit => {
-                return Err(SimError::CflViolated {
-                    step: self.step,
-                    time: self.time,
-                    dt,
-                    limit,
-                    particle: fastest,
-                })
-            }
-            Some(dt) => dt,
-            None => self.scene.cfl() * limit,
-        };
-        let left = end - self.time;
-        let dt = if dt > left || left - dt < 1e-9 * dt {
-            left
-        } else {
-            dt
-        };
-        if !dt.is_normal() || self.time + dt == self.time {
-            return Err(SimError::NoProgress {
-                step: self.step,
-                time: self.time,
-                dt,
-                h: self.h,
-                signal,
-                particle: fastest,
-            });
-        }
-        Ok(dt)
+        crate::run::clip_dt(
+            &self.scene,
+            self.step,
+            self.time,
+            end,
+            self.h,
+            self.wave + self.max_speed,
+            || self.fastest(),
+        )
     }
 
-    /// The fastest particle and its speed.
-    fn fastest(&self) -> (u32, f64) {
+    /// The fastest particle (asked only for an error message).
+    fn fastest(&self) -> u32 {
         let mut best = (0u32, 0.0);
         for (p, v) in self.run.v.iter().enumerate() {
             let s = crate::tensor::norm(*v);
@@ -373,7 +427,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                 best = (p as u32, s);
             }
         }
-        best
+        best.0
     }
 
     /// One step of Δt: the plan's stages in order, each timed; then the
@@ -442,9 +496,11 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         self.abs_work += work.abs();
     }
 
-    /// The particle guards: a non-finite displacement or velocity, a
+    /// The particle guards (and the greatest speed, for the next step):
+    /// a non-finite displacement or velocity, a
     /// particle outside the grid's box.
-    fn guard(&self) -> Result<(), SimError> {
+    fn guard(&mut self) -> Result<(), SimError> {
+        self.max_speed = max_speed(&self.run.v);
         let (lo, hi) = (self.lo, self.hi);
         let bad = (0..self.x0.len()).into_par_iter().find_first(|&p| {
             let (d, v) = (self.run.d[p], self.run.v[p]);
@@ -578,21 +634,6 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         row
     }
 
-    fn check_energy(&self, row: &SeriesRow) -> Result<(), SimError> {
-        let energy = row.kinetic_energy + row.strain_energy;
-        let bound = self.scene.file.guards.energy_growth
-            * (self.initial_energy + self.abs_work + self.energy_floor);
-        if !(energy <= bound) {
-            return Err(SimError::EnergyRunaway {
-                step: row.step,
-                time: row.time,
-                energy,
-                bound,
-            });
-        }
-        Ok(())
-    }
-
     fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
         let t0 = Instant::now();
         self.fill_view();
@@ -619,116 +660,6 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         self.snapshot_index += 1;
         self.times.diagnostics += t0.elapsed().as_secs_f64();
         obs.snapshot(&snap).map_err(SimError::Observer)
-    }
-
-    /// Runs to `time.end` (or on from a checkpoint): rows at
-    /// `output.series_rows` evenly spaced times, snapshots likewise,
-    /// progress after every step, checkpoints when the observer asks.
-    pub fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {
-        let wall = Instant::now();
-        let end = self.scene.file.time.end;
-        let rows = self.scene.file.output.series_rows.max(2) as u64;
-        let snaps = self.scene.file.output.snapshots as u64;
-        let max_steps = self.scene.file.time.max_steps.unwrap_or(10_000_000);
-        let row_time = |k: u64| end * k as f64 / (rows - 1) as f64;
-        let snap_time = |k: u64| {
-            if snaps <= 1 {
-                end
-            } else {
-                end * k as f64 / (snaps - 1) as f64
-            }
-        };
-        let (mut last, mut next_row, mut next_snap) = match self.resumed.take() {
-            Some(c) => (c.last, c.next_row, c.next_snap),
-            None => {
-                obs.series_columns(&self.series_columns())
-                    .map_err(SimError::Observer)?;
-                let last = self.row();
-                self.initial_energy = last.kinetic_energy + last.strain_energy;
-                obs.series_row(&last).map_err(SimError::Observer)?;
-                let mut next_snap = 0;
-                if snaps > 0 && snap_time(0) <= 0.0 {
-                    self.emit_snapshot(obs)?;
-                    next_snap = 1;
-                }
-                (last, 1, next_snap)
-            }
-        };
-        let mut cancelled = false;
-        while self.time < end * (1.0 - 1e-12) {
-            if self.step >= max_steps {
-                return Err(SimError::MaxSteps {
-                    step: self.step,
-                    time: self.time,
-                });
-            }
-            let dt = self.next_dt(end)?;
-            self.advance(dt)?;
-            let at_end = self.time >= end * (1.0 - 1e-12);
-            if next_row < rows && (self.time >= row_time(next_row) * (1.0 - 1e-12) || at_end) {
-                while next_row < rows && row_time(next_row) <= self.time * (1.0 + 1e-12) {
-                    next_row += 1;
-                }
-                last = self.row();
-                self.check_energy(&last)?;
-                obs.series_row(&last).map_err(SimError::Observer)?;
-            }
-            if next_snap < snaps && (self.time >= snap_time(next_snap) * (1.0 - 1e-12) || at_end) {
-                while next_snap < snaps && snap_time(next_snap) <= self.time * (1.0 + 1e-12) {
-                    next_snap += 1;
-                }
-                self.emit_snapshot(obs)?;
-            }
-            let progress = Progress {
-                step: self.step,
-                time: self.time,
-                end_time: end,
-                kinetic_energy: last.kinetic_energy,
-                strain_energy: last.strain_energy,
-            };
-            match obs.progress(&progress) {
-                Control::Continue => {}
-                Control::Stop => {
-                    cancelled = true;
-                    break;
-                }
-                Control::Checkpoint => {
-                    let cp = self.checkpoint_at(RunClock {
-                        next_row,
-                        next_snap,
-                        last: last.clone(),
-                    });
-                    obs.checkpoint(cp).map_err(SimError::Observer)?;
-                }
-            }
-        }
-        if !cancelled && last.step != self.step {
-            last = self.row();
-            obs.series_row(&last).map_err(SimError::Observer)?;
-        }
-        let mut fracture = serde_json::Map::new();
-        if let Some(st) = &self.run.damage {
-            fracture.insert(
-                "damage_particle".into(),
-                serde_json::json!({
-                    "damaged_particles": st.damage.iter().filter(|&&d| d > 0.0).count(),
-                    "broken_particles": st.damage.iter().filter(|&&d| d >= BROKEN).count(),
-                    "dissipated": self.dissipated,
-                }),
-            );
-        }
-        Ok(RunSummary {
-            steps: self.step,
-            time: self.time,
-            wall_seconds: wall.elapsed().as_secs_f64(),
-            particles: self.x0.len(),
-            stages: self.scene.plan.names(),
-            cancelled,
-            last_row: last,
-            stage_seconds: self.times.clone(),
-            contact_steps: 0,
-            fracture,
-        })
     }
 
     /// The state at the end of the present step, with the run loop at
@@ -853,9 +784,63 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         dpm.initial_energy = s.initial_energy;
         dpm.snapshot_index = s.snapshot_index;
         dpm.times = s.times;
+        dpm.max_speed = max_speed(&dpm.run.v);
         dpm.resumed = Some(s.clock);
         Ok(dpm)
     }
+}
+
+/// Criterion 27's neighbourhoods of `tracking_radius`: for each particle,
+/// the others of its body within `reach` (by the diffracted distance, so
+/// none across a crack), in CSR form (start, list), ascending.
+fn tracking_lists<const D: usize>(
+    x: &[[f64; D]],
+    body: &[u16],
+    cuts: &Cuts<D>,
+    reach: f64,
+) -> (Vec<u32>, Vec<u32>) {
+    let mut lists = crate::neighbours::Neighbours::<D>::default();
+    let mut min = [f64::INFINITY; D];
+    let mut max = [f64::NEG_INFINITY; D];
+    for p in x {
+        for d in 0..D {
+            min[d] = min[d].min(p[d] - reach);
+            max[d] = max[d].max(p[d] + reach);
+        }
+    }
+    let reach = reach * (1.0 + 1e-9);
+    if !x.is_empty() {
+        lists.build(x, body, reach, min, max);
+        lists.sort();
+    }
+    let (mut start, mut list) = (vec![0u32], Vec::new());
+    for (l, xl) in x.iter().enumerate() {
+        for &i in lists.of(l) {
+            let xi = x[i as usize];
+            let s0 = crate::tensor::norm(crate::tensor::sub(xi, *xl));
+            if i as usize != l && cuts.distance(body[l], *xl, xi, s0) <= reach {
+                list.push(i);
+            }
+        }
+        start.push(list.len() as u32);
+    }
+    (start, list)
+}
+
+/// Whether the point `q` lies in `shape` (of the scene's dimension).
+fn inside<const D: usize>(shape: &crate::scene::ShapeSpec, q: [f64; D]) -> bool {
+    if D == 2 {
+        crate::geometry::contains(shape, resize(q))
+    } else {
+        crate::geometry::contains_3d(shape, resize(q))
+    }
+}
+
+/// The greatest of the particles' speeds, m/s.
+fn max_speed<const D: usize>(v: &[[f64; D]]) -> f64 {
+    v.par_iter()
+        .map(|v| crate::tensor::norm(*v))
+        .reduce(|| 0.0, f64::max)
 }
 
 /// Damage from which a particle counts as broken in the series.
@@ -891,14 +876,6 @@ struct SavedDamage {
     candidate: Vec<bool>,
 }
 
-impl SaveState for State {
-    fn write(&self, out: &mut dyn std::io::Write) -> Result<(), String> {
-        postcard::to_io(self, out)
-            .map(|_| ())
-            .map_err(|e| e.to_string())
-    }
-}
-
 impl<const D: usize, const V: usize> Method for Dpm<D, V> {
     fn name(&self) -> &'static str {
         METHOD.name
@@ -924,12 +901,74 @@ impl<const D: usize, const V: usize> Method for Dpm<D, V> {
         Ok(dt)
     }
     fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {
-        Dpm::run(self, obs)
+        crate::run::drive(self, obs)
     }
     fn stage_times(&self) -> &StageTimes {
         &self.times
     }
     fn row(&mut self) -> SeriesRow {
         Dpm::row(self)
+    }
+}
+
+impl<const D: usize, const V: usize> crate::run::Stepper for Dpm<D, V> {
+    fn scene(&self) -> &Scene {
+        &self.scene
+    }
+    fn now(&self) -> f64 {
+        self.time
+    }
+    fn steps_taken(&self) -> u64 {
+        self.step
+    }
+    fn take_resumed(&mut self) -> Option<RunClock> {
+        self.resumed.take()
+    }
+    fn set_initial_energy(&mut self, energy: f64) {
+        self.initial_energy = energy;
+    }
+    fn series_columns(&mut self) -> Vec<String> {
+        Dpm::series_columns(self)
+    }
+    fn next_dt(&self, end: f64) -> Result<f64, SimError> {
+        Dpm::next_dt(self, end)
+    }
+    fn advance(&mut self, dt: f64) -> Result<(), SimError> {
+        Dpm::advance(self, dt)
+    }
+    fn row(&mut self) -> SeriesRow {
+        Dpm::row(self)
+    }
+    fn check_energy(&self, row: &SeriesRow) -> Result<(), SimError> {
+        crate::run::energy_guard(
+            &self.scene,
+            row,
+            self.initial_energy,
+            self.abs_work,
+            self.energy_floor,
+        )
+    }
+    fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
+        Dpm::emit_snapshot(self, obs)
+    }
+    fn checkpoint_at(&self, clock: RunClock) -> Checkpoint<'_> {
+        Dpm::checkpoint_at(self, clock)
+    }
+    fn summary_parts(&self) -> (usize, u64, serde_json::Map<String, serde_json::Value>) {
+        let mut fracture = serde_json::Map::new();
+        if let Some(st) = &self.run.damage {
+            fracture.insert(
+                "damage_particle".into(),
+                serde_json::json!({
+                    "damaged_particles": st.damage.iter().filter(|&&d| d > 0.0).count(),
+                    "broken_particles": st.damage.iter().filter(|&&d| d >= BROKEN).count(),
+                    "dissipated": self.dissipated,
+                }),
+            );
+        }
+        (self.x0.len(), 0, fracture)
+    }
+    fn times(&self) -> &StageTimes {
+        &self.times
     }
 }

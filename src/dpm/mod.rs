@@ -12,6 +12,7 @@
 //! "damage_particle"`) and its [`crate::run::Method`] ([`method`]).
 //! docs/dpm.md keeps the record.
 
+pub mod crack;
 pub mod damage;
 pub mod explicit;
 pub mod method;

@@ -16,6 +16,7 @@
 //! particles cover (fewer than D + 1 not on one line or plane) has a
 //! singular A, and [`RkError`] says where instead of dividing by zero.
 
+use super::crack::Cuts;
 use crate::tensor::sub;
 
 /// The cubic B-spline kernel of Wei & Chen's eq. 21 at `s = |x − x_I| / a_I`
@@ -74,6 +75,25 @@ pub fn shape_values<const D: usize>(
     scale: f64,
     out: &mut [f64],
 ) -> Result<usize, RkError> {
+    shape_values_cut(x, nodes, xs, radius, singular, None, scale, out)
+}
+
+/// [`shape_values`] in a body with pre-existing cracks: `cut` holds the
+/// cracks, each particle's body and the point the crossings are judged
+/// from (x, or a hair inside the cell whose face point x is), and the
+/// kernels are evaluated at the diffracted distances of
+/// [`Cuts::distance_seen_from`] (Organ et al.'s diffraction method).
+#[allow(clippy::too_many_arguments)]
+pub fn shape_values_cut<const D: usize>(
+    x: [f64; D],
+    nodes: &[u32],
+    xs: &[[f64; D]],
+    radius: &[f64],
+    singular: &[bool],
+    cut: Option<(&Cuts<D>, &[u16], [f64; D])>,
+    scale: f64,
+    out: &mut [f64],
+) -> Result<usize, RkError> {
     debug_assert!(D == 2 || D == 3);
     debug_assert_eq!(out.len(), nodes.len());
     let n = D + 1;
@@ -88,7 +108,11 @@ pub fn shape_values<const D: usize>(
     for (k, &i) in nodes.iter().enumerate() {
         let i = i as usize;
         let r = sub(x, xs[i]);
-        let s = crate::tensor::norm(r) / radius[i];
+        let mut dist = crate::tensor::norm(r);
+        if let Some((cuts, body, seen_from)) = cut {
+            dist = cuts.distance_seen_from(body[i], x, seen_from, xs[i], dist);
+        }
+        let s = dist / radius[i];
         let phi0 = cubic_bspline(s);
         let mut phi = phi0;
         if phi != 0.0 && singular.get(i) == Some(&true) {

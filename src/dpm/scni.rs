@@ -32,7 +32,8 @@
 //! neighbourhood, so only the boundary resists it. docs/dpm.md records
 //! it; a stabilization is for a later slice.
 
-use super::rk::{shape_values, RkError};
+use super::crack::Cuts;
+use super::rk::{shape_values_cut, RkError};
 use crate::neighbours::Neighbours;
 use crate::tensor::{check_voigt, sym_times, voigt};
 use rayon::prelude::*;
@@ -83,7 +84,7 @@ impl<const D: usize> Scni<D> {
     /// Builds the tables of particles at `x` (reference positions), each
     /// with its smoothing cell, the box `lo[L]..hi[L]` (which holds x_L),
     /// and its support radius `radius`, singular kernels where `singular`
-    /// says ([`shape_values`]; empty: none); particles see one another's shape
+    /// says ([`super::rk::shape_values`]; empty: none); particles see one another's shape
     /// functions only within the same `key` (a body). The cells must tile
     /// each body (neighbouring cells share whole faces). The same tables
     /// for any thread count.
@@ -95,7 +96,24 @@ impl<const D: usize> Scni<D> {
         singular: &[bool],
         key: &[u16],
     ) -> Result<Scni<D>, ScniError> {
+        Scni::build_cut(x, lo, hi, radius, singular, key, &Cuts::none())
+    }
+
+    /// [`Scni::build`] with pre-existing cracks in the bodies (`key`):
+    /// the shape functions are diffracted about them
+    /// ([`super::crack`]), and a face point on a crack is taken from its
+    /// own cell's side.
+    pub fn build_cut(
+        x: &[[f64; D]],
+        lo: &[[f64; D]],
+        hi: &[[f64; D]],
+        radius: &[f64],
+        singular: &[bool],
+        key: &[u16],
+        cuts: &Cuts<D>,
+    ) -> Result<Scni<D>, ScniError> {
         let n = x.len();
+        let cracked = !cuts.is_empty();
         let mut min = [f64::INFINITY; D];
         let mut max = [f64::NEG_INFINITY; D];
         for p in x {
@@ -147,7 +165,9 @@ impl<const D: usize> Scni<D> {
                     for (side, at) in [(-1.0, lo[l][a]), (1.0, hi[l][a])] {
                         let mut xf = centre;
                         xf[a] = at;
-                        shape_values(xf, cand, x, radius, singular, radius[l], vals)
+                        let cut = cracked
+                            .then(|| (cuts, key, cuts.inside(key[l], xf, centre, 1e-9 * width)));
+                        shape_values_cut(xf, cand, x, radius, singular, cut, radius[l], vals)
                             .map_err(err)?;
                         for (g, &v) in grad.iter_mut().zip(vals.iter()) {
                             g[a] += side * v / width;
@@ -160,7 +180,9 @@ impl<const D: usize> Scni<D> {
                         row.grad.push(*g);
                     }
                 }
-                shape_values(x[l], cand, x, radius, singular, radius[l], vals).map_err(err)?;
+                let cut = cracked.then_some((cuts, key, x[l]));
+                shape_values_cut(x[l], cand, x, radius, singular, cut, radius[l], vals)
+                    .map_err(err)?;
                 for (k, &v) in vals.iter().enumerate() {
                     if v != 0.0 {
                         row.vnode.push(cand[k]);
@@ -529,6 +551,66 @@ mod tests {
         for e in &e {
             assert!(e.iter().all(|c| c.abs() < 1e-13), "{e:?}");
         }
+    }
+
+    #[test]
+    fn an_edge_crack_keeps_the_patch_test_and_separates_its_faces() {
+        // a crack along the cells' faces at y = 4.5 from outside the left
+        // edge to a tip at x = 6 (diffraction, Organ et al.): a linear
+        // field still gives its exact strain in every cell (the kernels
+        // change, the basis does not); the upper half slid rigidly over
+        // the lower gives no strain in a cell far from the tip (its faces
+        // see one side only) and strain at the tip's cells, where the
+        // material is whole
+        let mut b = vertex_plate(12, 10, 1.0);
+        // at 1.5 the mouth's corner cells see two particles (the crack
+        // face lies half a spacing from the rows there)
+        b.radius.iter_mut().for_each(|r| *r = 1.6);
+        let key = vec![0; b.x.len()];
+        let mut cuts = Cuts::none();
+        cuts.add(0, &[[-1.0, 4.5], [6.0, 4.5]], |p| p[0] > 0.0);
+        let t = Scni::build_cut(&b.x, &b.lo, &b.hi, &b.radius, &[], &key, &cuts).unwrap();
+        let g = [[1e-3, -4e-4], [2.5e-4, 7e-4]];
+        let d: Vec<[f64; 2]> =
+            b.x.iter()
+                .map(|x| {
+                    [
+                        g[0][0] * x[0] + g[0][1] * x[1],
+                        g[1][0] * x[0] + g[1][1] * x[1],
+                    ]
+                })
+                .collect();
+        let mut e = vec![[0.0; 3]; d.len()];
+        t.strain(&d, &mut e);
+        let want = [g[0][0], g[1][1], 0.5 * (g[0][1] + g[1][0])];
+        for (l, e) in e.iter().enumerate() {
+            for k in 0..3 {
+                assert!((e[k] - want[k]).abs() < 1e-15, "cell {l}: {e:?}");
+            }
+        }
+        let d: Vec<[f64; 2]> =
+            b.x.iter()
+                .map(|x| if x[1] > 4.5 { [1.0, 0.0] } else { [0.0, 0.0] })
+                .collect();
+        t.strain(&d, &mut e);
+        for (l, x) in b.x.iter().enumerate() {
+            if x[0] <= 2.0 {
+                assert!(
+                    e[l].iter().all(|c| c.abs() < 1e-12),
+                    "cell {l} at {x:?}: {:?}",
+                    e[l]
+                );
+            }
+            if x[0] >= 7.0 && (x[1] == 4.0 || x[1] == 5.0) {
+                assert!(e[l][2].abs() > 0.1, "cell {l} at {x:?}: {:?}", e[l]);
+            }
+        }
+        // without the crack the slid half strains every cell beside the
+        // line
+        let whole = b.tables();
+        whole.strain(&d, &mut e);
+        let at = b.x.iter().position(|x| *x == [1.0, 4.0]).unwrap();
+        assert!(e[at][2].abs() > 0.1);
     }
 
     #[test]

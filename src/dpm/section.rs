@@ -15,7 +15,7 @@
 //! box); the method has no grid otherwise, so the grid MPM's options are
 //! refused.
 
-use crate::scene::schema::{MaterialModel, SceneFile, ShapeSpec, SideCondition};
+use crate::scene::schema::{MaterialModel, SceneFile, ShapeSpec, SideCondition, TimeFunction};
 use crate::scene::Checker;
 use serde::{Deserialize, Serialize};
 
@@ -48,6 +48,37 @@ pub struct DpmSpec {
     /// The damage of every body (absent: elastic).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damage: Option<DpmDamageSpec>,
+    /// Regions whose particles are held at prescribed velocities (a wall
+    /// over part of a side, an impactor's face), after the grid's walls.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub held: Vec<HeldSpec>,
+}
+
+/// `[[damage_particle.held]]`: the particles inside `shape` held at the
+/// velocity components given (m/s, functions of time; a component not
+/// given is free), by singular kernels as the walls hold theirs. Its force
+/// on the material is the series' `reaction_<name>_<axis>` with `[output]
+/// reactions`.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct HeldSpec {
+    /// Its name in the series (default `held<k>`, k its index).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    pub shape: ShapeSpec,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<TimeFunction>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y: Option<TimeFunction>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z: Option<TimeFunction>,
+}
+
+impl HeldSpec {
+    /// Its name in the series columns.
+    pub fn label(&self, k: usize) -> String {
+        self.name.clone().unwrap_or_else(|| format!("held{k}"))
+    }
 }
 
 fn default_support() -> f64 {
@@ -77,6 +108,13 @@ pub struct DpmDamageSpec {
     /// none; 1: every neighbour off the normal).
     #[serde(default = "default_tol")]
     pub tol: f64,
+    /// The neighbourhood criterion 27 looks in, in particle spacings: the
+    /// particles within this distance of a damaged one (not across a
+    /// crack). Absent: the particles whose supports cover it (its shape
+    /// functions' neighbours). On a square lattice the neighbours within
+    /// 1.5 spacings lie at 0, 45 and 90 degrees only (docs/dpm.md, R2).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tracking_radius: Option<f64>,
     /// Where damage may start: only the particles in `shape` are
     /// candidates at the start (the others become candidates by criterion
     /// 27), their strength scaled by `strength_factor`. Absent: every
@@ -173,6 +211,7 @@ pub(crate) fn check(
     let default = DpmSpec {
         support: default_support(),
         damage: None,
+        held: Vec::new(),
     };
     let spec = file.damage_particle.as_ref().unwrap_or(&default);
     if c.finite("damage_particle.support", spec.support) && !(1.2..=4.0).contains(&spec.support) {
@@ -189,6 +228,9 @@ pub(crate) fn check(
         c.positive(&format!("{q}.strength"), d.strength);
         c.positive(&format!("{q}.fracture_energy"), d.fracture_energy);
         c.in_range(&format!("{q}.tol"), d.tol, 0.0, 1.0);
+        if let Some(r) = d.tracking_radius {
+            c.in_range(&format!("{q}.tracking_radius"), r, 1.0, 4.0);
+        }
         match (d.regularised, d.kappa_c) {
             (true, Some(_)) => c.err(
                 &format!("{q}.kappa_c"),
@@ -204,6 +246,7 @@ pub(crate) fn check(
             (true, None) => {}
         }
         if let Some(i) = &d.initiation {
+            crate::scene::validate::check_shape(c, &format!("{q}.initiation.shape"), &i.shape, dim);
             let f = i.strength_factor;
             if c.finite(&format!("{q}.initiation.strength_factor"), f) && !(f > 0.0 && f <= 1.0) {
                 c.err(
@@ -211,6 +254,25 @@ pub(crate) fn check(
                     format!("must be in (0, 1], got {f}"),
                 );
             }
+        }
+    }
+    let mut names = std::collections::HashSet::new();
+    for (k, held) in spec.held.iter().enumerate() {
+        let q = format!("damage_particle.held[{k}]");
+        let given = [&held.x, &held.y, &held.z];
+        if given.iter().all(|f| f.is_none()) {
+            c.err(&q, "holds no component: give x, y (or z) velocities, m/s");
+        }
+        if dim == 2 && held.z.is_some() {
+            c.err(&format!("{q}.z"), "is for 3D scenes (this one is 2D)");
+        }
+        crate::scene::validate::check_shape(c, &format!("{q}.shape"), &held.shape, dim);
+        let label = held.label(k);
+        if !names.insert(label.clone()) {
+            c.err(
+                &format!("{q}.name"),
+                format!("`{label}` names another held region: the series' reaction columns need one name each"),
+            );
         }
     }
     // what belongs to the grid MPM
@@ -290,7 +352,7 @@ pub(crate) fn check(
         }
         for (key, set) in [
             ("holes", !body.holes.is_empty()),
-            ("cracks", !body.cracks.is_empty()),
+            ("cracks", dim == 3 && !body.cracks.is_empty()),
             ("crack_origin", body.crack_origin.is_some()),
             ("explicit_cracks", !body.explicit_cracks.is_empty()),
             ("particles_per_cell", body.particles_per_cell.is_some()),
@@ -306,9 +368,18 @@ pub(crate) fn check(
                 let why = match key {
                     "particles_per_cell" => "the damage particle method puts one particle on each vertex of the grid's lattice: remove it",
                     "velocity_gradient" => "is not yet taken by the damage particle method (give a uniform velocity)",
-                    _ => "is not yet taken by the damage particle method (box bodies only, without holes or initial cracks)",
+                    "cracks" => "the damage particle method's pre-existing cracks (diffraction) are 2D",
+                    _ => "is not yet taken by the damage particle method (box bodies only, without holes)",
                 };
                 c.err(&format!("{path}.{key}"), why);
+            }
+        }
+        for (k, crack) in body.cracks.iter().enumerate() {
+            if crack.profile != crate::scene::schema::CrackProfile::Line {
+                c.err(
+                    &format!("{path}.cracks[{k}].profile"),
+                    "a profile is a phase field's initial history: the damage particle method cuts the supports along the line (remove it)",
+                );
             }
         }
         let Some((lo, hi)) = box_corners(&body.shape) else {

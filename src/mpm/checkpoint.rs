@@ -23,7 +23,7 @@
 //! the run summary are those since the resume.
 
 use super::{Saved, Simulation, StageTimes};
-use crate::checkpoint::{Checkpoint, CheckpointError, SaveState};
+use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::fracture::model::RestoreContext;
 use crate::particles::Particles;
 use crate::scene::Scene;
@@ -64,17 +64,6 @@ pub(super) struct SavedModel {
     pub name: String,
     /// Its postcard bytes.
     pub state: Vec<u8>,
-}
-
-impl<const D: usize, const V: usize> SaveState for State<'_, D, V>
-where
-    Particles<D, V>: Saved,
-{
-    fn write(&self, out: &mut dyn std::io::Write) -> Result<(), String> {
-        postcard::to_io(self, out)
-            .map(|_| ())
-            .map_err(|e| e.to_string())
-    }
 }
 
 /// The first particle array whose length differs between `a` and `b`.

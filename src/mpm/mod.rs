@@ -21,7 +21,7 @@ mod tests3d;
 pub use g2p::BadKind;
 
 use crate::contact::{self, ContactLaw};
-use crate::diagnostics::{measure, Control, Observer, Progress, SeriesRow};
+use crate::diagnostics::{measure, Observer, SeriesRow};
 use crate::fracture::model::{
     self as fm, AfterContext, ContactContext, FieldSplit, ForceContext, FractureModel, RowContext,
     ScatterContext, SeriesOut, SlotContext, StepContext,
@@ -30,7 +30,7 @@ use crate::grid::shape::{by_kernel, Kernel};
 use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, GroupFields, MultiField, SingleField};
 use crate::material::Elastic;
 use crate::particles::Particles;
-use crate::run::{Method, MethodEntry, RunSummary, SimError, StageTime, StageTimes};
+use crate::run::{Method, MethodEntry, RunClock, RunSummary, SimError, StageTime, StageTimes};
 use crate::scene::{Scene, ShapeFunctionKind, Stage};
 use grid_update::Boundary;
 use std::time::Instant;
@@ -105,6 +105,66 @@ where
     }
     fn row(&mut self) -> SeriesRow {
         Simulation::row(self)
+    }
+}
+
+impl<const D: usize, const V: usize> crate::run::Stepper for Simulation<D, V>
+where
+    Particles<D, V>: Saved,
+{
+    fn scene(&self) -> &Scene {
+        &self.scene
+    }
+    fn now(&self) -> f64 {
+        self.time
+    }
+    fn steps_taken(&self) -> u64 {
+        self.step
+    }
+    fn take_resumed(&mut self) -> Option<RunClock> {
+        self.resumed.take()
+    }
+    fn set_initial_energy(&mut self, energy: f64) {
+        self.initial_energy = energy;
+    }
+    fn series_columns(&mut self) -> Vec<String> {
+        Simulation::series_columns(self)
+    }
+    fn next_dt(&self, end: f64) -> Result<f64, SimError> {
+        Simulation::next_dt(self, end)
+    }
+    fn step_ends_on(&mut self, row: bool, output: bool) {
+        // the phase field measures its stagger residual on a row's step;
+        // the grid fields are kept for a snapshot's
+        self.row_due = row;
+        self.output_due = output;
+    }
+    fn advance(&mut self, dt: f64) -> Result<(), SimError> {
+        Simulation::advance(self, dt)
+    }
+    fn row(&mut self) -> SeriesRow {
+        Simulation::row(self)
+    }
+    fn check_energy(&self, row: &SeriesRow) -> Result<(), SimError> {
+        Simulation::check_energy(self, row)
+    }
+    fn emit_snapshot(&mut self, obs: &mut dyn Observer) -> Result<(), SimError> {
+        Simulation::emit_snapshot(self, obs)
+    }
+    fn checkpoint_at(&self, clock: RunClock) -> crate::checkpoint::Checkpoint<'_> {
+        Simulation::checkpoint_at(self, clock)
+    }
+    fn summary_parts(&self) -> (usize, u64, serde_json::Map<String, serde_json::Value>) {
+        (
+            self.parts.len(),
+            self.contact_steps,
+            self.model_list()
+                .map(|m| (m.name().to_string(), m.summary()))
+                .collect(),
+        )
+    }
+    fn times(&self) -> &StageTimes {
+        &self.times
     }
 }
 
@@ -350,153 +410,25 @@ where
         (at, models.iter_mut().map(|m| m.as_mut()))
     }
 
-    /// Runs to `time.end`, reporting rows, snapshots and progress to `obs`.
-    /// Returns early (with `cancelled`) when the observer asks to stop.
+    /// Runs to `time.end`, reporting rows, snapshots and progress to `obs`
+    /// (the loop every method shares, [`crate::run::drive`]). Returns
+    /// early (with `cancelled`) when the observer asks to stop.
     pub fn run(&mut self, obs: &mut dyn Observer) -> Result<RunSummary, SimError> {
-        let wall = Instant::now();
-        let end = self.scene.file.time.end;
-        let rows = self.scene.file.output.series_rows.max(2) as u64;
-        let snaps = self.scene.file.output.snapshots as u64;
-        let max_steps = self.scene.file.time.max_steps.unwrap_or(10_000_000);
-        let row_time = |k: u64| end * k as f64 / (rows - 1) as f64;
-        let snap_time = |k: u64| {
-            if snaps <= 1 {
-                end
-            } else {
-                end * k as f64 / (snaps - 1) as f64
-            }
-        };
-
-        let (mut last, mut next_row, mut next_snap) = match self.resumed.take() {
-            // a resumed run's header, rows and snapshots up to the
-            // checkpoint were written before it
-            Some(c) => (c.last, c.next_row, c.next_snap),
-            None => {
-                obs.series_columns(&self.series_columns())
-                    .map_err(SimError::Observer)?;
-                let last = self.row();
-                self.initial_energy = last.kinetic_energy + last.strain_energy;
-                obs.series_row(&last).map_err(SimError::Observer)?;
-                let mut next_snap = 0;
-                if snaps > 0 && snap_time(0) <= 0.0 {
-                    self.emit_snapshot(obs)?;
-                    next_snap = 1;
-                }
-                (last, 1, next_snap)
-            }
-        };
-        let mut cancelled = false;
-        while self.time < end * (1.0 - 1e-12) {
-            if self.step >= max_steps {
-                return Err(SimError::MaxSteps {
-                    step: self.step,
-                    time: self.time,
-                });
-            }
-            let dt = self.next_dt(end)?;
-            let t = self.time + dt;
-            let ends = t >= end * (1.0 - 1e-12);
-            self.row_due = next_row < rows && (t >= row_time(next_row) * (1.0 - 1e-12) || ends);
-            self.output_due = self.row_due
-                || (next_snap < snaps && (t >= snap_time(next_snap) * (1.0 - 1e-12) || ends));
-            self.advance(dt)?;
-            let at_end = self.time >= end * (1.0 - 1e-12);
-            if next_row < rows && (self.time >= row_time(next_row) * (1.0 - 1e-12) || at_end) {
-                while next_row < rows && row_time(next_row) <= self.time * (1.0 + 1e-12) {
-                    next_row += 1;
-                }
-                last = self.row();
-                self.check_energy(&last)?;
-                obs.series_row(&last).map_err(SimError::Observer)?;
-            }
-            if next_snap < snaps && (self.time >= snap_time(next_snap) * (1.0 - 1e-12) || at_end) {
-                while next_snap < snaps && snap_time(next_snap) <= self.time * (1.0 + 1e-12) {
-                    next_snap += 1;
-                }
-                self.emit_snapshot(obs)?;
-            }
-            let progress = Progress {
-                step: self.step,
-                time: self.time,
-                end_time: end,
-                kinetic_energy: last.kinetic_energy,
-                strain_energy: last.strain_energy,
-            };
-            match obs.progress(&progress) {
-                Control::Continue => {}
-                Control::Stop => {
-                    cancelled = true;
-                    break;
-                }
-                Control::Checkpoint => {
-                    let cp = self.checkpoint_at(checkpoint::RunClock {
-                        next_row,
-                        next_snap,
-                        last: last.clone(),
-                    });
-                    obs.checkpoint(cp).map_err(SimError::Observer)?;
-                }
-            }
-        }
-        if !cancelled && last.step != self.step {
-            last = self.row();
-            obs.series_row(&last).map_err(SimError::Observer)?;
-        }
-        Ok(RunSummary {
-            steps: self.step,
-            time: self.time,
-            wall_seconds: wall.elapsed().as_secs_f64(),
-            particles: self.parts.len(),
-            stages: self.scene.plan.names(),
-            cancelled,
-            last_row: last.clone(),
-            stage_seconds: self.times.clone(),
-            contact_steps: self.contact_steps,
-            fracture: self
-                .model_list()
-                .map(|m| (m.name().to_string(), m.summary()))
-                .collect(),
-        })
+        crate::run::drive(self, obs)
     }
 
     /// The next time step: fixed (checked against the CFL limit) or
     /// α·h / max(c + |v|), clipped to land on `end`.
     fn next_dt(&self, end: f64) -> Result<f64, SimError> {
-        let limit = self.geom.h / self.max_signal.max(1e-300);
-        let dt = match self.scene.file.time.dt {
-            Some(dt) => {
-                if dt > limit {
-                    return Err(SimError::CflViolated {
-                        step: self.step,
-                        time: self.time,
-                        dt,
-                        limit,
-                        particle: self.fastest_particle(),
-                    });
-                }
-                dt
-            }
-            None => self.scene.cfl() * limit,
-        };
-        let left = end - self.time;
-        let dt = if dt > left || left - dt < 1e-9 * dt {
-            left
-        } else {
-            dt
-        };
-        // a zero, subnormal or non-finite step, or one too small to move
-        // the clock, would repeat until max_steps: stop at once and say why
-        if !dt.is_normal() || self.time + dt == self.time {
-            return Err(SimError::NoProgress {
-                step: self.step,
-                time: self.time,
-                dt,
-                h: self.geom.h,
-                signal: self.max_signal,
-                particle: self.fastest_particle(),
-            });
-        }
-        Ok(dt)
+        crate::run::clip_dt(
+            &self.scene,
+            self.step,
+            self.time,
+            end,
+            self.geom.h,
+            self.max_signal,
+            || self.fastest_particle(),
+        )
     }
 
     fn fastest_particle(&self) -> u32 {
@@ -1293,18 +1225,13 @@ where
     }
 
     fn check_energy(&self, row: &SeriesRow) -> Result<(), SimError> {
-        let energy = row.kinetic_energy + row.strain_energy;
-        let bound = self.scene.file.guards.energy_growth
-            * (self.initial_energy + self.abs_work + self.energy_floor);
-        if !(energy <= bound) {
-            return Err(SimError::EnergyRunaway {
-                step: row.step,
-                time: row.time,
-                energy,
-                bound,
-            });
-        }
-        Ok(())
+        crate::run::energy_guard(
+            &self.scene,
+            row,
+            self.initial_energy,
+            self.abs_work,
+            self.energy_floor,
+        )
     }
 
     /// A snapshot to `obs`: the particles (and the grid, with

@@ -8,7 +8,7 @@
 mod memory;
 mod plan;
 pub mod schema;
-mod validate;
+pub(crate) mod validate;
 
 pub use crate::fracture::damage::section::ResolvedDamage;
 pub use crate::fracture::phase_field::section::phase_field_gamma;

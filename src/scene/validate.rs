@@ -339,7 +339,10 @@ impl Scene {
                             format!("the 4th-order phase field of {path} needs second derivatives: use quadratic_bspline or cubic_bspline, not {:?}", kind.name()),
                         );
                     }
-                } else if !body.cracks.is_empty() && !breaks(&file, &body.material) {
+                } else if !body.cracks.is_empty()
+                    && file.method.is_grid_mpm()
+                    && !breaks(&file, &body.material)
+                {
                     c.err(
                         &format!("{path}.cracks"),
                         "initial cracks need a material with a phase_field, damage or eigen model",
@@ -1106,7 +1109,7 @@ fn resolve_material(
     })
 }
 
-fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec, dim: usize) -> bool {
+pub(crate) fn check_shape(c: &mut Checker, path: &str, s: &ShapeSpec, dim: usize) -> bool {
     let before = c.errors.len();
     if !matches!(s, ShapeSpec::Box { .. }) && s.dimension() != dim {
         let (kind, instead) = if dim == 3 {
