@@ -16,11 +16,19 @@
 //! `[output] reactions` columns) is what holds its components:
 //! R = m (v_held(t + Δt) − v_held(t + Δt/2)) / (Δt/2) − m a_free, and its
 //! work, counted with the trapezoid rule over each step's held
-//! displacement, is the series' `external_work` (with gravity's).
+//! displacement, is the series' `external_work` (with gravity's and the
+//! tractions').
+//!
+//! A `traction` side loads the outline faces of the smoothing cells that
+//! face it (the outermost along each lattice line, as the grid MPM loads
+//! its outermost particles): each face puts N_I(x_f)|f| t on particle I,
+//! x_f its centre, the point SCNI's smoothed gradients use there, so a
+//! constant stress and its tractions balance particle by particle
+//! ([`Scni::face_loads`]).
 
 use super::crack::Cuts;
 use super::explicit::{DamageParams, DamageState, Explicit, Held};
-use super::scni::Scni;
+use super::scni::{Cells, Scni};
 use super::section::{box_corners, box_lattice};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::diagnostics::{measure, Field, FieldData, Observer, SeriesRow};
@@ -64,6 +72,59 @@ struct Hold {
     velocity: Option<TimeFunction>,
 }
 
+/// A traction side's load: the traction `normal` · out + `shear` · tangent
+/// (Pa, functions of time) on its faces, spread to the particles.
+#[derive(Debug, Clone)]
+struct Load<const D: usize> {
+    normal: Option<TimeFunction>,
+    shear: Option<TimeFunction>,
+    out: [f64; D],
+    tangent: [f64; D],
+    /// (particle, Σ over the loaded faces of N_I(x_f)|f|, m²; 2D: × the
+    /// thickness), by particle.
+    weights: Vec<(u32, f64)>,
+}
+
+/// The tractions' external forces at time `t` on the `loaded` particles.
+fn load_at<const D: usize>(loads: &[Load<D>], loaded: &[u32], external: &mut [[f64; D]], t: f64) {
+    for &p in loaded {
+        external[p as usize] = [0.0; D];
+    }
+    for l in loads {
+        let sn = l.normal.as_ref().map_or(0.0, |f| f.eval(t));
+        let ss = l.shear.as_ref().map_or(0.0, |f| f.eval(t));
+        let tr: [f64; D] = std::array::from_fn(|a| sn * l.out[a] + ss * l.tangent[a]);
+        for &(p, w) in &l.weights {
+            for a in 0..D {
+                external[p as usize][a] += w * tr[a];
+            }
+        }
+    }
+}
+
+/// Which particles a wall or a held region holds.
+#[derive(Clone, Copy)]
+enum Holding<'a> {
+    /// Those on the plane x[axis] = plane (a wall).
+    Plane { axis: usize, plane: f64 },
+    /// Those inside the shape of `damage_particle.held[k]`.
+    Region(usize, &'a crate::scene::ShapeSpec),
+}
+
+/// Held components (axes) and what each follows (None: zero velocity).
+type Targets = Vec<(usize, Option<TimeFunction>)>;
+
+/// The components given velocities, with their functions (the first `D`
+/// of x, y, z).
+fn velocities<const D: usize>(given: [&Option<TimeFunction>; 3]) -> Targets {
+    given
+        .into_iter()
+        .enumerate()
+        .take(D)
+        .filter_map(|(a, f)| f.clone().map(|f| (a, Some(f))))
+        .collect()
+}
+
 /// A run of the damage particle method in `D` dimensions (`V`: the Voigt
 /// length).
 pub struct Dpm<const D: usize, const V: usize> {
@@ -81,6 +142,9 @@ pub struct Dpm<const D: usize, const V: usize> {
     /// The constrained sides' and held regions' names, in the order of
     /// `reactions`.
     sides: Vec<String>,
+    /// The traction sides' loads, and the particles they load.
+    loads: Vec<Load<D>>,
+    loaded: Vec<u32>,
     /// Each held component's reaction at the end of the last step, N.
     reaction: Vec<f64>,
     /// With `[output] reactions`: each side's force on the material at the
@@ -160,32 +224,43 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             ("back", bc.back.as_ref(), 2, false),
             ("front", bc.front.as_ref(), 2, true),
         ];
-        let mut sides = Vec::new();
-        let mut held = Vec::new();
-        let mut holds = Vec::new();
-        let mut taken = std::collections::HashSet::new();
+        // what holds components: the walls (the particles on a side's
+        // plane), then the held regions (the particles inside a shape);
+        // each with the components it holds and what they follow
+        let mut holders: Vec<(String, Holding<'_>, Targets)> = Vec::new();
         for (name, cond, axis, far) in named {
             if axis >= D {
                 continue;
             }
-            let targets: Vec<(usize, Option<TimeFunction>)> = match cond {
+            let targets: Targets = match cond {
                 None | Some(SideCondition::Free) | Some(SideCondition::Traction { .. }) => continue,
                 Some(SideCondition::Fixed) => (0..D).map(|a| (a, None)).collect(),
                 Some(SideCondition::Roller) => vec![(axis, None)],
-                Some(SideCondition::Velocity { x, y, z }) => [x, y, z]
-                    .into_iter()
-                    .enumerate()
-                    .take(D)
-                    .filter_map(|(a, f)| f.clone().map(|f| (a, Some(f))))
-                    .collect(),
+                Some(SideCondition::Velocity { x, y, z }) => velocities::<D>([x, y, z]),
             };
-            let side = sides.len();
-            sides.push(name.to_string());
             let plane = if far { ghi[axis] } else { glo[axis] };
+            holders.push((name.to_string(), Holding::Plane { axis, plane }, targets));
+        }
+        for (k, region) in spec.held.iter().enumerate() {
+            let targets = velocities::<D>([&region.x, &region.y, &region.z]);
+            holders.push((region.label(k), Holding::Region(k, &region.shape), targets));
+        }
+        let mut sides = Vec::new();
+        let mut held = Vec::new();
+        let mut holds = Vec::new();
+        let mut taken = std::collections::HashSet::new();
+        for (side, (name, holding, targets)) in holders.into_iter().enumerate() {
+            sides.push(name);
+            let mut holds_any = false;
             for (p, q) in x.iter().enumerate() {
-                if (q[axis] - plane).abs() > 1e-9 * h {
+                let on = match holding {
+                    Holding::Plane { axis, plane } => (q[axis] - plane).abs() <= 1e-9 * h,
+                    Holding::Region(_, shape) => inside(shape, *q),
+                };
+                if !on {
                     continue;
                 }
+                holds_any = true;
                 for (a, f) in &targets {
                     if taken.insert((p, *a)) {
                         held.push(Held {
@@ -200,38 +275,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                     }
                 }
             }
-        }
-        // the held regions, after the walls
-        for (k, region) in spec.held.iter().enumerate() {
-            let targets: Vec<(usize, TimeFunction)> = [&region.x, &region.y, &region.z]
-                .into_iter()
-                .enumerate()
-                .take(D)
-                .filter_map(|(a, f)| f.clone().map(|f| (a, f)))
-                .collect();
-            let side = sides.len();
-            sides.push(region.label(k));
-            let mut holds_any = false;
-            for (p, q) in x.iter().enumerate() {
-                if !inside(&region.shape, *q) {
-                    continue;
-                }
-                holds_any = true;
-                for (a, f) in &targets {
-                    if taken.insert((p, *a)) {
-                        held.push(Held {
-                            particle: p as u32,
-                            axis: *a as u8,
-                            velocity: 0.0,
-                        });
-                        holds.push(Hold {
-                            side,
-                            velocity: Some(f.clone()),
-                        });
-                    }
-                }
-            }
-            if !holds_any {
+            if let (false, Holding::Region(k, _)) = (holds_any, holding) {
                 return Err(SceneError::single(
                     format!("damage_particle.held[{k}].shape"),
                     format!("holds no particle (the particles sit on the vertices of the grid's lattice, spacing {h} m)"),
@@ -276,7 +320,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             singular[c.particle as usize] = true;
         }
         let radius = vec![spec.support * h; n];
-        let scni = Scni::<D>::build_cut(&x, &lo, &hi, &radius, &singular, &body, &cuts).map_err(|e| {
+        let too_small = |e: super::scni::ScniError| {
             let p = e.particle as usize;
             SceneError::single(
                 "damage_particle.support",
@@ -285,13 +329,80 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                     body[p], x[p], e.source, spec.support
                 ),
             )
-        })?;
+        };
+        let cells = Cells {
+            x: &x,
+            lo: &lo,
+            hi: &hi,
+            radius: &radius,
+            singular: &singular,
+            key: &body,
+            cuts: &cuts,
+        };
+        let scni = Scni::<D>::build_cut(&cells).map_err(too_small)?;
+        let thickness = if D == 2 { file.analysis.thickness } else { 1.0 };
+        // the traction sides' loaded faces: each body's outline faces that
+        // face the side, the outermost along each lattice line
+        let mut loads = Vec::new();
+        for (name, cond, axis, far) in named {
+            let (Some(SideCondition::Traction { normal, shear }), true) = (cond, axis < D) else {
+                continue;
+            };
+            let sign = if far { 1.0 } else { -1.0 };
+            let mut outer: std::collections::BTreeMap<[i64; 2], (usize, f64)> =
+                std::collections::BTreeMap::new();
+            for (l, q) in x.iter().enumerate() {
+                let Some((a, z)) = box_corners(&file.bodies[body[l] as usize].shape) else {
+                    continue;
+                };
+                let (at, edge) = if far {
+                    (hi[l][axis], z[axis])
+                } else {
+                    (lo[l][axis], a[axis])
+                };
+                if (at - edge).abs() > 1e-9 * h {
+                    continue;
+                }
+                let mut key = [0i64; 2];
+                for (slot, d) in (0..D).filter(|&d| d != axis).enumerate() {
+                    key[slot] = ((q[d] - glo[d]) / h).round() as i64;
+                }
+                let e = outer.entry(key).or_insert((l, at));
+                if sign * at > sign * e.1 {
+                    *e = (l, at);
+                }
+            }
+            let faces: Vec<(usize, usize, bool)> =
+                outer.values().map(|&(l, _)| (l, axis, far)).collect();
+            let per_face = Scni::<D>::face_loads(&cells, &faces).map_err(too_small)?;
+            let mut weights = std::collections::BTreeMap::<u32, f64>::new();
+            for (i, w) in per_face.into_iter().flatten() {
+                *weights.entry(i).or_insert(0.0) += w * thickness;
+            }
+            let mut out = [0.0; D];
+            out[axis] = sign;
+            let mut tangent = [0.0; D];
+            tangent[if axis == 0 { 1 } else { 0 }] = 1.0;
+            tracing::debug!(side = name, faces = faces.len(), "damage particle traction");
+            loads.push(Load {
+                normal: normal.clone(),
+                shear: shear.clone(),
+                out,
+                tangent,
+                weights: weights.into_iter().collect(),
+            });
+        }
+        let mut loaded: Vec<u32> = loads
+            .iter()
+            .flat_map(|l| l.weights.iter().map(|w| w.0))
+            .collect();
+        loaded.sort_unstable();
+        loaded.dedup();
         let mats: Vec<Elastic> = scene
             .materials
             .iter()
             .map(|m| Elastic::new(&m.elastic_constants(), file.analysis.plane))
             .collect();
-        let thickness = if D == 2 { file.analysis.thickness } else { 1.0 };
         let vol: Vec<f64> = scni.cell.iter().map(|a| a * thickness).collect();
         let mut run = Explicit::<D, V>::new(scni, vol.clone(), material.clone(), mats.clone());
         run.v = velocity;
@@ -334,7 +445,9 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             }
             run.damage = Some(state);
         }
-        // the forces of the initial state (zero strain: gravity only)
+        // the forces of the initial state (zero strain: gravity and the
+        // tractions at t = 0)
+        load_at(&loads, &loaded, &mut run.external, 0.0);
         run.accelerations();
         let ids: Vec<u32> = (0..n as u32).collect();
         let view = Particles::<D, V> {
@@ -376,6 +489,8 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             mats,
             holds,
             sides,
+            loads,
+            loaded,
             reactions,
             lo: std::array::from_fn(|d| glo[d] - h),
             hi: std::array::from_fn(|d| ghi[d] + h),
@@ -458,6 +573,15 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                 }
                 Stage::DpmStrain => self.run.stresses(),
                 Stage::DpmDamage => self.dissipated += self.run.damage_step(),
+                Stage::DpmTraction => {
+                    // the work over the step: the trapezoid of the loads'
+                    // power on the step's velocities, Δd = Δt v(t + Δt/2)
+                    let before = self.load_power();
+                    load_at(&self.loads, &self.loaded, &mut self.run.external, t + dt);
+                    let w = 0.5 * (before + self.load_power()) * dt;
+                    self.external_work += w;
+                    self.abs_work += w.abs();
+                }
                 Stage::DpmForce => {
                     self.hold_at(t + dt);
                     self.run.finish(dt);
@@ -473,6 +597,19 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         self.step += 1;
         self.dt = dt;
         self.guard()
+    }
+
+    /// The tractions' power on the present velocities, W.
+    fn load_power(&self) -> f64 {
+        let (f, v) = (&self.run.external, &self.run.v);
+        self.loaded
+            .iter()
+            .map(|&p| {
+                (0..D)
+                    .map(|a| f[p as usize][a] * v[p as usize][a])
+                    .sum::<f64>()
+            })
+            .sum()
     }
 
     /// The held components' reactions at the end of the step and their
@@ -785,6 +922,8 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         dpm.snapshot_index = s.snapshot_index;
         dpm.times = s.times;
         dpm.max_speed = max_speed(&dpm.run.v);
+        // the tractions at the saved time, as the straight run left them
+        load_at(&dpm.loads, &dpm.loaded, &mut dpm.run.external, dpm.time);
         dpm.resumed = Some(s.clock);
         Ok(dpm)
     }

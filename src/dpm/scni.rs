@@ -96,55 +96,34 @@ impl<const D: usize> Scni<D> {
         singular: &[bool],
         key: &[u16],
     ) -> Result<Scni<D>, ScniError> {
-        Scni::build_cut(x, lo, hi, radius, singular, key, &Cuts::none())
+        Scni::build_cut(&Cells {
+            x,
+            lo,
+            hi,
+            radius,
+            singular,
+            key,
+            cuts: &Cuts::none(),
+        })
     }
 
-    /// [`Scni::build`] with pre-existing cracks in the bodies (`key`):
-    /// the shape functions are diffracted about them
+    /// [`Scni::build`] of [`Cells`] with pre-existing cracks in the
+    /// bodies (`key`): the shape functions are diffracted about them
     /// ([`super::crack`]), and a face point on a crack is taken from its
     /// own cell's side.
-    pub fn build_cut(
-        x: &[[f64; D]],
-        lo: &[[f64; D]],
-        hi: &[[f64; D]],
-        radius: &[f64],
-        singular: &[bool],
-        key: &[u16],
-        cuts: &Cuts<D>,
-    ) -> Result<Scni<D>, ScniError> {
+    pub fn build_cut(cells: &Cells<'_, D>) -> Result<Scni<D>, ScniError> {
+        let Cells {
+            x,
+            lo,
+            hi,
+            radius,
+            singular,
+            key,
+            cuts,
+        } = *cells;
         let n = x.len();
         let cracked = !cuts.is_empty();
-        let mut min = [f64::INFINITY; D];
-        let mut max = [f64::NEG_INFINITY; D];
-        for p in x {
-            for d in 0..D {
-                min[d] = min[d].min(p[d]);
-                max[d] = max[d].max(p[d]);
-            }
-        }
-        let a_max = radius.iter().cloned().fold(0.0, f64::max);
-        // every particle whose support reaches a face centre of cell L is
-        // within a_I + (the farthest corner of the cell from x_L) of x_L
-        let far = (0..n)
-            .map(|l| {
-                let mut r2 = 0.0;
-                for d in 0..D {
-                    let e = (x[l][d] - lo[l][d]).max(hi[l][d] - x[l][d]);
-                    r2 += e * e;
-                }
-                r2.sqrt()
-            })
-            .fold(0.0, f64::max);
-        let reach = a_max + far;
-        let mut lists = Neighbours::<D>::default();
-        if n > 0 {
-            for d in 0..D {
-                min[d] -= reach;
-                max[d] += reach;
-            }
-            lists.build(x, key, reach * (1.0 + 1e-12), min, max);
-            lists.sort();
-        }
+        let lists = cells.candidates();
         let rows: Vec<Result<Rows<D>, ScniError>> = (0..n)
             .into_par_iter()
             .map_init(Vec::new, |vals, l| {
@@ -159,16 +138,10 @@ impl<const D: usize> Scni<D> {
                 };
                 // the face centres: the cell's centre moved to each face;
                 // b̃_a += ± N_I(x_f) |f| / V = ± N_I(x_f) / (hi_a − lo_a)
-                let centre: [f64; D] = std::array::from_fn(|d| 0.5 * (lo[l][d] + hi[l][d]));
                 for a in 0..D {
                     let width = hi[l][a] - lo[l][a];
-                    for (side, at) in [(-1.0, lo[l][a]), (1.0, hi[l][a])] {
-                        let mut xf = centre;
-                        xf[a] = at;
-                        let cut = cracked
-                            .then(|| (cuts, key, cuts.inside(key[l], xf, centre, 1e-9 * width)));
-                        shape_values_cut(xf, cand, x, radius, singular, cut, radius[l], vals)
-                            .map_err(err)?;
+                    for (side, far) in [(-1.0, false), (1.0, true)] {
+                        cells.face_values((l, a, far), cand, vals).map_err(err)?;
                         for (g, &v) in grad.iter_mut().zip(vals.iter()) {
                             g[a] += side * v / width;
                         }
@@ -230,6 +203,45 @@ impl<const D: usize> Scni<D> {
         }
         t.by_node_start = count;
         Ok(t)
+    }
+
+    /// The loads of tractions on cell faces, by the one-point rule the
+    /// smoothed gradients use: for each face (cell `l`, `axis`, `far`: the
+    /// face at `hi` rather than `lo`), the particles I and N_I(x_f)·|f|,
+    /// x_f the face's centre and |f| its measure (2D: its length). A
+    /// traction t on the face puts N_I(x_f)|f| t on particle I. On the
+    /// same points as b̃, a constant stress σ and the tractions σn on the
+    /// outline are in equilibrium to round-off (the integration
+    /// constraint, Chen et al. 2001: Σ_L b̃_I(x_L) V_L = ∮ N_I n dΓ).
+    #[allow(clippy::too_many_arguments)]
+    pub fn face_loads(
+        cells: &Cells<'_, D>,
+        faces: &[(usize, usize, bool)],
+    ) -> Result<Vec<Vec<(u32, f64)>>, ScniError> {
+        let lists = cells.candidates();
+        faces
+            .par_iter()
+            .map(|&(l, axis, far)| {
+                let cand = lists.of(l);
+                let mut vals = vec![0.0; cand.len()];
+                cells
+                    .face_values((l, axis, far), cand, &mut vals)
+                    .map_err(|source| ScniError {
+                        particle: l as u32,
+                        source,
+                    })?;
+                let measure: f64 = (0..D)
+                    .filter(|&d| d != axis)
+                    .map(|d| cells.hi[l][d] - cells.lo[l][d])
+                    .product();
+                Ok(cand
+                    .iter()
+                    .zip(&vals)
+                    .filter(|(_, &v)| v != 0.0)
+                    .map(|(&i, &v)| (i, v * measure))
+                    .collect())
+            })
+            .collect()
     }
 
     /// How many particles the tables are for.
@@ -319,6 +331,101 @@ impl<const D: usize> Scni<D> {
             }
             *u = acc;
         });
+    }
+}
+
+/// Particles and their smoothing cells, as [`Scni::build_cut`] and
+/// [`Scni::face_loads`] take them.
+#[derive(Clone, Copy)]
+pub struct Cells<'a, const D: usize> {
+    /// Reference positions.
+    pub x: &'a [[f64; D]],
+    /// Each particle's smoothing cell, the box `lo..hi` (which holds its
+    /// particle); the cells tile each body.
+    pub lo: &'a [[f64; D]],
+    pub hi: &'a [[f64; D]],
+    /// Support radii.
+    pub radius: &'a [f64],
+    /// Which particles carry singular kernels (empty: none).
+    pub singular: &'a [bool],
+    /// Each particle's body: particles see one another's shape functions
+    /// only within the same key.
+    pub key: &'a [u16],
+    /// Pre-existing cracks, diffracting the supports.
+    pub cuts: &'a Cuts<D>,
+}
+
+impl<const D: usize> Cells<'_, D> {
+    /// Each particle's candidates: the particles of its `key` whose
+    /// support may reach a point of its smoothing cell (within a_I plus
+    /// the farthest corner of any cell), sorted.
+    fn candidates(&self) -> Neighbours<D> {
+        let (x, lo, hi) = (self.x, self.lo, self.hi);
+        let n = x.len();
+        let mut min = [f64::INFINITY; D];
+        let mut max = [f64::NEG_INFINITY; D];
+        for p in x {
+            for d in 0..D {
+                min[d] = min[d].min(p[d]);
+                max[d] = max[d].max(p[d]);
+            }
+        }
+        let a_max = self.radius.iter().cloned().fold(0.0, f64::max);
+        let far = (0..n)
+            .map(|l| {
+                let mut r2 = 0.0;
+                for d in 0..D {
+                    let e = (x[l][d] - lo[l][d]).max(hi[l][d] - x[l][d]);
+                    r2 += e * e;
+                }
+                r2.sqrt()
+            })
+            .fold(0.0, f64::max);
+        let reach = a_max + far;
+        let mut lists = Neighbours::<D>::default();
+        if n > 0 {
+            for d in 0..D {
+                min[d] -= reach;
+                max[d] += reach;
+            }
+            lists.build(x, self.key, reach * (1.0 + 1e-12), min, max);
+            lists.sort();
+        }
+        lists
+    }
+
+    /// The shape functions N_I (of the candidates `cand`, into `vals`) at
+    /// the centre of a face of cell `l` (`face`: the cell, the axis, the
+    /// face at `hi` rather than `lo`); with cracks, judged from a hair
+    /// inside the cell.
+    fn face_values(
+        &self,
+        (l, a, far): (usize, usize, bool),
+        cand: &[u32],
+        vals: &mut [f64],
+    ) -> Result<usize, RkError> {
+        let (lo, hi, cuts) = (self.lo, self.hi, self.cuts);
+        let centre: [f64; D] = std::array::from_fn(|d| 0.5 * (lo[l][d] + hi[l][d]));
+        let mut xf = centre;
+        xf[a] = if far { hi[l][a] } else { lo[l][a] };
+        let width = hi[l][a] - lo[l][a];
+        let cut = (!cuts.is_empty()).then(|| {
+            (
+                cuts,
+                self.key,
+                cuts.inside(self.key[l], xf, centre, 1e-9 * width),
+            )
+        });
+        shape_values_cut(
+            xf,
+            cand,
+            self.x,
+            self.radius,
+            self.singular,
+            cut,
+            self.radius[l],
+            vals,
+        )
     }
 }
 
@@ -503,6 +610,73 @@ mod tests {
     }
 
     #[test]
+    fn outline_tractions_balance_a_constant_stress_particle_by_particle() {
+        // the traction σn on every outline face, spread by face_loads, is
+        // each particle's internal force under the constant stress σ
+        let (nx, ny) = (14, 10);
+        let body = vertex_plate(nx, ny, 0.5);
+        let t = body.tables();
+        let n = body.x.len();
+        let sigma = [3.0, -1.0, 0.5];
+        let mut f = vec![[0.0; 2]; n];
+        t.internal_force(&vec![sigma; n], &t.cell, &mut f);
+        let (w, h) = (nx as f64 * 0.5, ny as f64 * 0.5);
+        let mut faces = Vec::new();
+        let mut normals = Vec::new();
+        for l in 0..n {
+            for (axis, far, edge) in [(0, false, 0.0), (0, true, w), (1, false, 0.0), (1, true, h)]
+            {
+                let at = if far {
+                    body.hi[l][axis]
+                } else {
+                    body.lo[l][axis]
+                };
+                if at == edge {
+                    faces.push((l, axis, far));
+                    let mut nrm = [0.0; 2];
+                    nrm[axis] = if far { 1.0 } else { -1.0 };
+                    normals.push(nrm);
+                }
+            }
+        }
+        assert_eq!(faces.len(), 2 * (nx + 1) + 2 * (ny + 1));
+        let key = vec![0; n];
+        let cells = Cells {
+            x: &body.x,
+            lo: &body.lo,
+            hi: &body.hi,
+            radius: &body.radius,
+            singular: &[],
+            key: &key,
+            cuts: &Cuts::none(),
+        };
+        let loads = Scni::face_loads(&cells, &faces).unwrap();
+        let mut ext = vec![[0.0; 2]; n];
+        for (load, nrm) in loads.iter().zip(&normals) {
+            // σn with tensor shear
+            let tr = [
+                sigma[0] * nrm[0] + sigma[2] * nrm[1],
+                sigma[2] * nrm[0] + sigma[1] * nrm[1],
+            ];
+            for &(i, wgt) in load {
+                ext[i as usize][0] += wgt * tr[0];
+                ext[i as usize][1] += wgt * tr[1];
+            }
+        }
+        for p in 0..n {
+            for c in 0..2 {
+                assert!(
+                    (ext[p][c] - f[p][c]).abs() < 1e-12,
+                    "particle {p} at {:?}: external {:?}, internal {:?}",
+                    body.x[p],
+                    ext[p],
+                    f[p]
+                );
+            }
+        }
+    }
+
+    #[test]
     fn the_tables_are_the_same_for_any_thread_count() {
         let body = centred_plate(20, 15, 0.5, true);
         let one = rayon::ThreadPoolBuilder::new()
@@ -569,7 +743,16 @@ mod tests {
         let key = vec![0; b.x.len()];
         let mut cuts = Cuts::none();
         cuts.add(0, &[[-1.0, 4.5], [6.0, 4.5]], |p| p[0] > 0.0);
-        let t = Scni::build_cut(&b.x, &b.lo, &b.hi, &b.radius, &[], &key, &cuts).unwrap();
+        let t = Scni::build_cut(&Cells {
+            x: &b.x,
+            lo: &b.lo,
+            hi: &b.hi,
+            radius: &b.radius,
+            singular: &[],
+            key: &key,
+            cuts: &cuts,
+        })
+        .unwrap();
         let g = [[1e-3, -4e-4], [2.5e-4, 7e-4]];
         let d: Vec<[f64; 2]> =
             b.x.iter()

@@ -15,7 +15,7 @@
 //! box); the method has no grid otherwise, so the grid MPM's options are
 //! refused.
 
-use crate::scene::schema::{MaterialModel, SceneFile, ShapeSpec, SideCondition, TimeFunction};
+use crate::scene::schema::{MaterialModel, SceneFile, ShapeSpec, TimeFunction};
 use crate::scene::Checker;
 use serde::{Deserialize, Serialize};
 
@@ -266,6 +266,11 @@ pub(crate) fn check(
         if dim == 2 && held.z.is_some() {
             c.err(&format!("{q}.z"), "is for 3D scenes (this one is 2D)");
         }
+        for (axis, f) in ["x", "y", "z"].into_iter().zip(given) {
+            if let Some(f) = f {
+                c.time_function(&format!("{q}.{axis}"), f);
+            }
+        }
         crate::scene::validate::check_shape(c, &format!("{q}.shape"), &held.shape, dim);
         let label = held.label(k);
         if !names.insert(label.clone()) {
@@ -303,22 +308,6 @@ pub(crate) fn check(
             "cramp",
             format!("{not_here}: explicit cracks are the grid MPM's (remove [cramp])"),
         );
-    }
-    let b = &file.grid.boundary;
-    for (name, side) in [
-        ("left", Some(&b.left)),
-        ("right", Some(&b.right)),
-        ("bottom", Some(&b.bottom)),
-        ("top", Some(&b.top)),
-        ("back", b.back.as_ref()),
-        ("front", b.front.as_ref()),
-    ] {
-        if let Some(SideCondition::Traction { .. }) = side {
-            c.err(
-                &format!("grid.boundary.{name}"),
-                "tractions are not yet applied by the damage particle method (hold the side with fixed, roller or velocity)",
-            );
-        }
     }
     let glo = file.grid.min.components();
     let mut counts = vec![0; file.bodies.len()];

@@ -117,6 +117,12 @@ pub enum Stage {
     /// stress (eq. 35) and the candidates of criterion 27. Only with
     /// `[damage_particle.damage]`.
     DpmDamage,
+    /// The damage particle method's tractions: the traction of each
+    /// `traction` side at t + Δt on the outline faces facing it, spread to
+    /// the particles by the shape functions at the faces' centres (the
+    /// points SCNI integrates with), and its work over the step. Only
+    /// with a traction side.
+    DpmTraction,
     /// The damage particle method: the internal force (eq. 39), the
     /// accelerations, v ← v + Δt/2 a and the held components.
     DpmForce,
@@ -125,7 +131,7 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 29] = [
+    pub const ALL: [Stage; 30] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -154,6 +160,7 @@ impl Stage {
         Stage::DpmAdvance,
         Stage::DpmStrain,
         Stage::DpmDamage,
+        Stage::DpmTraction,
         Stage::DpmForce,
     ];
 
@@ -192,6 +199,7 @@ impl Stage {
             Stage::DpmAdvance => "dpm_advance",
             Stage::DpmStrain => "dpm_strain",
             Stage::DpmDamage => "dpm_damage",
+            Stage::DpmTraction => "dpm_traction",
             Stage::DpmForce => "dpm_force",
         }
     }
@@ -246,6 +254,12 @@ pub struct Plan {
 
 impl Plan {
     pub(super) fn build(file: &SceneFile, contact_groups: &[u32]) -> Plan {
+        let b = &file.grid.boundary;
+        let traction = [&b.left, &b.right, &b.bottom, &b.top]
+            .into_iter()
+            .chain(b.back.as_ref())
+            .chain(b.front.as_ref())
+            .any(|s| matches!(s, SideCondition::Traction { .. }));
         if file.method == MethodKind::DamageParticle {
             // a method without a grid: none of the grid MPM's stages
             let damage = file
@@ -257,17 +271,12 @@ impl Plan {
                 .filter(|s| match s {
                     Stage::DpmAdvance | Stage::DpmStrain | Stage::DpmForce => true,
                     Stage::DpmDamage => damage,
+                    Stage::DpmTraction => traction,
                     _ => false,
                 })
                 .collect();
             return Plan { stages };
         }
-        let b = &file.grid.boundary;
-        let traction = [&b.left, &b.right, &b.bottom, &b.top]
-            .into_iter()
-            .chain(b.back.as_ref())
-            .chain(b.front.as_ref())
-            .any(|s| matches!(s, SideCondition::Traction { .. }));
         let dfg = file.dfg.is_some();
         let cracks = file.bodies.iter().any(|b| !b.explicit_cracks.is_empty());
         let contact = contact_groups.len() > 1 || dfg || cracks;
@@ -313,7 +322,11 @@ impl Plan {
                 Stage::Eigen => eigen,
                 Stage::CrackSurfaces => cracks,
                 Stage::CrackGrowth => growth,
-                Stage::DpmAdvance | Stage::DpmStrain | Stage::DpmDamage | Stage::DpmForce => false,
+                Stage::DpmAdvance
+                | Stage::DpmStrain
+                | Stage::DpmDamage
+                | Stage::DpmTraction
+                | Stage::DpmForce => false,
             })
             .collect();
         Plan { stages }
