@@ -176,6 +176,14 @@ pub enum SimError {
         time: f64,
         message: String,
     },
+    /// A static solve did not reach equilibrium (the damage particle
+    /// method's `integration = "static"`).
+    #[error("step {step}, t = {time:.6e} s: {message}")]
+    Equilibrium {
+        step: u64,
+        time: f64,
+        message: String,
+    },
     #[error("writing results failed: {0}")]
     Observer(String),
 }

@@ -581,6 +581,15 @@ fn a_resumed_damage_particle_run_under_tractions_repeats_the_straight_one() {
     dpm_resumes_bit_for_bit(&text, 300);
 }
 
+/// The static solve resumes bit for bit: the static bar checkpointed
+/// while its weak plane softens (the damage history of the last converged
+/// step is the state; the iterations start again from the saved d).
+#[test]
+fn a_resumed_static_damage_particle_run_repeats_the_straight_one() {
+    let text = scene_text("dpm_bar_static.toml", &[("dt = 1.0e-4", "dt = 5.0e-5")]);
+    dpm_resumes_bit_for_bit(&text, 240);
+}
+
 /// Runs a damage particle scene straight, then again stopped 500 steps
 /// after a checkpoint at step `at` and resumed from it: the series, the
 /// snapshot list and the last snapshot are the same bytes. Damage has

@@ -130,12 +130,9 @@ fn damage_particle_scenes_are_validated() {
     assert!(e.contains("method"), "{e}");
 }
 
-#[test]
-fn the_bar_in_3d_dissipates_its_fracture_energy() {
-    // the same bar as a 3D box, 8 × 8 in section (A = 64): one code path
-    // for both dimensions, the 3D section of each cell (eq. 33's A_L)
-    let text = scene_text("dpm_bar.toml")
-        .replace("min = [0.0, -4.0]", "min = [0.0, -4.0, -4.0]")
+/// A bar scene's 2D bar as a 3D box, 8 × 8 in section (A = 64).
+fn bar_in_3d(text: &str) -> String {
+    text.replace("min = [0.0, -4.0]", "min = [0.0, -4.0, -4.0]")
         .replace("max = [100.0, 12.0]", "max = [100.0, 12.0, 12.0]")
         .replace(
             "min = [0.0, 0.0], max = [100.0, 8.0]",
@@ -148,7 +145,14 @@ fn the_bar_in_3d_dissipates_its_fracture_energy() {
         .replace("y = 0.0 }", "y = 0.0, z = 0.0 }")
         .replace("plane = \"plane_stress\"\n", "")
         .replace("thickness = 1.25\n", "")
-        .replace("[analysis]\n", "");
+        .replace("[analysis]\n", "")
+}
+
+#[test]
+fn the_bar_in_3d_dissipates_its_fracture_energy() {
+    // the same bar as a 3D box, 8 × 8 in section (A = 64): one code path
+    // for both dimensions, the 3D section of each cell (eq. 33's A_L)
+    let text = bar_in_3d(&scene_text("dpm_bar.toml"));
     let scene = Scene::from_text(&text, None).unwrap();
     assert_eq!(scene.dimension(), 3);
     assert_eq!(scene.total_particles(), 26 * 3 * 3);
@@ -416,4 +420,257 @@ fn the_branching_plate_s_crack_runs_from_the_notch_and_splits() {
         low < -2.5e-3 && high > 1.5e-3,
         "at x = 80 mm the crack spans {low}..{high} m about the notch's line: {column:?}"
     );
+}
+
+/// `dpm_bar_static.toml` with `nodes` particles along the bar (three rows,
+/// the middle plane between two columns), steps of `du`, and with
+/// `regularised = false` and the constant `kappa_c` when given.
+fn static_bar_text(nodes: usize, du: f64, kappa_c: Option<f64>) -> String {
+    let h = 100.0 / (nodes - 1) as f64;
+    let text = scene_text("dpm_bar_static.toml");
+    let mut text = text
+        .replace("cell_size = 4.0", &format!("cell_size = {h:?}"))
+        .replace("min = [0.0, -4.0]", &format!("min = [0.0, {:?}]", -h))
+        .replace(
+            "max = [100.0, 12.0]",
+            &format!("max = [100.0, {:?}]", 3.0 * h),
+        )
+        .replace(
+            "max = [100.0, 8.0]",
+            &format!("max = [100.0, {:?}]", 2.0 * h),
+        )
+        .replace(
+            "thickness = 1.25",
+            &format!("thickness = {:?}", 10.0 / (2.0 * h)),
+        )
+        .replace(
+            "min = [47.0, -1.0], max = [53.0, 9.0]",
+            &format!(
+                "min = [{:?}, {:?}], max = [{:?}, {:?}]",
+                50.0 - 0.75 * h,
+                -h,
+                50.0 + 0.75 * h,
+                3.0 * h
+            ),
+        )
+        .replace("dt = 1.0e-4", &format!("dt = {du:?}"))
+        .replace("series_rows = 221", "series_rows = 100000");
+    if let Some(k) = kappa_c {
+        text = text.replace(
+            "tol = 0.3",
+            &format!("tol = 0.3\nregularised = false\nkappa_c = {k:?}"),
+        );
+    }
+    text
+}
+
+/// What the static bar gives: the peak force, the end displacement where
+/// the force is gone (the linear softening's zero, from its last two
+/// rows), the work ∫F du, the dissipation, the worst |energy_balance| and
+/// the static solve's iterations.
+struct StaticBar {
+    peak: f64,
+    gone: f64,
+    work: f64,
+    dissipated: f64,
+    worst: f64,
+    iterations: u64,
+    steps: u64,
+}
+
+fn static_bar(text: &str) -> StaticBar {
+    let scene = Scene::from_text(text, None).unwrap();
+    let mut sim = cleave::methods::build(&scene).unwrap();
+    let mut rec = Recorder::series_only();
+    let summary = sim.run(&mut rec).unwrap();
+    let col = |name: &str| rec.column(name).unwrap_or_else(|| panic!("no {name}"));
+    // the right end moves at a "velocity" of 1: u = t
+    let (u, f) = (col("time"), col("reaction_right_x"));
+    let peak = f.iter().cloned().fold(0.0, f64::max);
+    let top = f.iter().position(|&x| x == peak).unwrap();
+    let last = (top..f.len())
+        .take_while(|&k| f[k] > 1e-6 * peak)
+        .last()
+        .unwrap();
+    assert!(last + 1 < f.len(), "the force never fell to zero");
+    let gone = if last > top {
+        let slope = (f[last] - f[last - 1]) / (u[last] - u[last - 1]);
+        u[last] - f[last] / slope
+    } else {
+        u[last + 1]
+    };
+    let work = (1..f.len())
+        .map(|k| 0.5 * (f[k] + f[k - 1]) * (u[k] - u[k - 1]))
+        .sum();
+    let worst = col("energy_balance")
+        .iter()
+        .map(|b| b.abs())
+        .fold(0.0, f64::max);
+    let iterations = summary.fracture["damage_particle"]["equilibrium_iterations"]
+        .as_u64()
+        .unwrap();
+    StaticBar {
+        peak,
+        gone,
+        work,
+        dissipated: *col("fracture_energy").last().unwrap(),
+        worst,
+        iterations,
+        steps: summary.steps,
+    }
+}
+
+#[test]
+fn the_static_bar_dissipates_its_fracture_energy_at_every_resolution() {
+    // Wei & Chen, section 4.1 and Fig. 9, solved as they solve it: the
+    // force is gone at u = 2 G_F / f_t = 1.885e-2 and the bar dissipates
+    // G_F A = 18.85 at 16, 32, 64 and 128 nodes along it
+    let scene = Scene::from_text(&scene_text("dpm_bar_static.toml"), None).unwrap();
+    assert_eq!(scene.plan.names(), ["dpm_load", "dpm_equilibrium"]);
+    for nodes in [16, 32, 64, 128] {
+        let b = static_bar(&static_bar_text(nodes, 1e-4, None));
+        eprintln!(
+            "{nodes} nodes: peak {:.2}, u at F = 0 {:.5e} ({:+.3} %), work {:.4}, dissipated {:.4} ({:+.3} %), |balance| <= {:.2e}, {} steps, {} iterations",
+            b.peak,
+            b.gone,
+            100.0 * (b.gone / 1.885e-2 - 1.0),
+            b.work,
+            b.dissipated,
+            100.0 * (b.dissipated / 18.85 - 1.0),
+            b.worst,
+            b.steps,
+            b.iterations
+        );
+        assert!((b.peak / 2000.0 - 1.0).abs() < 5e-3, "peak {}", b.peak);
+        assert!(
+            (b.gone / 1.885e-2 - 1.0).abs() < 5e-3,
+            "u at F = 0: {}",
+            b.gone
+        );
+        assert!((b.work / 18.85 - 1.0).abs() < 5e-3, "work {}", b.work);
+        assert!(
+            (b.dissipated / 18.85 - 1.0).abs() < 5e-3,
+            "dissipated {}",
+            b.dissipated
+        );
+        assert!(b.worst < 1e-3 * 18.85, "energy balance off by {}", b.worst);
+    }
+}
+
+#[test]
+fn without_the_regularisation_the_static_bar_s_dissipation_falls_with_refinement() {
+    // the paper's contrast (Fig. 9a): a constant κ_c (here the regularised
+    // one of the 16-node bar's cells) dissipates in proportion to the
+    // spacing: the finer the bar, the more brittle
+    let h16 = 100.0 / 15.0;
+    let kappa_c = 1.885 / 200.0 / h16;
+    let mut last = f64::INFINITY;
+    for nodes in [16, 32, 64, 128] {
+        let h = 100.0 / (nodes - 1) as f64;
+        let b = static_bar(&static_bar_text(nodes, 1e-4, Some(kappa_c)));
+        eprintln!(
+            "{nodes} nodes, kappa_c {kappa_c:.4e}: peak {:.2}, dissipated {:.4} (G_F A h / h16 = {:.4}), u at F = 0 {:.5e}",
+            b.peak,
+            b.dissipated,
+            18.85 * h / h16,
+            b.gone
+        );
+        assert!(b.dissipated < 0.75 * last, "{} after {last}", b.dissipated);
+        assert!(
+            (b.dissipated / (18.85 * h / h16) - 1.0).abs() < 0.02,
+            "dissipated {}",
+            b.dissipated
+        );
+        last = b.dissipated;
+    }
+}
+
+#[test]
+fn static_scenes_are_validated_and_a_loose_piece_is_a_clear_error() {
+    let cases = [
+        ("dt = 1.0e-4", "cfl = 0.5", "time.dt"),
+        ("dt = 1.0e-4", "dt = 1.0e-4\ncfl = 0.5", "time.cfl"),
+        (
+            "integration = \"static\"",
+            "integration = \"explicit\"",
+            "damage_particle.equilibrium",
+        ),
+        (
+            "integration = \"static\"",
+            "integration = \"implicit\"",
+            "integration",
+        ),
+        (
+            "tolerance = 1e-8",
+            "tolerance = 0.5",
+            "damage_particle.equilibrium.tolerance",
+        ),
+        (
+            "max_iterations = 500",
+            "max_iterations = 0",
+            "damage_particle.equilibrium.max_iterations",
+        ),
+        (
+            "max_iterations = 500",
+            "max_iterations = 500\nnewton = true",
+            "newton",
+        ),
+        (
+            "material = \"bar\"",
+            "material = \"bar\"\nvelocity = [1.0, 0.0]",
+            "bodies[0].velocity",
+        ),
+    ];
+    for (from, to, field) in cases {
+        let e = refused("dpm_bar_static.toml", from, to);
+        assert!(e.contains(field), "{to:?}: {e}");
+    }
+    // a bar held by nothing under gravity: its stiffness is singular, and
+    // the run stops at its first step saying so
+    let text = scene_text("dpm_bar_static.toml")
+        .replace("left = \"fixed\"", "left = \"free\"")
+        .replace(
+            "right = { type = \"velocity\", x = 1.0, y = 0.0 }",
+            "right = \"free\"",
+        )
+        .replace(
+            "method = \"damage_particle\"",
+            "method = \"damage_particle\"\nbody_force = [0.0, -9.81]",
+        );
+    let scene = Scene::from_text(&text, None).unwrap();
+    let mut sim = cleave::methods::build(&scene).unwrap();
+    let e = sim
+        .run(&mut Recorder::series_only())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("step 1,") && e.contains("singular") && e.contains("held by no wall"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_static_bar_in_3d_dissipates_its_fracture_energy() {
+    // the static solve in 3D: the same code path, the 3D sections
+    let text = bar_in_3d(&scene_text("dpm_bar_static.toml"));
+    let scene = Scene::from_text(&text, None).unwrap();
+    assert_eq!(scene.total_particles(), 26 * 3 * 3);
+    let b = static_bar(&text);
+    let (ga, fa) = (1.885 * 64.0, 200.0 * 64.0);
+    eprintln!(
+        "3D static: peak {:.2} (f_t A {fa}), u at F = 0 {:.5e}, dissipated {:.4} (G_F A {ga}), {} steps, {} iterations",
+        b.peak, b.gone, b.dissipated, b.steps, b.iterations
+    );
+    assert!((b.peak / fa - 1.0).abs() < 5e-3, "peak {}", b.peak);
+    assert!(
+        (b.gone / 1.885e-2 - 1.0).abs() < 5e-3,
+        "u at F = 0: {}",
+        b.gone
+    );
+    assert!(
+        (b.dissipated / ga - 1.0).abs() < 5e-3,
+        "dissipated {}",
+        b.dissipated
+    );
+    assert!(b.worst < 1e-3 * ga, "energy balance off by {}", b.worst);
 }

@@ -62,6 +62,12 @@ pub struct DamageState<const D: usize> {
 }
 
 impl<const D: usize> DamageState<D> {
+    /// Forgets which particles started to damage (a static step's trial
+    /// that is not kept).
+    pub(super) fn clear_started(&mut self) {
+        self.started.iter_mut().for_each(|s| *s = false);
+    }
+
     /// Undamaged particles at `x` with cells `lo..hi`, every one a
     /// candidate where `candidate` says.
     pub fn new(
@@ -204,11 +210,17 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
             return 0.0;
         }
         let dissipated = self.degrade();
+        self.track_candidates();
+        dissipated
+    }
+
+    /// Criterion (27) for the particles whose damage started in the last
+    /// [`Explicit::degrade`], with each material's tolerance.
+    pub fn track_candidates(&mut self) {
         // the parameters lent out while the state changes (no copy)
         let params = std::mem::take(&mut self.damage_params);
         self.track(|m| params[m as usize].map_or(0.0, |p| p.tol));
         self.damage_params = params;
-        dissipated
     }
 
     /// Damage from the smoothed strain (eqs. 2–6, 33) and the stress it
@@ -218,7 +230,7 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
     /// then σ = (1 − D) C ε. Returns the energy the step's damage
     /// dissipated, Σ ½ ε:C:ε ΔD V (J): with D = 1 − (κ₀/κ)(κ_c − κ)/(κ_c − κ₀)
     /// this sums to ½ f_t κ_c V, the cell's G_F A_L under eq. 33.
-    fn degrade(&mut self) -> f64 {
+    pub(super) fn degrade(&mut self) -> f64 {
         let Some(st) = self.damage.as_mut() else {
             return 0.0;
         };
@@ -230,15 +242,7 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
                 continue;
             };
             let m = &self.materials[self.material[l] as usize];
-            // plane stress stretches or squeezes the thickness:
-            // ε_zz = −ν/(1 − ν)(ε_xx + ε_yy); plane strain and 3D: none
-            let e = &self.strain[l];
-            let e_zz = if D == 2 && m.plane == PlaneKind::PlaneStress {
-                -m.poissons_ratio / (1.0 - m.poissons_ratio) * (e[0] + e[1])
-            } else {
-                0.0
-            };
-            let eq = mazars(e, e_zz);
+            let eq = equivalent_strain::<D, V>(m, &self.strain[l]);
             if st.kappa_c[l] == 0.0 {
                 if !st.candidate[l] || eq < st.kappa_0[l] {
                     continue;
@@ -382,9 +386,22 @@ fn principal_direction<const D: usize, const V: usize>(s: &[f64; V]) -> [f64; D]
     }
 }
 
+/// The Mazars equivalent strain (eq. 6) of a cell's strain `e`: plane
+/// stress stretches or squeezes the thickness, ε_zz = −ν/(1 − ν)(ε_xx +
+/// ε_yy); plane strain and 3D have none.
+#[inline]
+pub(super) fn equivalent_strain<const D: usize, const V: usize>(m: &Elastic, e: &[f64; V]) -> f64 {
+    let e_zz = if D == 2 && m.plane == PlaneKind::PlaneStress {
+        -m.poissons_ratio / (1.0 - m.poissons_ratio) * (e[0] + e[1])
+    } else {
+        0.0
+    };
+    mazars(e, e_zz)
+}
+
 /// Hooke's law of `m` for a small strain in D dimensions.
 #[inline]
-fn hooke<const D: usize, const V: usize>(m: &Elastic, e: [f64; V]) -> [f64; V] {
+pub(super) fn hooke<const D: usize, const V: usize>(m: &Elastic, e: [f64; V]) -> [f64; V] {
     if D == 2 {
         resize(m.hooke(resize(e)))
     } else {

@@ -2,8 +2,12 @@
 //! "damage_particle"` set up as particles on the lattice's vertices
 //! ([`super::section`]), run by explicit central differences
 //! ([`Explicit`]) whose stages are the scene's plan (`dpm_advance →
-//! dpm_strain → [dpm_damage →] dpm_force`), with the series, snapshots,
-//! progress and checkpoints of every method.
+//! dpm_strain → [dpm_damage →] [dpm_traction →] dpm_force`), or
+//! statically (`integration = "static"`: `dpm_load → dpm_equilibrium`,
+//! [`Equilibrium`]), with the series, snapshots, progress and checkpoints
+//! of every method. A static step's reactions are the out-of-balance
+//! forces on the held components at equilibrium, R = f_int − f_ext − m g,
+//! their work summed by the trapezoid rule as the explicit run's.
 //!
 //! Walls hold the particles that lie on them: a `fixed` side every
 //! component, a `roller` side the normal one, a `velocity` side the
@@ -28,6 +32,7 @@
 
 use super::crack::Cuts;
 use super::explicit::{DamageParams, DamageState, Explicit, Held};
+use super::implicit::Equilibrium;
 use super::scni::{Cells, Scni};
 use super::section::{box_corners, box_lattice};
 use crate::checkpoint::{Checkpoint, CheckpointError};
@@ -35,7 +40,9 @@ use crate::diagnostics::{measure, Field, FieldData, Observer, SeriesRow};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::run::{Method, MethodEntry, RunClock, RunSummary, SimError, StageTimes};
-use crate::scene::{MethodKind, Scene, SceneError, SideCondition, Stage, TimeFunction};
+use crate::scene::{
+    MethodKind, Scene, SceneError, SideCondition, SideTraction, Stage, TimeFunction,
+};
 use crate::tensor::resize;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -72,14 +79,10 @@ struct Hold {
     velocity: Option<TimeFunction>,
 }
 
-/// A traction side's load: the traction `normal` · out + `shear` · tangent
-/// (Pa, functions of time) on its faces, spread to the particles.
+/// A traction side's load on its faces, spread to the particles.
 #[derive(Debug, Clone)]
 struct Load<const D: usize> {
-    normal: Option<TimeFunction>,
-    shear: Option<TimeFunction>,
-    out: [f64; D],
-    tangent: [f64; D],
+    load: SideTraction<D>,
     /// (particle, Σ over the loaded faces of N_I(x_f)|f|, m²; 2D: × the
     /// thickness), by particle.
     weights: Vec<(u32, f64)>,
@@ -91,9 +94,7 @@ fn load_at<const D: usize>(loads: &[Load<D>], loaded: &[u32], external: &mut [[f
         external[p as usize] = [0.0; D];
     }
     for l in loads {
-        let sn = l.normal.as_ref().map_or(0.0, |f| f.eval(t));
-        let ss = l.shear.as_ref().map_or(0.0, |f| f.eval(t));
-        let tr: [f64; D] = std::array::from_fn(|a| sn * l.out[a] + ss * l.tangent[a]);
+        let tr = l.load.at(t);
         for &(p, w) in &l.weights {
             for a in 0..D {
                 external[p as usize][a] += w * tr[a];
@@ -130,6 +131,8 @@ fn velocities<const D: usize>(given: [&Option<TimeFunction>; 3]) -> Targets {
 pub struct Dpm<const D: usize, const V: usize> {
     scene: Scene,
     run: Explicit<D, V>,
+    /// The static solve (`integration = "static"`; None: explicit).
+    equilibrium: Option<Equilibrium<D, V>>,
     /// Reference positions (the particles move to x₀ + d).
     x0: Vec<[f64; D]>,
     /// The output's view of the particles (ids, bodies, materials, masses
@@ -185,11 +188,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         let spec = file
             .damage_particle
             .clone()
-            .unwrap_or(super::section::DpmSpec {
-                support: 1.5,
-                damage: None,
-                held: Vec::new(),
-            });
+            .unwrap_or_else(super::section::DpmSpec::defaults);
         let (mut x, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new());
         let (mut body, mut material, mut velocity) = (Vec::new(), Vec::new(), Vec::new());
         for (b, spec_b) in file.bodies.iter().enumerate() {
@@ -344,7 +343,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         // the traction sides' loaded faces: each body's outline faces that
         // face the side, the outermost along each lattice line
         let mut loads = Vec::new();
-        for (name, cond, axis, far) in named {
+        for (k, (name, cond, axis, far)) in named.into_iter().enumerate() {
             let (Some(SideCondition::Traction { normal, shear }), true) = (cond, axis < D) else {
                 continue;
             };
@@ -379,16 +378,9 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             for (i, w) in per_face.into_iter().flatten() {
                 *weights.entry(i).or_insert(0.0) += w * thickness;
             }
-            let mut out = [0.0; D];
-            out[axis] = sign;
-            let mut tangent = [0.0; D];
-            tangent[if axis == 0 { 1 } else { 0 }] = 1.0;
             tracing::debug!(side = name, faces = faces.len(), "damage particle traction");
             loads.push(Load {
-                normal: normal.clone(),
-                shear: shear.clone(),
-                out,
-                tangent,
+                load: SideTraction::new(k, normal, shear),
                 weights: weights.into_iter().collect(),
             });
         }
@@ -481,7 +473,26 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             Vec::new()
         };
         let speed = max_speed(&run.v);
+        let equilibrium = if spec.integration == super::section::Integration::Static {
+            let eq = spec.equilibrium.unwrap_or_default();
+            // the smallest force scale: the strength (or a strain of 1e-6)
+            // on one cell face
+            let face = h.powi(D as i32 - 1) * thickness;
+            let stiffest = scene
+                .materials
+                .iter()
+                .map(|m| m.youngs_modulus)
+                .fold(0.0, f64::max);
+            let stress = spec.damage.as_ref().map_or(1e-6 * stiffest, |d| d.strength);
+            Some(
+                Equilibrium::new(&run, eq.tolerance, eq.max_iterations, stress * face)
+                    .map_err(|e| SceneError::single("damage_particle.integration", e))?,
+            )
+        } else {
+            None
+        };
         Ok(Dpm {
+            equilibrium,
             reaction: vec![0.0; run.held.len()],
             run,
             x0: x,
@@ -522,13 +533,19 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
     /// The next time step: fixed (checked against h / max(c + |v|)) or
     /// `time.cfl` × that, clipped to land on `end`.
     fn next_dt(&self, end: f64) -> Result<f64, SimError> {
+        // a static step follows no wave: time.dt, with no limit
+        let signal = if self.equilibrium.is_some() {
+            0.0
+        } else {
+            self.wave + self.max_speed
+        };
         crate::run::clip_dt(
             &self.scene,
             self.step,
             self.time,
             end,
             self.h,
-            self.wave + self.max_speed,
+            signal,
             || self.fastest(),
         )
     }
@@ -551,6 +568,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         let t = self.time;
         let mut times = std::mem::take(&mut self.times.stages);
         let mut mid = Vec::new();
+        let mut failed = None;
         for st in times.iter_mut() {
             let t0 = Instant::now();
             match st.stage {
@@ -586,13 +604,48 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                     self.hold_at(t + dt);
                     self.run.finish(dt);
                 }
+                Stage::DpmLoad => {
+                    if let Some(eq) = self.equilibrium.as_mut() {
+                        eq.begin(&self.run);
+                    }
+                    self.hold_at(t + 0.5 * dt);
+                    for c in &self.run.held {
+                        self.run.d[c.particle as usize][c.axis as usize] += dt * c.velocity;
+                    }
+                    load_at(&self.loads, &self.loaded, &mut self.run.external, t + dt);
+                }
+                Stage::DpmEquilibrium => {
+                    if let Some(eq) = self.equilibrium.as_mut() {
+                        match eq.solve(&mut self.run) {
+                            Ok(done) => {
+                                self.dissipated += done.dissipated;
+                                self.run.track_candidates();
+                            }
+                            Err(message) => failed = Some(message),
+                        }
+                    }
+                }
                 _ => {}
             }
             st.seconds += t0.elapsed().as_secs_f64();
             st.runs += 1;
+            if failed.is_some() {
+                break;
+            }
         }
         self.times.stages = times;
-        self.walls(dt, &mid);
+        if let Some(message) = failed {
+            return Err(SimError::Equilibrium {
+                step: self.step + 1,
+                time: t + dt,
+                message,
+            });
+        }
+        if self.equilibrium.is_some() {
+            self.static_work();
+        } else {
+            self.walls(dt, &mid);
+        }
         self.time += dt;
         self.step += 1;
         self.dt = dt;
@@ -627,6 +680,47 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             self.reaction[k] = r;
             if let Some(s) = self.reactions.get_mut(self.holds[k].side) {
                 s[a] += r;
+            }
+        }
+        self.external_work += work;
+        self.abs_work += work.abs();
+    }
+
+    /// A static step's reactions at equilibrium, R = f_int − f_ext − m g
+    /// on each held component, and the step's work by the trapezoid rule:
+    /// the reactions', the tractions' and gravity's over the step's
+    /// displacements.
+    fn static_work(&mut self) {
+        let Some(eq) = self.equilibrium.as_ref() else {
+            return;
+        };
+        for r in self.reactions.iter_mut() {
+            *r = [0.0; D];
+        }
+        let run = &self.run;
+        let g = run.body_force;
+        let step = |p: usize, a: usize| run.d[p][a] - eq.d_before[p][a];
+        let mut work = 0.0;
+        for (k, c) in run.held.iter().enumerate() {
+            let (p, a) = (c.particle as usize, c.axis as usize);
+            let r = run.force[p][a] - run.external[p][a] - run.mass[p] * g[a];
+            work += 0.5 * (r + self.reaction[k]) * step(p, a);
+            self.reaction[k] = r;
+            if let Some(s) = self.reactions.get_mut(self.holds[k].side) {
+                s[a] += r;
+            }
+        }
+        for &p in &self.loaded {
+            let p = p as usize;
+            for a in 0..D {
+                work += 0.5 * (eq.external_before[p][a] + run.external[p][a]) * step(p, a);
+            }
+        }
+        if g.iter().any(|&c| c != 0.0) {
+            for p in 0..run.d.len() {
+                for a in 0..D {
+                    work += run.mass[p] * g[a] * step(p, a);
+                }
             }
         }
         self.external_work += work;
@@ -1096,14 +1190,17 @@ impl<const D: usize, const V: usize> crate::run::Stepper for Dpm<D, V> {
     fn summary_parts(&self) -> (usize, u64, serde_json::Map<String, serde_json::Value>) {
         let mut fracture = serde_json::Map::new();
         if let Some(st) = &self.run.damage {
-            fracture.insert(
-                "damage_particle".into(),
-                serde_json::json!({
-                    "damaged_particles": st.damage.iter().filter(|&&d| d > 0.0).count(),
-                    "broken_particles": st.damage.iter().filter(|&&d| d >= BROKEN).count(),
-                    "dissipated": self.dissipated,
-                }),
-            );
+            let mut part = serde_json::json!({
+                "damaged_particles": st.damage.iter().filter(|&&d| d > 0.0).count(),
+                "broken_particles": st.damage.iter().filter(|&&d| d >= BROKEN).count(),
+                "dissipated": self.dissipated,
+            });
+            // the static solve's iterations since this process started
+            // the run (a resumed run counts from its checkpoint)
+            if let (Some(eq), Some(map)) = (&self.equilibrium, part.as_object_mut()) {
+                map.insert("equilibrium_iterations".into(), eq.iterations.into());
+            }
+            fracture.insert("damage_particle".into(), part);
         }
         (self.x0.len(), 0, fracture)
     }

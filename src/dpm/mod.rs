@@ -9,12 +9,14 @@
 //! differences ([`explicit`]) with held particles (singular kernels) and
 //! the damage of [`damage`] with its energy regularisation, verified on
 //! the paper's bar; its scene section ([`section`]: `method =
-//! "damage_particle"`) and its [`crate::run::Method`] ([`method`]).
+//! "damage_particle"`) and its [`crate::run::Method`] ([`method`]); the
+//! static solve of the paper's quasi-static bar ([`implicit`]).
 //! docs/dpm.md keeps the record.
 
 pub mod crack;
 pub mod damage;
 pub mod explicit;
+pub mod implicit;
 pub mod method;
 pub mod rk;
 pub mod scni;

@@ -52,6 +52,78 @@ pub struct DpmSpec {
     /// over part of a side, an impactor's face), after the grid's walls.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub held: Vec<HeldSpec>,
+    /// How the equations of motion are solved: explicit central
+    /// differences (the default) or a static equilibrium per load step.
+    #[serde(default, skip_serializing_if = "Integration::is_explicit")]
+    pub integration: Integration,
+    /// The static solve's convergence (with `integration = "static"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub equilibrium: Option<EquilibriumSpec>,
+}
+
+impl DpmSpec {
+    /// The options of a scene without a `[damage_particle]` table.
+    pub fn defaults() -> DpmSpec {
+        DpmSpec {
+            support: default_support(),
+            damage: None,
+            held: Vec::new(),
+            integration: Integration::Explicit,
+            equilibrium: None,
+        }
+    }
+}
+
+/// `damage_particle.integration`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Integration {
+    /// Explicit central differences with the lumped mass (Wei & Chen's
+    /// dynamic examples).
+    #[default]
+    Explicit,
+    /// Quasi-static: no inertia; each step of `time.dt` moves the held
+    /// components and the loads to their values at the step's end and
+    /// iterates to equilibrium with the damage (Wei & Chen's
+    /// "incremental–iterative procedure" for the bar).
+    Static,
+}
+
+impl Integration {
+    pub fn is_explicit(&self) -> bool {
+        *self == Integration::Explicit
+    }
+}
+
+/// `[damage_particle.equilibrium]`: when a static step has converged.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct EquilibriumSpec {
+    /// The largest out-of-balance force component of a free particle over
+    /// the force scale (the largest internal or external force component,
+    /// at least the strength's force on one cell face).
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Iterations before a step that has not converged stops the run.
+    #[serde(default = "default_iterations")]
+    pub max_iterations: u32,
+}
+
+impl Default for EquilibriumSpec {
+    fn default() -> Self {
+        EquilibriumSpec {
+            tolerance: default_tolerance(),
+            max_iterations: default_iterations(),
+        }
+    }
+}
+
+fn default_tolerance() -> f64 {
+    1e-8
+}
+
+fn default_iterations() -> u32 {
+    500
 }
 
 /// `[[damage_particle.held]]`: the particles inside `shape` held at the
@@ -208,11 +280,7 @@ pub(crate) fn check(
     let h = file.grid.cell_size;
     let not_here =
         "the damage particle method (method = \"damage_particle\") has no background grid";
-    let default = DpmSpec {
-        support: default_support(),
-        damage: None,
-        held: Vec::new(),
-    };
+    let default = DpmSpec::defaults();
     let spec = file.damage_particle.as_ref().unwrap_or(&default);
     if c.finite("damage_particle.support", spec.support) && !(1.2..=4.0).contains(&spec.support) {
         c.err(
@@ -279,6 +347,44 @@ pub(crate) fn check(
                 format!("`{label}` names another held region: the series' reaction columns need one name each"),
             );
         }
+    }
+    if spec.integration == Integration::Static {
+        let why = "a static solve (damage_particle.integration = \"static\") steps by a fixed load increment";
+        if file.time.dt.is_none() {
+            c.err("time.dt", format!("{why}: give time.dt, s"));
+        }
+        if file.time.cfl.is_some() {
+            c.err(
+                "time.cfl",
+                format!("{why}, with no wave speed to follow: give time.dt instead"),
+            );
+        }
+        for (i, body) in file.bodies.iter().enumerate() {
+            if body.velocity.components().iter().any(|&v| v != 0.0) {
+                c.err(
+                    &format!("bodies[{i}].velocity"),
+                    "a static solve has no inertia: the bodies start at rest (move them by held regions or walls)",
+                );
+            }
+        }
+        let eq = spec.equilibrium.unwrap_or_default();
+        let q = "damage_particle.equilibrium";
+        if c.finite(&format!("{q}.tolerance"), eq.tolerance)
+            && !(eq.tolerance > 0.0 && eq.tolerance <= 1e-2)
+        {
+            c.err(
+                &format!("{q}.tolerance"),
+                format!("must be in (0, 1e-2], got {}", eq.tolerance),
+            );
+        }
+        if eq.max_iterations == 0 {
+            c.err(&format!("{q}.max_iterations"), "must be at least 1");
+        }
+    } else if spec.equilibrium.is_some() {
+        c.err(
+            "damage_particle.equilibrium",
+            "is the static solve's: set damage_particle.integration = \"static\" or remove it",
+        );
     }
     // what belongs to the grid MPM
     if file.grid.shape_function != Default::default() || file.grid.lme_gamma.is_some() {

@@ -13,7 +13,7 @@ use crate::grid::{particle_support, Bins, FieldSlots, GridFields, GridGeom, Mult
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::{
-    MaterialModel, Scene, ShapeFunctionKind, SideCondition, Stage, TimeFunction, TransferKind,
+    MaterialModel, Scene, ShapeFunctionKind, SideCondition, SideTraction, Stage, TransferKind,
 };
 use crate::tensor::{check_voigt, identity, norm, resize};
 
@@ -314,12 +314,7 @@ pub(super) struct Tractions<const D: usize> {
 
 #[derive(Debug, Clone)]
 struct TractionSide<const D: usize> {
-    normal: Option<TimeFunction>,
-    shear: Option<TimeFunction>,
-    /// Outward unit normal of the side.
-    out: [f64; D],
-    /// Shear direction: +x on bottom/top (and back/front), +y on left/right.
-    tangent: [f64; D],
+    load: SideTraction<D>,
     /// (particle index, surface per particle, m²: 2D spacing × thickness,
     /// 3D spacing²).
     particles: Vec<(u32, f64)>,
@@ -363,10 +358,6 @@ impl<const D: usize> Tractions<D> {
                     *e = p;
                 }
             }
-            let mut out = [0.0; D];
-            out[across] = sign;
-            let mut tangent = [0.0; D];
-            tangent[if across == 0 { 1 } else { 0 }] = 1.0;
             let particles = best
                 .values()
                 .map(|&p| {
@@ -382,10 +373,7 @@ impl<const D: usize> Tractions<D> {
                 })
                 .collect();
             sides.push(TractionSide {
-                normal: normal.clone(),
-                shear: shear.clone(),
-                out,
-                tangent,
+                load: SideTraction::new(k, normal, shear),
                 particles,
             });
         }
@@ -407,12 +395,7 @@ impl<const D: usize> Tractions<D> {
         applied: &mut Vec<(usize, [f64; D])>,
     ) {
         for side in &self.sides {
-            let sn = side.normal.as_ref().map_or(0.0, |f| f.eval(t));
-            let ss = side.shear.as_ref().map_or(0.0, |f| f.eval(t));
-            let mut tr = [0.0; D];
-            for a in 0..D {
-                tr[a] = sn * side.out[a] + ss * side.tangent[a];
-            }
+            let tr = side.load.at(t);
             for &(p, area) in &side.particles {
                 let p = p as usize;
                 let f = tr.map(|c| c * area);

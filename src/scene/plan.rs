@@ -5,6 +5,7 @@
 //! asks for is not in the plan and its code never runs.
 
 use super::schema::{MethodKind, SceneFile, SideCondition, StressUpdate};
+use crate::dpm::section::Integration;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -126,12 +127,22 @@ pub enum Stage {
     /// The damage particle method: the internal force (eq. 39), the
     /// accelerations, v ← v + Δt/2 a and the held components.
     DpmForce,
+    /// The damage particle method's static solve (`integration =
+    /// "static"`), first stage: the held components moved by Δt × their
+    /// velocity at t + Δt/2, the tractions at t + Δt.
+    DpmLoad,
+    /// The damage particle method's static solve: iterations to
+    /// equilibrium, each the strain (eq. 37), the damage it gives from the
+    /// last step's history (eqs. 2–6, 33), the internal force (eq. 39)
+    /// and a solve with the secant stiffness (faer's sparse Cholesky);
+    /// then the candidates of criterion 27, the reactions and the work.
+    DpmEquilibrium,
 }
 
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 30] = [
+    pub const ALL: [Stage; 32] = [
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -162,6 +173,8 @@ impl Stage {
         Stage::DpmDamage,
         Stage::DpmTraction,
         Stage::DpmForce,
+        Stage::DpmLoad,
+        Stage::DpmEquilibrium,
     ];
 
     /// The stage of a [`name`](Stage::name).
@@ -201,6 +214,8 @@ impl Stage {
             Stage::DpmDamage => "dpm_damage",
             Stage::DpmTraction => "dpm_traction",
             Stage::DpmForce => "dpm_force",
+            Stage::DpmLoad => "dpm_load",
+            Stage::DpmEquilibrium => "dpm_equilibrium",
         }
     }
 
@@ -266,12 +281,17 @@ impl Plan {
                 .damage_particle
                 .as_ref()
                 .is_some_and(|d| d.damage.is_some());
+            let statics = file
+                .damage_particle
+                .as_ref()
+                .is_some_and(|d| d.integration == Integration::Static);
             let stages = Stage::ALL
                 .into_iter()
                 .filter(|s| match s {
-                    Stage::DpmAdvance | Stage::DpmStrain | Stage::DpmForce => true,
-                    Stage::DpmDamage => damage,
-                    Stage::DpmTraction => traction,
+                    Stage::DpmAdvance | Stage::DpmStrain | Stage::DpmForce => !statics,
+                    Stage::DpmDamage => damage && !statics,
+                    Stage::DpmTraction => traction && !statics,
+                    Stage::DpmLoad | Stage::DpmEquilibrium => statics,
                     _ => false,
                 })
                 .collect();
@@ -326,7 +346,9 @@ impl Plan {
                 | Stage::DpmStrain
                 | Stage::DpmDamage
                 | Stage::DpmTraction
-                | Stage::DpmForce => false,
+                | Stage::DpmForce
+                | Stage::DpmLoad
+                | Stage::DpmEquilibrium => false,
             })
             .collect();
         Plan { stages }

@@ -260,6 +260,44 @@ pub enum SideCondition {
     },
 }
 
+/// A `traction` side's load as both methods read it: `normal` along the
+/// side's outward unit normal, `shear` along +x on the bottom and top (and
+/// back and front) sides, along +y on the left and right.
+#[derive(Debug, Clone)]
+pub struct SideTraction<const D: usize> {
+    pub normal: Option<TimeFunction>,
+    pub shear: Option<TimeFunction>,
+    /// The side's outward unit normal.
+    pub out: [f64; D],
+    /// The shear's direction.
+    pub tangent: [f64; D],
+}
+
+impl<const D: usize> SideTraction<D> {
+    /// The traction of side `k` (0 left, 1 right, 2 bottom, 3 top, 4 back,
+    /// 5 front).
+    pub fn new(k: usize, normal: &Option<TimeFunction>, shear: &Option<TimeFunction>) -> Self {
+        let across = k / 2;
+        let mut out = [0.0; D];
+        out[across] = if k % 2 == 0 { -1.0 } else { 1.0 };
+        let mut tangent = [0.0; D];
+        tangent[if across == 0 { 1 } else { 0 }] = 1.0;
+        SideTraction {
+            normal: normal.clone(),
+            shear: shear.clone(),
+            out,
+            tangent,
+        }
+    }
+
+    /// The traction vector at time `t`, Pa.
+    pub fn at(&self, t: f64) -> [f64; D] {
+        let sn = self.normal.as_ref().map_or(0.0, |f| f.eval(t));
+        let ss = self.shear.as_ref().map_or(0.0, |f| f.eval(t));
+        std::array::from_fn(|a| sn * self.out[a] + ss * self.tangent[a])
+    }
+}
+
 /// Reads a [`SideCondition`] from its table form, or from a bare string
 /// for the conditions without parameters.
 fn side_condition<'de, D: Deserializer<'de>>(d: D) -> Result<SideCondition, D::Error> {
