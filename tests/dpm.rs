@@ -93,6 +93,7 @@ fn damage_particle_scenes_are_validated() {
         ("tol = 0.3", "tol = 0.3\nkappa_c = 1e-3", "damage_particle.damage.kappa_c"),
         ("tol = 0.3", "tol = 0.3\nregularised = false", "damage_particle.damage.kappa_c"),
         ("tol = 0.3", "tol = 0.3\ntracking_radius = 0.5", "damage_particle.damage.tracking_radius"),
+        ("tol = 0.3", "tol = 0.3\nnormal_radius = 0.5", "damage_particle.damage.normal_radius"),
         ("strength = 200.0", "strength = -200.0", "damage_particle.damage.strength"),
         ("strength_factor = 0.999", "strength_factor = 1.5", "strength_factor"),
         (
@@ -673,4 +674,23 @@ fn the_static_bar_in_3d_dissipates_its_fracture_energy() {
         b.dissipated
     );
     assert!(b.worst < 1e-3 * ga, "energy balance off by {}", b.worst);
+}
+
+#[test]
+fn a_normal_from_the_averaged_stress_keeps_the_bar_s_fracture_energy() {
+    // normal_radius: each starting segment's normal from the stress
+    // averaged over 1.5 spacings; in the bar that is still along it
+    let text =
+        static_bar_text(16, 1e-4, None).replace("tol = 0.3", "tol = 0.3\nnormal_radius = 1.5");
+    let b = static_bar(&text);
+    assert!(
+        (b.gone / 1.885e-2 - 1.0).abs() < 5e-3,
+        "u at F = 0: {}",
+        b.gone
+    );
+    assert!(
+        (b.dissipated / 18.85 - 1.0).abs() < 5e-3,
+        "dissipated {}",
+        b.dissipated
+    );
 }

@@ -4,7 +4,9 @@
 # each H given, the crack moved to half a spacing above y = 0.02 and the
 # initiation box to 1.5 spacings about its tip; SUPPORT and TOL override
 # the scene's, NOTRACK=1 removes the initiation box (every particle a
-# candidate from the start: criterion 27 then moot). Prints the crack front, the branches and the dissipation
+# candidate from the start: criterion 27 then moot); NORMAL sets
+# normal_radius (a starting segment's normal from the stress averaged over
+# that many spacings). Prints the crack front, the branches and the dissipation
 # (docs/scripts/dpm_branching.py). Usage, from the repository root after
 # `cargo build --release -p cleave-client`:
 #   bash docs/scripts/dpm_branching.sh 8e-4 4e-4 2e-4
@@ -13,10 +15,10 @@ set -euo pipefail
 dir=${OUT:-/tmp/dpm_branching}
 mkdir -p "$dir"
 for h in "$@"; do
-  tag=h$h${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${NOTRACK:+-notrack}
-  python3 - "$h" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" > "$dir/$tag.toml" <<'PY'
+  tag=h$h${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}
+  python3 - "$h" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${NORMAL:-}" > "$dir/$tag.toml" <<'PY'
 import re, sys
-h, support, tol, notrack = float(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4]
+h, support, tol, notrack, normal = float(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]
 t = open("scenes/dpm_branching.toml").read()
 t = re.sub(r"^cell_size = .*$", f"cell_size = {h!r}", t, flags=re.M)
 # the grid reaches 2.4 mm beyond the plate (a whole number of spacings)
@@ -32,6 +34,8 @@ if tol:
 r = 1.5 * h
 t = re.sub(r"initiation = \{ shape = \{ type = \"box\", min = \[[^]]*\], max = \[[^]]*\] \}",
            f"initiation = {{ shape = {{ type = \"box\", min = [{0.05 - r!r}, {y - r!r}], max = [{0.05 + r!r}, {y + r!r}] }}", t)
+if normal:
+    t = re.sub(r"^(tol = .*)$", f"\\1\nnormal_radius = {normal}", t, count=1, flags=re.M)
 if notrack:
     t = re.sub(r"^initiation = .*\n", "", t, flags=re.M)
 print(t, end="")

@@ -5,7 +5,9 @@
 # spacing between two rows of particles), with SUPPORT, TOL and TRACK
 # (criterion 27's tracking_radius; default the scene's, each); the initiation box is kept at
 # 1.5 spacings about the tip (NOTRACK=1 removes it: every particle a
-# candidate from the start, criterion 27 then moot). Prints the crack's length, angle and the
+# candidate from the start, criterion 27 then moot); NORMAL sets
+# normal_radius (a starting segment's normal from the stress averaged over
+# that many spacings). Prints the crack's length, angle and the
 # dissipation of each (docs/scripts/dpm_kalthoff.py). Usage, from the
 # repository root after `cargo build --release -p cleave-client`:
 #   bash docs/scripts/dpm_kalthoff.sh 150 250 350
@@ -14,10 +16,10 @@ set -euo pipefail
 dir=${OUT:-/tmp/dpm_kalthoff}
 mkdir -p "$dir"
 for n in "$@"; do
-  tag=n$n${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}
-  python3 - "$n" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${TRACK:-}" > "$dir/$tag.toml" <<'PY'
+  tag=n$n${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}
+  python3 - "$n" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${TRACK:-}" "${NORMAL:-}" > "$dir/$tag.toml" <<'PY'
 import re, sys
-n, support, tol, notrack, track = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]
+n, support, tol, notrack, track, normal = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5], sys.argv[6]
 h = 0.1 / n
 t = open("scenes/dpm_kalthoff.toml").read()
 t = re.sub(r"^cell_size = .*$", f"cell_size = {h!r}", t, flags=re.M)
@@ -35,6 +37,8 @@ t = re.sub(r"initiation = \{ shape = \{ type = \"box\", min = \[[^]]*\], max = \
 if track:
     t = re.sub(r"^tracking_radius = .*\n", "", t, flags=re.M)
     t = re.sub(r"^(tol = .*)$", f"\\1\ntracking_radius = {track}", t, count=1, flags=re.M)
+if normal:
+    t = re.sub(r"^(tol = .*)$", f"\\1\nnormal_radius = {normal}", t, count=1, flags=re.M)
 if notrack:
     t = re.sub(r"^initiation = .*\n", "", t, flags=re.M)
 print(t, end="")

@@ -55,6 +55,9 @@ pub struct DamageState<const D: usize> {
     /// Criterion 27's neighbourhoods when not the shape functions'
     /// (`tracking_radius`): `list[start[l]..start[l + 1]]` are l's.
     pub tracking: Option<(Vec<u32>, Vec<u32>)>,
+    /// The neighbourhoods whose stress a starting segment's normal comes
+    /// from (`normal_radius`; None: the particle's own), as `tracking`.
+    pub averaging: Option<(Vec<u32>, Vec<u32>)>,
     /// Reference positions and cells (A_L and V_L of eq. 33).
     x: Vec<[f64; D]>,
     lo: Vec<[f64; D]>,
@@ -87,6 +90,7 @@ impl<const D: usize> DamageState<D> {
             candidate,
             started: vec![false; n],
             tracking: None,
+            averaging: None,
             x,
             lo,
             hi,
@@ -237,6 +241,32 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
         let mut dissipated = 0.0;
         let params = &self.damage_params;
         let cell = &self.scni.cell;
+        if let Some((start, list)) = &st.averaging {
+            // the normals of the segments that start in this step, from the
+            // stress about each at the last step's damage (before any of
+            // this step's: the same for any order)
+            for l in 0..self.stress.len() {
+                let m = self.material[l] as usize;
+                if params[m].is_none()
+                    || st.kappa_c[l] != 0.0
+                    || !st.candidate[l]
+                    || equivalent_strain::<D, V>(&self.materials[m], &self.strain[l])
+                        < st.kappa_0[l]
+                {
+                    continue;
+                }
+                let mut sum = [0.0; V];
+                let around = &list[start[l] as usize..start[l + 1] as usize];
+                for i in std::iter::once(l).chain(around.iter().map(|&i| i as usize)) {
+                    let w = self.vol[i] * (1.0 - st.damage[i]);
+                    for (a, s) in sum.iter_mut().zip(&self.stress[i]) {
+                        *a += w * s;
+                    }
+                }
+                st.normal[l] = principal_direction::<D, V>(&sum);
+            }
+        }
+        let averaged = st.averaging.is_some();
         for l in 0..self.stress.len() {
             let Some(p) = params[self.material[l] as usize] else {
                 continue;
@@ -247,7 +277,11 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
                 if !st.candidate[l] || eq < st.kappa_0[l] {
                     continue;
                 }
-                let n = principal_direction::<D, V>(&self.stress[l]);
+                let n = if averaged {
+                    st.normal[l]
+                } else {
+                    principal_direction::<D, V>(&self.stress[l])
+                };
                 let kc = if p.regularised {
                     let area = if D == 2 {
                         chord_2d(

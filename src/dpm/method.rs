@@ -435,6 +435,9 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             if let Some(r) = dmg.tracking_radius {
                 state.tracking = Some(tracking_lists(&x, &body, &cuts, r * h));
             }
+            if let Some(r) = dmg.normal_radius {
+                state.averaging = Some(tracking_lists(&x, &body, &cuts, r * h));
+            }
             run.damage = Some(state);
         }
         // the forces of the initial state (zero strain: gravity and the

@@ -187,6 +187,13 @@ pub struct DpmDamageSpec {
     /// 1.5 spacings lie at 0, 45 and 90 degrees only (docs/dpm.md, R2).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tracking_radius: Option<f64>,
+    /// Where a starting segment's normal comes from, in particle
+    /// spacings: the largest principal direction of the stress averaged
+    /// over the particles within this distance (not across a crack), each
+    /// cell weighted by its volume, at the last step's damage. Absent: the
+    /// particle's own cell's stress (Wei & Chen, Fig. 6).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal_radius: Option<f64>,
     /// Where damage may start: only the particles in `shape` are
     /// candidates at the start (the others become candidates by criterion
     /// 27), their strength scaled by `strength_factor`. Absent: every
@@ -298,6 +305,9 @@ pub(crate) fn check(
         c.in_range(&format!("{q}.tol"), d.tol, 0.0, 1.0);
         if let Some(r) = d.tracking_radius {
             c.in_range(&format!("{q}.tracking_radius"), r, 1.0, 4.0);
+        }
+        if let Some(r) = d.normal_radius {
+            c.in_range(&format!("{q}.normal_radius"), r, 1.0, 4.0);
         }
         match (d.regularised, d.kappa_c) {
             (true, Some(_)) => c.err(
