@@ -11,20 +11,22 @@
 //!    stress (eq. 35) and the internal force (eq. 39);
 //! 2. the out-of-balance force r on the free components; converged when
 //!    its largest component is below `tolerance` × the force scale;
-//! 3. else K_s Δd = r with the secant stiffness
-//!    K_s = Σ_L (1 − D_L) B̃_Lᵀ C B̃_L V_L (SCNI's smoothed gradients,
-//!    eq. 38), d ← d + Δd, and back to 1.
+//! 3. else K Δd = r, d ← d + Δd, and back to 1, K the tangent
+//!    Σ_L V_L [(1 − D_L) B̃_Lᵀ C B̃_L − D′(κ_L) (B̃_Lᵀ C ε_L)(∂ε̃/∂ε B̃_L)]
+//!    (SCNI's smoothed gradients, eq. 38; the second term only on the
+//!    cells whose damage grows in the trial), symmetrised: Newton's method
+//!    (exact where ∂ε̃/∂ε is parallel to C ε, as in uniaxial tension).
+//!    Where that matrix is not positive definite (a softening cell that
+//!    the rest of the body cannot hold, near a snap-back), the secant
+//!    stiffness K_s = Σ_L (1 − D_L) B̃_Lᵀ C B̃_L V_L instead for the
+//!    iteration: the fixed-point method of damage mechanics, which
+//!    converges linearly and slowly near a peak (docs/dpm.md measured it).
 //!
-//! The secant stiffness is symmetric positive definite while every piece
-//! of the body is held (a fully damaged cell adds nothing; a piece held by
-//! nothing makes it singular: a clear error), so faer's sparse Cholesky
-//! solves it; its pattern (particles sharing a cell) is fixed, the
-//! analysis (AMD ordering) is made once. The iteration is the secant
-//! (fixed-point) method of damage mechanics: it converges under
-//! displacement control while the structure's response does not snap
-//! back, linearly rather than quadratically (the consistent tangent of a
-//! softening law is not positive definite; Jirásek & Bažant, Inelastic
-//! Analysis of Structures, ch. 13).
+//! Both are factored by faer's sparse Cholesky; their pattern (particles
+//! sharing a cell) is fixed, the analysis (AMD ordering) is made once.
+//! The secant stiffness is positive definite while every piece of a body
+//! is held (a fully damaged cell adds nothing; a piece held by nothing
+//! makes it singular: a clear error).
 //!
 //! The dissipation of a step is exact for linear softening under
 //! proportional strain: with D(κ) of eq. 2, ψ₀(κ) dD/dκ is constant along
@@ -245,7 +247,7 @@ impl<const D: usize, const V: usize> Equilibrium<D, V> {
             // definite, else the secant stiffness
             self.assemble(run, true);
             if self.factorize_and_solve().is_err() {
-                self.residual(run);
+                // a failed factorization leaves the right-hand side as it was
                 self.assemble(run, false);
                 self.factorize_and_solve()?;
             }
