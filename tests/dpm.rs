@@ -328,6 +328,15 @@ fn held_regions_and_cracks_are_checked() {
     assert!(e.contains("passes through the particle"), "{e}");
 }
 
+/// The branching plate without its damage at 8e-4 m spacing, `options`
+/// added to `[damage_particle]` and `output` to `[output]`.
+fn elastic_plate(options: &str, output: &str) -> String {
+    let text = scene_text("dpm_branching.toml");
+    let elastic = &text[..text.find("[damage_particle.damage]").unwrap()];
+    let out = &text[text.find("[output]").unwrap()..];
+    format!("{elastic}{options}{out}{output}").replace("cell_size = 4.0e-4", "cell_size = 8.0e-4")
+}
+
 #[test]
 fn a_traction_on_a_free_plate_gives_its_impulse_and_does_its_work() {
     // the branching plate, elastic, at 8e-4 m spacing, pulled by 1 MPa on
@@ -335,12 +344,8 @@ fn a_traction_on_a_free_plate_gives_its_impulse_and_does_its_work() {
     // traction's impulse σ L t (the internal forces sum to zero, central
     // differences integrate a constant force exactly), and the work the
     // traction does is the kinetic and strain energy it leaves
-    let text = scene_text("dpm_branching.toml");
-    let elastic = &text[..text.find("[damage_particle.damage]").unwrap()];
-    let out = &text[text.find("[output]").unwrap()..];
-    let text = format!("{elastic}{out}")
+    let text = elastic_plate("", "")
         .replace("bottom = { type = \"traction\", normal = 1.0e6 }\n", "")
-        .replace("cell_size = 4.0e-4", "cell_size = 8.0e-4")
         .replace("end = 8.0e-5", "end = 2.0e-5");
     let scene = Scene::from_text(&text, None).unwrap();
     assert_eq!(
@@ -708,10 +713,7 @@ fn a_static_plate_under_a_ramped_traction_is_nearly_the_patch_test() {
     // the energy 2e-7 high. The static solve's own books close exactly:
     // the traction's work (the trapezoid is exact for a linear ramp) is
     // the strain energy, the rollers' reactions balance the traction
-    let text = scene_text("dpm_branching.toml");
-    let elastic = &text[..text.find("[damage_particle.damage]").unwrap()];
-    let out = &text[text.find("[output]").unwrap()..];
-    let text = format!("{elastic}integration = \"static\"\n\n{out}reactions = true\n")
+    let text = elastic_plate("integration = \"static\"\n\n", "reactions = true\n")
         .replace(
             "bottom = { type = \"traction\", normal = 1.0e6 }",
             "bottom = \"roller\"\nleft = \"roller\"",
@@ -724,7 +726,6 @@ fn a_static_plate_under_a_ramped_traction_is_nearly_the_patch_test() {
             "cracks = [{ points = [[0.0, 0.0202], [0.05, 0.0202]] }]\n",
             "",
         )
-        .replace("cell_size = 4.0e-4", "cell_size = 8.0e-4")
         // the walls on the plate's left and bottom edges
         .replace("min = [-0.0024, -0.0024]", "min = [0.0, 0.0]")
         .replace("end = 8.0e-5\ncfl = 0.4", "end = 1.0\ndt = 0.25");
