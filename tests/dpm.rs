@@ -94,6 +94,8 @@ fn damage_particle_scenes_are_validated() {
         ("tol = 0.3", "tol = 0.3\nregularised = false", "damage_particle.damage.kappa_c"),
         ("tol = 0.3", "tol = 0.3\ntracking_radius = 0.5", "damage_particle.damage.tracking_radius"),
         ("tol = 0.3", "tol = 0.3\nnormal_radius = 0.5", "damage_particle.damage.normal_radius"),
+        ("tol = 0.3", "tol = 0.3\ntrack_at = 0.0", "damage_particle.damage.track_at"),
+        ("support = 1.5", "support = 1.5\njitter = 0.5", "damage_particle.jitter"),
         ("strength = 200.0", "strength = -200.0", "damage_particle.damage.strength"),
         ("strength_factor = 0.999", "strength_factor = 1.5", "strength_factor"),
         (
@@ -319,6 +321,24 @@ fn held_regions_and_cracks_are_checked() {
         let e = refused("dpm_kalthoff.toml", from, to);
         assert!(e.contains(path), "{to:?}: {e}");
     }
+    // a crack that the jitter puts a particle across (a fifth of a spacing
+    // below a row: 0.3 spacings move some of that row's particles below
+    // it, away from their cells) says which and why; without the jitter
+    // it is taken
+    let text = scene_text("dpm_kalthoff.toml").replace(
+        "[[0.0, 0.025], [0.05, 0.025]]",
+        "[[0.0, 0.0252], [0.05, 0.0252]]",
+    );
+    let build =
+        |text: &str| cleave::methods::build(&Scene::from_text(text, None).unwrap()).map(|_| ());
+    assert!(build(&text).is_ok());
+    let e = build(&text.replace("support = 2.5", "support = 2.5\njitter = 0.3"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bodies[0].cracks[0]") && e.contains("passes between the particle"),
+        "{e}"
+    );
     // a crack through a particle says which and why
     let e = refused(
         "dpm_kalthoff.toml",
@@ -335,6 +355,67 @@ fn elastic_plate(options: &str, output: &str) -> String {
     let elastic = &text[..text.find("[damage_particle.damage]").unwrap()];
     let out = &text[text.find("[output]").unwrap()..];
     format!("{elastic}{options}{out}{output}").replace("cell_size = 4.0e-4", "cell_size = 8.0e-4")
+}
+
+#[test]
+fn a_jittered_arrangement_keeps_its_outline_and_a_stable_step() {
+    // `jitter`: every particle within jitter × h of its lattice vertex, a
+    // coordinate on the plate's outline kept there, the same arrangement
+    // on every run. At a support of 1.6 spacings the jittered
+    // arrangement's highest frequency is far above the lattice's (a face
+    // point nearly outside its cover), and the explicit step shrinks to
+    // match it: the plate under its tractions keeps its energy balance
+    // where the spacing's CFL step blows it up in 40 steps (docs/dpm.md)
+    let h = 8.0e-4;
+    let run = |options: &str, support: &str| {
+        let text = elastic_plate(options, "")
+            .replace("support = 2.5", support)
+            .replace("end = 8.0e-5", "end = 4.0e-6");
+        let scene = Scene::from_text(&text, None).unwrap();
+        let mut sim = cleave::methods::build(&scene).unwrap();
+        let mut rec = Recorder::default();
+        sim.run(&mut rec).unwrap();
+        rec
+    };
+    let lattice = run("", "support = 2.5");
+    let jittered = run("jitter = 0.25\n", "support = 2.5");
+    let at_start = |rec: &Recorder| {
+        assert_eq!(rec.snapshots[0].time, 0.0);
+        rec.snapshots[0].positions.clone()
+    };
+    let (p0, p1) = (at_start(&lattice), at_start(&jittered));
+    assert_eq!(p0.len(), p1.len());
+    let mut moved = 0;
+    for (a, b) in p0.iter().zip(&p1) {
+        for k in 0..2 {
+            let off = (b[k] - a[k]).abs();
+            assert!(off <= 0.25 * h * (1.0 + 1e-9), "{b:?} is {off} m off {a:?}");
+            let outline = [0.0, [0.1, 0.04][k]]
+                .iter()
+                .any(|e| (a[k] - e).abs() < 1e-12);
+            if outline {
+                assert_eq!(a[k], b[k], "an outline coordinate moved: {a:?} to {b:?}");
+            }
+            moved += usize::from(off > 0.01 * h);
+        }
+    }
+    assert!(moved > p0.len(), "only {moved} coordinates moved");
+    assert_eq!(at_start(&run("jitter = 0.25\n", "support = 2.5")), p1);
+    // the small support: a step far below the spacing's, and the books close
+    let small = run("jitter = 0.25\n", "support = 1.6");
+    let col = |rec: &Recorder, name: &str| rec.column(name).unwrap().to_vec();
+    let dt_lattice = col(&lattice, "dt")[1];
+    let dt_small = col(&small, "dt")[1];
+    assert!(
+        dt_small < 0.1 * dt_lattice,
+        "dt {dt_small} against {dt_lattice}"
+    );
+    let work = *col(&small, "external_work").last().unwrap();
+    let error = col(&small, "energy_error").last().unwrap().abs();
+    assert!(
+        work > 0.0 && error < 1e-6 * work,
+        "energy error {error} of work {work}"
+    );
 }
 
 #[test]
@@ -426,6 +507,64 @@ fn the_branching_plate_s_crack_runs_from_the_notch_and_splits() {
         low < -2.5e-3 && high > 1.5e-3,
         "at x = 80 mm the crack spans {low}..{high} m about the notch's line: {column:?}"
     );
+}
+
+#[test]
+fn with_track_at_one_damage_starts_only_beside_a_broken_particle() {
+    // criterion 27 fed by broken particles only (`track_at = 1`): every
+    // damaged particle outside the notch tip's initiation box has a
+    // broken one (D = 1) within the support (2.5 spacings), which is not
+    // so by default (the partial damage ahead of the front, docs/dpm.md
+    // R3); the branching plate at 8e-4 m
+    let h = 8.0e-4;
+    let text = scene_text("dpm_branching.toml")
+        .replace("cell_size = 4.0e-4", "cell_size = 8.0e-4")
+        .replace(
+            "[[0.0, 0.0202], [0.05, 0.0202]]",
+            "[[0.0, 0.0204], [0.05, 0.0204]]",
+        )
+        .replace(
+            "min = [0.0494, 0.0196], max = [0.0506, 0.0208]",
+            "min = [0.0488, 0.0192], max = [0.0512, 0.0216]",
+        )
+        .replace("end = 8.0e-5", "end = 5.0e-5");
+    let lonely = |text: &str| {
+        let rec = run_balanced(text, 0.01);
+        let snap = rec.snapshots.last().unwrap();
+        let (d, u) = (field(snap, "damage"), field(snap, "displacement"));
+        let x: Vec<[f64; 2]> = snap
+            .positions
+            .iter()
+            .enumerate()
+            .map(|(p, x)| [x[0] - u[2 * p], x[1] - u[2 * p + 1]])
+            .collect();
+        let broken: Vec<[f64; 2]> = (0..x.len())
+            .filter(|&p| d[p] >= 1.0)
+            .map(|p| x[p])
+            .collect();
+        let damaged = (0..x.len()).filter(|&p| d[p] > 0.0).count();
+        let alone = (0..x.len())
+            .filter(|&p| {
+                d[p] > 0.0 && (x[p][0] - 0.05).abs().max((x[p][1] - 0.0204).abs()) > 1.5 * h
+            })
+            .filter(|&p| {
+                !broken.iter().any(|b| {
+                    let r = ((b[0] - x[p][0]).powi(2) + (b[1] - x[p][1]).powi(2)).sqrt();
+                    r > 0.0 && r <= 2.5 * h * (1.0 + 1e-9)
+                })
+            })
+            .count();
+        (damaged, broken.len(), alone)
+    };
+    let (damaged, broken, alone) =
+        lonely(&text.replace("\ntol = 0.5\n", "\ntol = 0.5\ntrack_at = 1.0\n"));
+    assert!(broken > 20, "{broken} broken of {damaged} damaged");
+    assert_eq!(
+        alone, 0,
+        "{alone} of {damaged} damaged particles have no broken neighbour"
+    );
+    let (damaged, _, alone) = lonely(&text);
+    assert!(alone > 0, "by default: {alone} of {damaged}");
 }
 
 /// `dpm_bar_static.toml` with `nodes` particles along the bar (three rows,

@@ -133,6 +133,15 @@ impl<const D: usize> Cuts<D> {
             .map(|s| s.line)
     }
 
+    /// The first crack of `body` that the segment p–q meets, if any (as
+    /// its polyline's index).
+    pub fn between(&self, body: u16, p: [f64; D], q: [f64; D]) -> Option<usize> {
+        self.segments
+            .iter()
+            .find(|s| s.body == body && crosses(p, q, s.a, s.b))
+            .map(|s| s.line)
+    }
+
     /// `x` (a point of a cell's face) moved a hair (`tol`) towards `centre`
     /// when it lies within `tol` of a crack of `body`, so that it is seen
     /// from the cell's side; else `x` itself.

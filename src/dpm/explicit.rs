@@ -33,6 +33,9 @@ pub struct DamageParams {
     pub kappa_c: f64,
     /// Criterion (27)'s tolerance.
     pub tol: f64,
+    /// The damage at which a particle's neighbours become candidates (0:
+    /// when its damage starts, the paper's; `track_at`).
+    pub track_at: f64,
 }
 
 /// The damage state of each particle.
@@ -50,7 +53,8 @@ pub struct DamageState<const D: usize> {
     pub damage: Vec<f64>,
     /// Whether a particle may start to damage (criterion 27).
     pub candidate: Vec<bool>,
-    /// Particles whose damage started in the last step.
+    /// Particles whose damage started (or reached the material's
+    /// `track_at`) in the last step: criterion 27 looks about them.
     started: Vec<bool>,
     /// Criterion 27's neighbourhoods when not the shape functions'
     /// (`tracking_radius`): `list[start[l]..start[l + 1]]` are l's.
@@ -206,6 +210,61 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
             });
     }
 
+    /// The highest angular frequency of the undamaged system with its
+    /// held components, ω = √λ_max of M⁻¹K (K = Σ_L V_L B̃_Lᵀ C B̃_L, the
+    /// stiffness of eq. 39), estimated by `iterations` of the power method
+    /// from a fixed pseudo-random start; the Rayleigh quotient it returns
+    /// approaches ω_max from below. Central differences are stable for
+    /// Δt < 2/ω_max (Belytschko, Liu & Moran, section 6.3).
+    pub fn highest_frequency(&self, iterations: usize) -> f64 {
+        let n = self.d.len();
+        let mut v: Vec<[f64; D]> = (0..n)
+            .map(|i| {
+                std::array::from_fn(|k| {
+                    let mut s = ((i * D + k) as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+                    s = (s ^ (s >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                    s = (s ^ (s >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                    (s ^ (s >> 31)) as f64 / u64::MAX as f64 - 0.5
+                })
+            })
+            .collect();
+        let mut e = vec![[0.0; V]; n];
+        let mut s = vec![[0.0; V]; n];
+        let mut f = vec![[0.0; D]; n];
+        let mut lambda = 0.0;
+        for _ in 0..iterations {
+            for c in &self.held {
+                v[c.particle as usize][c.axis as usize] = 0.0;
+            }
+            let norm: f64 = v
+                .iter()
+                .zip(&self.mass)
+                .map(|(x, &m)| m * x.iter().map(|c| c * c).sum::<f64>())
+                .sum::<f64>()
+                .sqrt();
+            if norm == 0.0 {
+                return 0.0;
+            }
+            v.iter_mut().flatten().for_each(|c| *c /= norm);
+            self.scni.strain(&v, &mut e);
+            for ((s, e), &m) in s.iter_mut().zip(&e).zip(&self.material) {
+                *s = hooke::<D, V>(&self.materials[m as usize], *e);
+            }
+            self.scni.internal_force(&s, &self.vol, &mut f);
+            lambda = v
+                .iter()
+                .zip(&f)
+                .map(|(x, y)| x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>())
+                .sum();
+            for ((x, y), &m) in v.iter_mut().zip(&f).zip(&self.mass) {
+                for k in 0..D {
+                    x[k] = y[k] / m;
+                }
+            }
+        }
+        lambda.max(0.0).sqrt()
+    }
+
     /// The damage stage of a step: damage and the degraded stress
     /// ([`Explicit::degrade`]), then the candidates its new segments make
     /// (criterion 27). Returns the energy dissipated, J.
@@ -306,11 +365,14 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
                 // (κ_c ≤ κ₀): it breaks at once instead
                 st.kappa_c[l] = kc.max(st.kappa_0[l] * (1.0 + 1e-9));
                 st.normal[l] = n;
-                st.started[l] = true;
+                st.started[l] = p.track_at == 0.0;
             }
             st.kappa[l] = st.kappa[l].max(eq);
             let before = st.damage[l];
             st.damage[l] = before.max(damage(st.kappa[l], st.kappa_0[l], st.kappa_c[l]));
+            if p.track_at > 0.0 && before < p.track_at && st.damage[l] >= p.track_at {
+                st.started[l] = true;
+            }
             dissipated += 0.5
                 * contract::<D, V>(&self.stress[l], &self.strain[l])
                 * (st.damage[l] - before)
@@ -553,6 +615,82 @@ mod tests {
         assert!(uy < 1e-3 * amp, "transverse motion {}", uy / amp);
     }
 
+    #[test]
+    fn the_power_method_finds_the_highest_frequency_and_it_bounds_the_step() {
+        // a small column, particles moved off their vertices, held on the
+        // left, at a support of 1.6 spacings: the power method against the dense
+        // eigenvalues of M^-½ K M^-½ over the free components, and central
+        // differences stable just below Δt = 2/ω_max, unstable just above
+        let (nx, ny, l) = (6, 3, 1.0);
+        let s = l / nx as f64;
+        let (mut x, lo, hi) = vertex_lattice(nx, ny, s, [l, ny as f64 * s]);
+        crate::dpm::section::jitter_lattice(&mut x, [0.0; 2], [l, ny as f64 * s], s, 0.25);
+        let n = x.len();
+        let singular: Vec<bool> = x.iter().map(|p| p[0] == 0.0).collect();
+        let scni = Scni::build(&x, &lo, &hi, &vec![1.6 * s; n], &singular, &vec![0; n]).unwrap();
+        let consts = ElasticConstants::linear_elastic(2000.0, 2.0e9, 0.25);
+        let m = Elastic::new(&consts, PlaneKind::PlaneStrain);
+        let vol = scni.cell.clone();
+        let mut run = Explicit::<2, 3>::new(scni, vol, vec![0; n], vec![m]);
+        for (p, q) in x.iter().enumerate() {
+            if q[0] == 0.0 {
+                for axis in 0..2 {
+                    run.held.push(Held {
+                        particle: p as u32,
+                        axis,
+                        velocity: 0.0,
+                    });
+                }
+            }
+        }
+        let free: Vec<(usize, usize)> = (0..n)
+            .flat_map(|p| (0..2).map(move |k| (p, k)))
+            .filter(|&(p, _)| x[p][0] != 0.0)
+            .collect();
+        // K's columns: the internal force of each unit coefficient
+        let mut k = faer::Mat::<f64>::zeros(free.len(), free.len());
+        for (j, &(p, a)) in free.iter().enumerate() {
+            run.d = vec![[0.0; 2]; n];
+            run.d[p][a] = 1.0;
+            run.stresses();
+            run.forces();
+            for (i, &(q, b)) in free.iter().enumerate() {
+                k[(i, j)] = run.force[q][b] / (run.mass[q] * run.mass[p]).sqrt();
+            }
+        }
+        let exact = k
+            .self_adjoint_eigenvalues(faer::Side::Lower)
+            .unwrap()
+            .last()
+            .unwrap()
+            .sqrt();
+        let omega = run.highest_frequency(300);
+        assert!(
+            omega <= exact * (1.0 + 1e-12) && omega > (1.0 - 1e-6) * exact,
+            "power method {omega} against {exact}"
+        );
+        let grows = |factor: f64| {
+            let mut r = run.clone();
+            r.d = vec![[0.0; 2]; n];
+            r.v = vec![[0.0; 2]; n];
+            for (p, d) in r.d.iter_mut().enumerate() {
+                if x[p][0] != 0.0 {
+                    *d = [1e-6 * ((p % 7) as f64 - 3.0), 1e-6 * ((p % 5) as f64 - 2.0)];
+                }
+            }
+            r.accelerations();
+            let e0 = r.kinetic_energy() + r.strain_energy();
+            let dt = factor * 2.0 / exact;
+            for _ in 0..400 {
+                r.step(dt);
+            }
+            (r.kinetic_energy() + r.strain_energy()) / e0
+        };
+        let (below, above) = (grows(0.95), grows(1.05));
+        assert!(below < 10.0, "energy × {below} at 0.95 × 2/ω");
+        assert!(above > 1e6, "energy × {above} at 1.05 × 2/ω");
+    }
+
     /// What the bar of Wei & Chen's section 4.1 gives under slow explicit
     /// loading: peak force, the end displacement where the force is gone,
     /// the work done on it (∫ F du), and how many particles damaged.
@@ -621,6 +759,7 @@ mod tests {
             regularised,
             kappa_c,
             tol: 0.3,
+            track_at: 0.0,
         })];
         let c = (e / rho).sqrt();
         let speed = 0.022 / (300.0 * l / c);
@@ -799,6 +938,7 @@ mod tests {
                 regularised: true,
                 kappa_c: 0.0,
                 tol: 0.3,
+                track_at: 0.0,
             })];
             for (d, p) in run.d.iter_mut().zip(&x) {
                 *d = [-2e-4 * p[0], -2e-4 * p[1]];

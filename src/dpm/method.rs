@@ -34,7 +34,7 @@ use super::crack::Cuts;
 use super::explicit::{DamageParams, DamageState, Explicit, Held};
 use super::implicit::Equilibrium;
 use super::scni::{Cells, Scni};
-use super::section::{box_corners, box_lattice};
+use super::section::{box_corners, box_lattice, jitter_lattice};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::diagnostics::{measure, Field, FieldData, Observer, SeriesRow};
 use crate::material::Elastic;
@@ -157,7 +157,9 @@ pub struct Dpm<const D: usize, const V: usize> {
     /// stops the run.
     lo: [f64; D],
     hi: [f64; D],
-    h: f64,
+    /// The length the CFL step is taken over: `h`, or less where the
+    /// arrangement's highest frequency asks for it.
+    step_length: f64,
     /// The fastest dilatational wave speed, m/s.
     wave: f64,
     /// The particles' greatest speed, m/s (measured by the guards after
@@ -195,11 +197,12 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             let Some((a, z)) = box_corners(&spec_b.shape) else {
                 continue; // validation refuses it
             };
-            let (px, plo, phi) = box_lattice::<D>(
-                std::array::from_fn(|d| a[d]),
-                std::array::from_fn(|d| z[d]),
-                h,
-            );
+            let (a, z): ([f64; D], [f64; D]) =
+                (std::array::from_fn(|d| a[d]), std::array::from_fn(|d| z[d]));
+            let (mut px, plo, phi) = box_lattice::<D>(a, z, h);
+            if let Some(j) = spec.jitter {
+                jitter_lattice(&mut px, a, z, h, j);
+            }
             let v: [f64; D] = std::array::from_fn(|d| {
                 spec_b.velocity.components().get(d).copied().unwrap_or(0.0)
             });
@@ -312,6 +315,16 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                         ),
                     ));
                 }
+                let centre: [f64; D] = std::array::from_fn(|d| 0.5 * (lo[p][d] + hi[p][d]));
+                if let Some(line) = cuts.between(body[p], *q, centre) {
+                    let (b, k) = crack_of[line];
+                    return Err(SceneError::single(
+                        format!("bodies[{b}].cracks[{k}]"),
+                        format!(
+                            "passes between the particle at {q:?} m and the centre of its smoothing cell, {centre:?} m: the particle would belong to the other face (move the crack to half a spacing from the lattice's vertices, or lower damage_particle.jitter)"
+                        ),
+                    ));
+                }
             }
         }
         let mut singular = vec![false; n];
@@ -412,6 +425,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                         regularised: dmg.regularised,
                         kappa_c: dmg.kappa_c.unwrap_or(0.0),
                         tol: dmg.tol,
+                        track_at: dmg.track_at.unwrap_or(0.0),
                     })
                 })
                 .collect();
@@ -476,6 +490,26 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             Vec::new()
         };
         let speed = max_speed(&run.v);
+        // the CFL step's length: the spacing, or less where the
+        // arrangement's highest frequency needs a shorter step than the
+        // spacing's (a jittered arrangement at a small support: the lattice
+        // has ω h / 2c of 0.74–0.80, docs/dpm.md); 5 % for the power
+        // method's estimate from below
+        let mut step_length = h;
+        if spec.integration == super::section::Integration::Explicit && n > 0 {
+            let omega = 1.05 * run.highest_frequency(100);
+            tracing::info!(
+                "highest frequency {omega:.4e} rad/s (5 % over the power method's), ω h / 2c = {:.4}",
+                omega * h / (2.0 * wave)
+            );
+            if omega * h > 2.0 * wave {
+                step_length = 2.0 * wave / omega;
+                tracing::warn!(
+                    "the particles' arrangement limits the explicit step: its highest frequency {omega:.4e} rad/s asks for the step of a spacing of {step_length:.4e} m, {:.3} of the particle spacing (a larger damage_particle.support lifts it)",
+                    step_length / h
+                );
+            }
+        }
         let equilibrium = if spec.integration == super::section::Integration::Static {
             let eq = spec.equilibrium.unwrap_or_default();
             // the smallest force scale: the strength (or a strain of 1e-6)
@@ -508,7 +542,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             reactions,
             lo: std::array::from_fn(|d| glo[d] - h),
             hi: std::array::from_fn(|d| ghi[d] + h),
-            h,
+            step_length,
             wave,
             max_speed: speed,
             time: 0.0,
@@ -547,7 +581,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             self.step,
             self.time,
             end,
-            self.h,
+            self.step_length,
             signal,
             || self.fastest(),
         )

@@ -505,7 +505,27 @@ mod tests {
         // and the one-point face rule integrates a linear u exactly, at
         // the outline and around a hole as inside
         let s = 2e-3;
-        for body in [vertex_plate(12, 9, s), centred_plate(12, 9, s, true)] {
+        // and particles moved off their vertices inside the same cells
+        // (`damage_particle.jitter`), at a support of 2 spacings
+        let mut jittered = vertex_plate(12, 9, s);
+        super::super::section::jitter_lattice(
+            &mut jittered.x,
+            [0.0; 2],
+            [12.0 * s, 9.0 * s],
+            s,
+            0.3,
+        );
+        jittered.radius.iter_mut().for_each(|r| *r = 2.0 * s);
+        assert!(jittered
+            .x
+            .iter()
+            .zip(&vertex_plate(12, 9, s).x)
+            .any(|(a, b)| a != b));
+        for body in [
+            vertex_plate(12, 9, s),
+            centred_plate(12, 9, s, true),
+            jittered,
+        ] {
             let t = body.tables();
             let g = [[1e-3, -4e-4], [2.5e-4, 7e-4]];
             let d: Vec<[f64; 2]> = body

@@ -45,6 +45,15 @@ pub struct DpmSpec {
     /// covered by too few particles for the moment matrix.
     #[serde(default = "default_support")]
     pub support: f64,
+    /// An irregular arrangement: each particle moved off its lattice
+    /// vertex by up to `jitter` spacings along each axis, in [0, 0.45]
+    /// (a fixed pseudo-random sequence of the particle's index, the same
+    /// on every run); a coordinate on the body's outline stays there. The
+    /// smoothing cells stay the lattice's squares (cubes): they tile the
+    /// body and hold their particles, so the patch test still holds.
+    /// Absent: the lattice's vertices.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jitter: Option<f64>,
     /// The damage of every body (absent: elastic).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damage: Option<DpmDamageSpec>,
@@ -66,6 +75,7 @@ impl DpmSpec {
     pub fn defaults() -> DpmSpec {
         DpmSpec {
             support: default_support(),
+            jitter: None,
             damage: None,
             held: Vec::new(),
             integration: Integration::Explicit,
@@ -194,6 +204,11 @@ pub struct DpmDamageSpec {
     /// particle's own cell's stress (Wei & Chen, Fig. 6).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normal_radius: Option<f64>,
+    /// The damage at which a particle's neighbours become candidates
+    /// (criterion 27), in (0, 1]: 1, only once it is broken. Absent: as
+    /// soon as its damage starts (Wei & Chen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub track_at: Option<f64>,
     /// Where damage may start: only the particles in `shape` are
     /// candidates at the start (the others become candidates by criterion
     /// 27), their strength scaled by `strength_factor`. Absent: every
@@ -267,6 +282,39 @@ pub fn box_lattice<const D: usize>(lo: [f64; D], hi: [f64; D], h: f64) -> BoxLat
     (x, clo, chi)
 }
 
+/// Moves the particles `x` of a box body `lo..hi` (from [`box_lattice`],
+/// spacing `h`) off their vertices by up to `jitter` spacings along each
+/// axis (`damage_particle.jitter`): each offset is uniform in
+/// [−jitter·h, jitter·h), drawn from a hash of the particle's index in the
+/// body and the axis (SplitMix64's finaliser), so the arrangement is the
+/// same on every run and for any thread count. A coordinate on the box's
+/// outline is kept, so the walls hold the particles they held.
+pub fn jitter_lattice<const D: usize>(
+    x: &mut [[f64; D]],
+    lo: [f64; D],
+    hi: [f64; D],
+    h: f64,
+    jitter: f64,
+) {
+    let on = |v: f64, e: f64| (v - e).abs() <= ON_LATTICE * h;
+    for (k, p) in x.iter_mut().enumerate() {
+        for d in 0..D {
+            if on(p[d], lo[d]) || on(p[d], hi[d]) {
+                continue;
+            }
+            let mut s = (k as u64)
+                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                .wrapping_add((d as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03));
+            s = (s ^ (s >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            s = (s ^ (s >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            s ^= s >> 31;
+            // 53 random bits: uniform in [0, 1)
+            let u = (s >> 11) as f64 / (1u64 << 53) as f64;
+            p[d] += jitter * h * (2.0 * u - 1.0);
+        }
+    }
+}
+
 /// The corners of a box body, or None for another shape.
 pub fn box_corners(shape: &ShapeSpec) -> Option<(Vec<f64>, Vec<f64>)> {
     match shape {
@@ -298,6 +346,16 @@ pub(crate) fn check(
             ),
         );
     }
+    if let Some(j) = spec.jitter {
+        if c.finite("damage_particle.jitter", j) && !(0.0..=0.45).contains(&j) {
+            c.err(
+                "damage_particle.jitter",
+                format!(
+                    "must be in [0, 0.45] particle spacings, got {j}: a particle must stay inside its smoothing cell, the lattice's square about its vertex"
+                ),
+            );
+        }
+    }
     if let Some(d) = &spec.damage {
         let q = "damage_particle.damage";
         c.positive(&format!("{q}.strength"), d.strength);
@@ -308,6 +366,14 @@ pub(crate) fn check(
         }
         if let Some(r) = d.normal_radius {
             c.in_range(&format!("{q}.normal_radius"), r, 1.0, 4.0);
+        }
+        if let Some(t) = d.track_at {
+            if c.finite(&format!("{q}.track_at"), t) && !(t > 0.0 && t <= 1.0) {
+                c.err(
+                    &format!("{q}.track_at"),
+                    format!("must be in (0, 1], got {t} (absent: when a particle's damage starts)"),
+                );
+            }
         }
         match (d.regularised, d.kappa_c) {
             (true, Some(_)) => c.err(
