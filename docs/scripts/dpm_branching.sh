@@ -4,7 +4,11 @@
 # each H given, the crack moved to half a spacing above y = 0.02 and the
 # initiation box to 1.5 spacings about its tip; SUPPORT and TOL override
 # the scene's, NOTRACK=1 removes the initiation box (every particle a
-# candidate from the start: criterion 27 then moot); NORMAL sets
+# candidate from the start: criterion 27 then moot); TRACK sets criterion
+# 27's tracking_radius (in spacings); TRACKAT its track_at (the damage
+# at which a particle's neighbours become candidates); JITTER the
+# arrangement's jitter (spacings); GF and FT the fracture energy (J/m2) and
+# the strength (Pa); NORMAL sets
 # normal_radius (a starting segment's normal from the stress averaged over
 # that many spacings). Prints the crack front, the branches and the dissipation
 # (docs/scripts/dpm_branching.py). Usage, from the repository root after
@@ -15,10 +19,10 @@ set -euo pipefail
 dir=${OUT:-/tmp/dpm_branching}
 mkdir -p "$dir"
 for h in "$@"; do
-  tag=h$h${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}
-  python3 - "$h" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${NORMAL:-}" > "$dir/$tag.toml" <<'PY'
+  tag=h$h${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}${TRACKAT:+-a$TRACKAT}${JITTER:+-j$JITTER}${GF:+-g$GF}${FT:+-f$FT}
+  python3 - "$h" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${NORMAL:-}" "${TRACK:-}" "${TRACKAT:-}" "${JITTER:-}" "${GF:-}" "${FT:-}" > "$dir/$tag.toml" <<'PY'
 import re, sys
-h, support, tol, notrack, normal = float(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]
+h, support, tol, notrack, normal, track, track_at, jitter, gf, ft = float(sys.argv[1]), *sys.argv[2:11]
 t = open("scenes/dpm_branching.toml").read()
 t = re.sub(r"^cell_size = .*$", f"cell_size = {h!r}", t, flags=re.M)
 # the grid reaches 2.4 mm beyond the plate (a whole number of spacings)
@@ -36,6 +40,16 @@ t = re.sub(r"initiation = \{ shape = \{ type = \"box\", min = \[[^]]*\], max = \
            f"initiation = {{ shape = {{ type = \"box\", min = [{0.05 - r!r}, {y - r!r}], max = [{0.05 + r!r}, {y + r!r}] }}", t)
 if normal:
     t = re.sub(r"^(tol = .*)$", f"\\1\nnormal_radius = {normal}", t, count=1, flags=re.M)
+if track:
+    t = re.sub(r"^(tol = .*)$", f"\\1\ntracking_radius = {track}", t, count=1, flags=re.M)
+if track_at:
+    t = re.sub(r"^(tol = .*)$", f"\\1\ntrack_at = {track_at}", t, count=1, flags=re.M)
+if jitter:
+    t = re.sub(r"^(support = .*)$", f"\\1\njitter = {jitter}", t, count=1, flags=re.M)
+if gf:
+    t = re.sub(r"^fracture_energy = .*$", f"fracture_energy = {gf}", t, count=1, flags=re.M)
+if ft:
+    t = re.sub(r"^strength = .*$", f"strength = {ft}", t, count=1, flags=re.M)
 if notrack:
     t = re.sub(r"^initiation = .*\n", "", t, flags=re.M)
 print(t, end="")

@@ -7,7 +7,7 @@
 # 1.5 spacings about the tip (NOTRACK=1 removes it: every particle a
 # candidate from the start, criterion 27 then moot); NORMAL sets
 # normal_radius (a starting segment's normal from the stress averaged over
-# that many spacings). Prints the crack's length, angle and the
+# that many spacings); JITTER the arrangement's jitter (spacings). Prints the crack's length, angle and the
 # dissipation of each (docs/scripts/dpm_kalthoff.py). Usage, from the
 # repository root after `cargo build --release -p cleave-client`:
 #   bash docs/scripts/dpm_kalthoff.sh 150 250 350
@@ -16,10 +16,10 @@ set -euo pipefail
 dir=${OUT:-/tmp/dpm_kalthoff}
 mkdir -p "$dir"
 for n in "$@"; do
-  tag=n$n${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}
-  python3 - "$n" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${TRACK:-}" "${NORMAL:-}" > "$dir/$tag.toml" <<'PY'
+  tag=n$n${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}${JITTER:+-j$JITTER}
+  python3 - "$n" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${TRACK:-}" "${NORMAL:-}" "${JITTER:-}" > "$dir/$tag.toml" <<'PY'
 import re, sys
-n, support, tol, notrack, track, normal = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5], sys.argv[6]
+n, support, tol, notrack, track, normal, jitter = int(sys.argv[1]), *sys.argv[2:8]
 h = 0.1 / n
 t = open("scenes/dpm_kalthoff.toml").read()
 t = re.sub(r"^cell_size = .*$", f"cell_size = {h!r}", t, flags=re.M)
@@ -39,6 +39,8 @@ if track:
     t = re.sub(r"^(tol = .*)$", f"\\1\ntracking_radius = {track}", t, count=1, flags=re.M)
 if normal:
     t = re.sub(r"^(tol = .*)$", f"\\1\nnormal_radius = {normal}", t, count=1, flags=re.M)
+if jitter:
+    t = re.sub(r"^(support = .*)$", f"\\1\njitter = {jitter}", t, count=1, flags=re.M)
 if notrack:
     t = re.sub(r"^initiation = .*\n", "", t, flags=re.M)
 print(t, end="")
