@@ -365,7 +365,8 @@ fn a_jittered_arrangement_keeps_its_outline_and_a_stable_step() {
     // arrangement's highest frequency is far above the lattice's (a face
     // point nearly outside its cover), and the explicit step shrinks to
     // match it: the plate under its tractions keeps its energy balance
-    // where the spacing's CFL step blows it up in 40 steps (docs/dpm.md)
+    // where the spacing's CFL step blew it up within a few dozen steps
+    // (docs/dpm.md)
     let h = 8.0e-4;
     let run = |options: &str, support: &str| {
         let text = elastic_plate(options, "")

@@ -221,10 +221,8 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
         let mut v: Vec<[f64; D]> = (0..n)
             .map(|i| {
                 std::array::from_fn(|k| {
-                    let mut s = ((i * D + k) as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-                    s = (s ^ (s >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-                    s = (s ^ (s >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-                    (s ^ (s >> 31)) as f64 / u64::MAX as f64 - 0.5
+                    let s = super::mix(((i * D + k) as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+                    s as f64 / u64::MAX as f64 - 0.5
                 })
             })
             .collect();

@@ -191,15 +191,6 @@ impl<const D: usize, const V: usize> Equilibrium<D, V> {
         })
     }
 
-    /// The unknowns (free components).
-    pub fn len(&self) -> usize {
-        self.rhs.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.rhs.is_empty()
-    }
-
     /// Keeps the state at the start of a step: its displacements and
     /// external forces (for the work) and the damage history.
     pub fn begin(&mut self, run: &Explicit<D, V>) {

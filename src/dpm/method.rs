@@ -492,9 +492,9 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         let speed = max_speed(&run.v);
         // the CFL step's length: the spacing, or less where the
         // arrangement's highest frequency needs a shorter step than the
-        // spacing's (a jittered arrangement at a small support: the lattice
-        // has ω h / 2c of 0.74–0.80, docs/dpm.md); 5 % for the power
-        // method's estimate from below
+        // spacing's (a jittered arrangement at a small support; the
+        // lattice's ω h / 2c is 0.77–0.84 in the shipped scenes, docs/dpm.md);
+        // 5 % for the power method's estimate from below
         let mut step_length = h;
         if spec.integration == super::section::Integration::Explicit && n > 0 {
             let omega = 1.05 * run.highest_frequency(100);

@@ -21,3 +21,13 @@ pub mod method;
 pub mod rk;
 pub mod scni;
 pub mod section;
+
+/// SplitMix64's finaliser (Steele, Lea & Flood 2014): a well-mixed 64-bit
+/// value of `s`, for the fixed pseudo-random sequences indexed by particle
+/// (the jittered arrangement, the power method's start): the same value
+/// for the same index on any run and thread count.
+pub(crate) fn mix(mut s: u64) -> u64 {
+    s = (s ^ (s >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    s = (s ^ (s >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    s ^ (s >> 31)
+}

@@ -302,12 +302,11 @@ pub fn jitter_lattice<const D: usize>(
             if on(p[d], lo[d]) || on(p[d], hi[d]) {
                 continue;
             }
-            let mut s = (k as u64)
-                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                .wrapping_add((d as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03));
-            s = (s ^ (s >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            s = (s ^ (s >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            s ^= s >> 31;
+            let s = super::mix(
+                (k as u64)
+                    .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                    .wrapping_add((d as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03)),
+            );
             // 53 random bits: uniform in [0, 1)
             let u = (s >> 11) as f64 / (1u64 << 53) as f64;
             p[d] += jitter * h * (2.0 * u - 1.0);
