@@ -8,7 +8,7 @@
 # 27's tracking_radius (in spacings); TRACKAT its track_at (the damage
 # at which a particle's neighbours become candidates); JITTER the
 # arrangement's jitter (spacings); GF and FT the fracture energy (J/m2) and
-# the strength (Pa); NORMAL sets
+# the strength (Pa); PLANE=plane_stress the plane assumption; NORMAL sets
 # normal_radius (a starting segment's normal from the stress averaged over
 # that many spacings). Prints the crack front, the branches and the dissipation
 # (docs/scripts/dpm_branching.py). Usage, from the repository root after
@@ -19,10 +19,10 @@ set -euo pipefail
 dir=${OUT:-/tmp/dpm_branching}
 mkdir -p "$dir"
 for h in "$@"; do
-  tag=h$h${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}${TRACKAT:+-a$TRACKAT}${JITTER:+-j$JITTER}${GF:+-g$GF}${FT:+-f$FT}
-  python3 - "$h" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${NORMAL:-}" "${TRACK:-}" "${TRACKAT:-}" "${JITTER:-}" "${GF:-}" "${FT:-}" > "$dir/$tag.toml" <<'PY'
+  tag=h$h${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}${TRACKAT:+-a$TRACKAT}${JITTER:+-j$JITTER}${GF:+-g$GF}${FT:+-f$FT}${PLANE:+-$PLANE}
+  python3 - "$h" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${NORMAL:-}" "${TRACK:-}" "${TRACKAT:-}" "${JITTER:-}" "${GF:-}" "${FT:-}" "${PLANE:-}" > "$dir/$tag.toml" <<'PY'
 import re, sys
-h, support, tol, notrack, normal, track, track_at, jitter, gf, ft = float(sys.argv[1]), *sys.argv[2:11]
+h, support, tol, notrack, normal, track, track_at, jitter, gf, ft, plane = float(sys.argv[1]), *sys.argv[2:12]
 t = open("scenes/dpm_branching.toml").read()
 t = re.sub(r"^cell_size = .*$", f"cell_size = {h!r}", t, flags=re.M)
 # the grid reaches 2.4 mm beyond the plate (a whole number of spacings)
@@ -50,6 +50,8 @@ if gf:
     t = re.sub(r"^fracture_energy = .*$", f"fracture_energy = {gf}", t, count=1, flags=re.M)
 if ft:
     t = re.sub(r"^strength = .*$", f"strength = {ft}", t, count=1, flags=re.M)
+if plane:
+    t = re.sub(r'^plane = ".*"$', f'plane = "{plane}"', t, count=1, flags=re.M)
 if notrack:
     t = re.sub(r"^initiation = .*\n", "", t, flags=re.M)
 print(t, end="")
