@@ -458,6 +458,22 @@ fn a_traction_on_a_free_plate_gives_its_impulse_and_does_its_work() {
     );
 }
 
+/// `dpm_branching.toml` at the paper's coarsest spacing, 8e-4 m: the
+/// crack half a spacing above y = 0.02 and the initiation box 1.5 spacings
+/// about its tip, as `docs/scripts/dpm_branching.sh` rewrites it.
+fn coarse_branching() -> String {
+    scene_text("dpm_branching.toml")
+        .replace("cell_size = 4.0e-4", "cell_size = 8.0e-4")
+        .replace(
+            "[[0.0, 0.0202], [0.05, 0.0202]]",
+            "[[0.0, 0.0204], [0.05, 0.0204]]",
+        )
+        .replace(
+            "min = [0.0494, 0.0196], max = [0.0506, 0.0208]",
+            "min = [0.0488, 0.0192], max = [0.0512, 0.0216]",
+        )
+}
+
 #[test]
 fn the_branching_plate_s_crack_runs_from_the_notch_and_splits() {
     // Wei & Chen, section 4.3 (R3) at their coarsest spacing, 8e-4 m: the
@@ -467,16 +483,7 @@ fn the_branching_plate_s_crack_runs_from_the_notch_and_splits() {
     // energy balance with the dissipation holds to 1 % of the work
     let h = 8.0e-4;
     let y = 0.02 + 0.5 * h;
-    let text = scene_text("dpm_branching.toml")
-        .replace("cell_size = 4.0e-4", "cell_size = 8.0e-4")
-        .replace(
-            "[[0.0, 0.0202], [0.05, 0.0202]]",
-            "[[0.0, 0.0204], [0.05, 0.0204]]",
-        )
-        .replace(
-            "min = [0.0494, 0.0196], max = [0.0506, 0.0208]",
-            "min = [0.0488, 0.0192], max = [0.0512, 0.0216]",
-        );
+    let text = coarse_branching();
     let rec = run_balanced(&text, 0.01);
     let col = |name: &str| rec.column(name).unwrap_or_else(|| panic!("no {name}"));
     let dissipated = *col("fracture_energy").last().unwrap();
@@ -518,17 +525,7 @@ fn with_track_at_one_damage_starts_only_beside_a_broken_particle() {
     // so by default (the partial damage ahead of the front, docs/dpm.md
     // R3); the branching plate at 8e-4 m
     let h = 8.0e-4;
-    let text = scene_text("dpm_branching.toml")
-        .replace("cell_size = 4.0e-4", "cell_size = 8.0e-4")
-        .replace(
-            "[[0.0, 0.0202], [0.05, 0.0202]]",
-            "[[0.0, 0.0204], [0.05, 0.0204]]",
-        )
-        .replace(
-            "min = [0.0494, 0.0196], max = [0.0506, 0.0208]",
-            "min = [0.0488, 0.0192], max = [0.0512, 0.0216]",
-        )
-        .replace("end = 8.0e-5", "end = 5.0e-5");
+    let text = coarse_branching().replace("end = 8.0e-5", "end = 5.0e-5");
     let lonely = |text: &str| {
         let rec = run_balanced(text, 0.01);
         let snap = rec.snapshots.last().unwrap();
