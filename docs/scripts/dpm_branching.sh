@@ -21,39 +21,29 @@ mkdir -p "$dir"
 for h in "$@"; do
   tag=h$h${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}${TRACKAT:+-a$TRACKAT}${JITTER:+-j$JITTER}${GF:+-g$GF}${FT:+-f$FT}${PLANE:+-$PLANE}
   python3 - "$h" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${NORMAL:-}" "${TRACK:-}" "${TRACKAT:-}" "${JITTER:-}" "${GF:-}" "${FT:-}" "${PLANE:-}" > "$dir/$tag.toml" <<'PY'
-import re, sys
+import sys
+sys.path.insert(0, "docs/scripts")
+from scene_edit import put, after, drop, initiation_box
 h, support, tol, notrack, normal, track, track_at, jitter, gf, ft, plane = float(sys.argv[1]), *sys.argv[2:12]
 t = open("scenes/dpm_branching.toml").read()
-t = re.sub(r"^cell_size = .*$", f"cell_size = {h!r}", t, flags=re.M)
+t = put(t, "cell_size", repr(h))
 # the grid reaches 2.4 mm beyond the plate (a whole number of spacings)
 k = round(0.0024 / h)
-t = re.sub(r"^min = \[-0.0024, -0.0024\]$", f"min = [{-k * h!r}, {-k * h!r}]", t, flags=re.M)
-t = re.sub(r"^max = \[0.1024, 0.0424\]$", f"max = [{0.1 + k * h!r}, {0.04 + k * h!r}]", t, flags=re.M)
+t = t.replace("\nmin = [-0.0024, -0.0024]\n", f"\nmin = [{-k * h!r}, {-k * h!r}]\n")
+t = t.replace("\nmax = [0.1024, 0.0424]\n", f"\nmax = [{0.1 + k * h!r}, {0.04 + k * h!r}]\n")
 y = 0.02 + 0.5 * h
 t = t.replace("[[0.0, 0.0202], [0.05, 0.0202]]", f"[[0.0, {y!r}], [0.05, {y!r}]]")
-if support:
-    t = re.sub(r"^support = .*$", f"support = {support}", t, flags=re.M)
-if tol:
-    t = re.sub(r"^tol = .*$", f"tol = {tol}", t, flags=re.M)
-r = 1.5 * h
-t = re.sub(r"initiation = \{ shape = \{ type = \"box\", min = \[[^]]*\], max = \[[^]]*\] \}",
-           f"initiation = {{ shape = {{ type = \"box\", min = [{0.05 - r!r}, {y - r!r}], max = [{0.05 + r!r}, {y + r!r}] }}", t)
-if normal:
-    t = re.sub(r"^(tol = .*)$", f"\\1\nnormal_radius = {normal}", t, count=1, flags=re.M)
-if track:
-    t = re.sub(r"^(tol = .*)$", f"\\1\ntracking_radius = {track}", t, count=1, flags=re.M)
-if track_at:
-    t = re.sub(r"^(tol = .*)$", f"\\1\ntrack_at = {track_at}", t, count=1, flags=re.M)
-if jitter:
-    t = re.sub(r"^(support = .*)$", f"\\1\njitter = {jitter}", t, count=1, flags=re.M)
-if gf:
-    t = re.sub(r"^fracture_energy = .*$", f"fracture_energy = {gf}", t, count=1, flags=re.M)
-if ft:
-    t = re.sub(r"^strength = .*$", f"strength = {ft}", t, count=1, flags=re.M)
-if plane:
-    t = re.sub(r'^plane = ".*"$', f'plane = "{plane}"', t, count=1, flags=re.M)
+t = initiation_box(t, (0.05, y), 1.5 * h)
+for key, value in [("support", support), ("tol", tol), ("fracture_energy", gf), ("strength", ft),
+                   ("plane", plane and f'"{plane}"')]:
+    if value:
+        t = put(t, key, value)
+for anchor, key, value in [("tol", "normal_radius", normal), ("tol", "tracking_radius", track),
+                           ("tol", "track_at", track_at), ("support", "jitter", jitter)]:
+    if value:
+        t = after(t, anchor, key, value)
 if notrack:
-    t = re.sub(r"^initiation = .*\n", "", t, flags=re.M)
+    t = drop(t, "initiation")
 print(t, end="")
 PY
   rm -rf "$dir/$tag"

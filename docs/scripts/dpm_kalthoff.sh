@@ -18,31 +18,29 @@ mkdir -p "$dir"
 for n in "$@"; do
   tag=n$n${SUPPORT:+-s$SUPPORT}${TOL:+-t$TOL}${TRACK:+-r$TRACK}${NOTRACK:+-notrack}${NORMAL:+-n$NORMAL}${JITTER:+-j$JITTER}
   python3 - "$n" "${SUPPORT:-}" "${TOL:-}" "${NOTRACK:-}" "${TRACK:-}" "${NORMAL:-}" "${JITTER:-}" > "$dir/$tag.toml" <<'PY'
-import re, sys
+import sys
+sys.path.insert(0, "docs/scripts")
+from scene_edit import put, after, drop, initiation_box
 n, support, tol, notrack, track, normal, jitter = int(sys.argv[1]), *sys.argv[2:8]
 h = 0.1 / n
 t = open("scenes/dpm_kalthoff.toml").read()
-t = re.sub(r"^cell_size = .*$", f"cell_size = {h!r}", t, flags=re.M)
+t = put(t, "cell_size", repr(h))
 # the grid reaches 0.01 m beyond the plate on the left, right and top
 k = round(0.01 / h)
-t = re.sub(r"^min = \[-0.01, 0.0\]$", f"min = [{-k * h!r}, 0.0]", t, flags=re.M)
-t = re.sub(r"^max = \[0.11, 0.11\]$", f"max = [{0.1 + k * h!r}, {0.1 + k * h!r}]", t, flags=re.M)
-if support:
-    t = re.sub(r"^support = .*$", f"support = {support}", t, flags=re.M)
-if tol:
-    t = re.sub(r"^tol = .*$", f"tol = {tol}", t, flags=re.M)
-r = 1.5 * h
-t = re.sub(r"initiation = \{ shape = \{ type = \"box\", min = \[[^]]*\], max = \[[^]]*\] \}",
-           f"initiation = {{ shape = {{ type = \"box\", min = [{0.05 - r!r}, {0.025 - r!r}], max = [{0.05 + r!r}, {0.025 + r!r}] }}", t)
+t = t.replace("\nmin = [-0.01, 0.0]\n", f"\nmin = [{-k * h!r}, 0.0]\n")
+t = t.replace("\nmax = [0.11, 0.11]\n", f"\nmax = [{0.1 + k * h!r}, {0.1 + k * h!r}]\n")
+t = initiation_box(t, (0.05, 0.025), 1.5 * h)
+for key, value in [("support", support), ("tol", tol)]:
+    if value:
+        t = put(t, key, value)
 if track:
-    t = re.sub(r"^tracking_radius = .*\n", "", t, flags=re.M)
-    t = re.sub(r"^(tol = .*)$", f"\\1\ntracking_radius = {track}", t, count=1, flags=re.M)
-if normal:
-    t = re.sub(r"^(tol = .*)$", f"\\1\nnormal_radius = {normal}", t, count=1, flags=re.M)
-if jitter:
-    t = re.sub(r"^(support = .*)$", f"\\1\njitter = {jitter}", t, count=1, flags=re.M)
+    t = drop(t, "tracking_radius")
+for anchor, key, value in [("tol", "tracking_radius", track), ("tol", "normal_radius", normal),
+                           ("support", "jitter", jitter)]:
+    if value:
+        t = after(t, anchor, key, value)
 if notrack:
-    t = re.sub(r"^initiation = .*\n", "", t, flags=re.M)
+    t = drop(t, "initiation")
 print(t, end="")
 PY
   rm -rf "$dir/$tag"
