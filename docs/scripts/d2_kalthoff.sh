@@ -34,11 +34,13 @@ if dmin:
     t = put(t, "separability", dmin)
 if proj:
     # the projectile keeps its right face 0.5 mm off the plate; the grid
-    # reaches 2 mm beyond its left face
-    left = -0.0005 - float(proj)
-    t = t.replace("min = [-0.0505, 0.0], max = [-0.0005, 0.025]",
-                  f"min = [{left!r}, 0.0], max = [-0.0005, 0.025]")
-    t = t.replace("\nmin = [-0.052, 0.0]\n", f"\nmin = [{left - 0.0015!r}, 0.0]\n")
+    # reaches 1.5 mm beyond its left face
+    left = round(-0.0005 - float(proj), 9)
+    t, n = re.subn(r"min = \[-?[0-9.e-]+, 0\.0\], max = \[-0\.0005, 0\.025\]",
+                   f"min = [{left!r}, 0.0], max = [-0.0005, 0.025]", t)
+    assert n == 1, "the projectile's box"
+    t, n = re.subn(r"\nmin = \[-?[0-9.e-]+, 0\.0\]\n", f"\nmin = [{round(left - 0.0015, 9)!r}, 0.0]\n", t, count=1)
+    assert n == 1, "the grid's min"
 if gap:
     w = float(gap)
     t = t.replace("cracks = [{ points = [[0.05, 0.025], [-0.001, 0.025]] }]",
