@@ -34,7 +34,9 @@ snapshots (numpy only). Used for the measurements in docs/phase-field.md,
       each slice of the crack holds per unit length, against 1 for an
       ideal crack.
 """
-import argparse, re
+import argparse, math, re
+from pathlib import Path
+
 import numpy as np
 
 
@@ -53,6 +55,31 @@ def read_vtp(path, names=None):
         a = np.frombuffer(b[start + off + 8:start + off + 8 + n], {'Float64': np.float64, 'UInt32': np.uint32, 'Int64': np.int64}[ty])
         out[name] = a.reshape(-1, k) if k > 1 else a
     return out
+
+
+def snapshots(out, partial=False):
+    """(time, path) of every particle snapshot of run directory `out`, from
+    its particles.pvd. With `partial`, a run still going (no .pvd yet)
+    gives the snapshots written so far with their times unknown (NaN)."""
+    pvd = Path(out) / "particles.pvd"
+    if partial and not pvd.exists():
+        return [(math.nan, str(f)) for f in sorted(Path(out).glob("particles_*.vtp"))]
+    return [(float(t), f"{out}/{f}")
+            for t, f in re.findall(r'timestep="([^"]+)".*?file="([^"]+)"', pvd.read_text())]
+
+
+def linked_to(pts, tip, start, link):
+    """Which of the points `pts` (n x 2) are linked to `tip`: those closer
+    to it than `start`, and every point closer than `link` to a linked
+    one (the crack of broken particles that grows from a notch tip)."""
+    seen = np.hypot(*(pts - tip).T) < start
+    front = list(np.where(seen)[0])
+    while front:
+        i = front.pop()
+        near = np.where((~seen) & (np.hypot(*(pts - pts[i]).T) < link))[0]
+        seen[near] = True
+        front.extend(near.tolist())
+    return seen
 
 
 def read_body(path, body, names):

@@ -14,24 +14,16 @@ its length and angle from the tip), and the speed of that end between
 the snapshots nearest 40 and 50 us. Usage: python3 d2_kalthoff.py
 OUT_DIR..."""
 import csv
-import glob
 import math
-import re
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from crack_band import read_vtp  # noqa: E402
+from crack_band import linked_to, read_vtp, snapshots  # noqa: E402
 
 TIP = (0.05, 0.025)  # --tip X,Y for another (a notch cut as a gap: its corner)
-
-
-def snapshots(d):
-    """(time, file) of every particle snapshot, from particles.pvd."""
-    pvd = open(f"{d}/particles.pvd").read()
-    return [(float(t), f"{d}/{f}") for t, f in re.findall(r'timestep="([^"]+)".*?file="([^"]+)"', pvd)]
 
 
 def snapshot_end(f):
@@ -43,14 +35,7 @@ def snapshot_end(f):
     x = a["position"][:, :2]
     tip = np.array(TIP)
     pts = x[plate & (a["damage"] >= 0.9) & (x[:, 1] > TIP[1] + 0.5 * h) & (x[:, 0] > TIP[0] - 3 * h)]
-    seen = np.hypot(*(pts - tip).T) < 4 * h
-    front = list(np.where(seen)[0])
-    while front:
-        i = front.pop()
-        near = np.where((~seen) & (np.hypot(*(pts - pts[i]).T) < 2.5 * h))[0]
-        seen[near] = True
-        front.extend(near.tolist())
-    c = pts[seen]
+    c = pts[linked_to(pts, tip, 4 * h, 2.5 * h)]
     if len(c) == 0:
         return None
     r = np.hypot(*(c - tip).T)

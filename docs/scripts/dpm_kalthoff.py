@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from crack_band import read_vtp  # noqa: E402
+from crack_band import linked_to, read_vtp  # noqa: E402
 
 
 def crack(out, tip):
@@ -27,16 +27,8 @@ def crack(out, tip):
     h = math.sqrt(np.median(d["volume"]))
     broken = np.where(d["damage"] >= 0.99)[0]
     pts = x0[broken]
-    # connected to the tip through broken particles within 1.5 spacings
-    seen = np.zeros(len(pts), bool)
-    front = [i for i in range(len(pts)) if np.hypot(*(pts[i] - tip)) < 2.5 * h]
-    for i in front:
-        seen[i] = True
-    while front:
-        i = front.pop()
-        near = np.where((~seen) & (np.hypot(*(pts - pts[i]).T) < 2.5 * h))[0]
-        seen[near] = True
-        front.extend(near.tolist())
+    # connected to the tip through broken particles within 2.5 spacings
+    seen = linked_to(pts, tip, 2.5 * h, 2.5 * h)
     c = pts[seen]
     if len(c) == 0:
         return dict(snapshot=f, spacing=h, broken=len(broken), connected=0)

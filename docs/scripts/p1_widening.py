@@ -14,14 +14,13 @@ against the band's width 4-10 mm behind it (widening: the ratio above
 """
 import argparse
 import math
-import re
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from crack_band import read_vtp  # noqa: E402
+from crack_band import read_vtp, snapshots  # noqa: E402
 
 
 def column(y, gap):
@@ -59,14 +58,13 @@ if __name__ == "__main__":
     p.add_argument("--from", dest="t0", type=float, default=5e-6)
     p.add_argument("--thickness", type=float, default=1.0)
     a = p.parse_args()
-    pvd = Path(f"{a.out}/particles.pvd").read_text()
-    snaps = [(float(t), f) for t, f in re.findall(r'timestep="([^"]+)".*?file="([^"]+)"', pvd)]
+    snaps = snapshots(a.out)
     print(" t (us)   tip x (mm)  speed (m/s)  width near tip / behind (mm)  ratio  intervals")
     last = None
     for t, f in snaps:
         if t < a.t0:
             continue
-        r = measure(f"{a.out}/{f}", a.y0, a.thickness)
+        r = measure(f, a.y0, a.thickness)
         if r is None:
             continue
         tip, wn, wb, k = r

@@ -11,7 +11,6 @@ debris. Used for seed 001's P2 (two rings: each breaks in two at
 """
 import argparse
 import math
-import re
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -19,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from crack_band import read_vtp  # noqa: E402
+from crack_band import read_vtp, snapshots  # noqa: E402
 
 
 def components(x, link):
@@ -75,14 +74,10 @@ if __name__ == "__main__":
     p.add_argument("--min", type=float, default=0.01)
     p.add_argument("--last", action="store_true", help="the last snapshot only")
     a = p.parse_args()
-    pvd = Path(f"{a.out}/particles.pvd")
-    if pvd.exists():
-        snaps = [(float(t), f) for t, f in re.findall(r'timestep="([^"]+)".*?file="([^"]+)"', pvd.read_text())]
-    else:  # a run still going: its snapshots so far, times unknown
-        snaps = [(math.nan, f.name) for f in sorted(Path(a.out).glob("particles_*.vtp"))]
+    snaps = snapshots(a.out, partial=True)  # a run still going: its snapshots so far
     if a.last:
         snaps = snaps[-1:]
     for t, f in snaps:
         parts = "; ".join(f"body {b}: {n} fragments {[int(v) for v in big]}" + (f" + {k} debris" if k else "")
-                          for b, n, k, big in fragments(f"{a.out}/{f}", a.thickness, a.c, a.min))
+                          for b, n, k, big in fragments(f, a.thickness, a.c, a.min))
         print(f"{1e6 * t:6.1f} us  {parts}")
