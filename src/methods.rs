@@ -26,11 +26,12 @@ fn entry(scene: &Scene) -> &'static MethodEntry {
 /// Weibull strengths, fragments), DFG partitioning (`[dfg]`; its
 /// self-contact runs but does not yet let a body slide on itself in 3D,
 /// docs/dfg.md "In 3D") and the phase field (2nd order, and 4th order with
-/// the 6 × 6 γ; solved on the 3D stencil, every solver method); what is
-/// still 2D is refused here, naming the key: a phase field's material
-/// `angle` (an in-plane turn of the 2D tensor; in 3D γ is given in the
-/// scene's axes), initial cracks and crack origins (2D polylines and an
-/// in-plane tip tracker). Asked before a run is set up, so
+/// the 6 × 6 γ; solved on the 3D stencil, every solver method), with
+/// initial cracks (flat polygons) and crack origins; what is still 2D is
+/// refused here, naming the key: a phase field's material `angle` (an
+/// in-plane turn of the 2D tensor; in 3D γ is given in the scene's axes;
+/// the damage particle method's 2D cracks are refused by its validation).
+/// Asked before a run is set up, so
 /// that the CLI's `run` and a server's submit refuse the scene before
 /// writing or queueing anything.
 pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
@@ -59,12 +60,6 @@ pub fn runnable(scene: &Scene) -> Result<(), SceneError> {
                 );
             }
         }
-    }
-    if let Some(i) = file.bodies.iter().position(|b| !b.cracks.is_empty()) {
-        return not_yet(format!("bodies[{i}].cracks"), "an initial crack");
-    }
-    if let Some(i) = file.bodies.iter().position(|b| b.crack_origin.is_some()) {
-        return not_yet(format!("bodies[{i}].crack_origin"), "tracking a crack tip");
     }
     Ok(())
 }

@@ -174,6 +174,47 @@ pub fn sym_eigen3(s: [f64; 6]) -> ([f64; 3], [[f64; 3]; 3]) {
     )
 }
 
+/// Serde for a point of `D` coordinates whatever `D` (serde implements
+/// arrays for each length, not for a generic one): a tuple of `D` numbers,
+/// which is how serde writes `[f64; 2]` and `[f64; 3]`, so the bytes (and
+/// the traced checkpoint layout) are those of the fixed array. Use as
+/// `#[serde(with = "crate::tensor::serde_point")]`.
+pub mod serde_point {
+    use serde::de::{Error, SeqAccess, Visitor};
+    use serde::ser::SerializeTuple;
+    use serde::{Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer, const D: usize>(a: &[f64; D], s: S) -> Result<S::Ok, S::Error> {
+        let mut t = s.serialize_tuple(D)?;
+        for x in a {
+            t.serialize_element(x)?;
+        }
+        t.end()
+    }
+
+    pub fn deserialize<'de, De: Deserializer<'de>, const D: usize>(
+        d: De,
+    ) -> Result<[f64; D], De::Error> {
+        struct Point<const D: usize>;
+        impl<'de, const D: usize> Visitor<'de> for Point<D> {
+            type Value = [f64; D];
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                write!(f, "{D} numbers")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<[f64; D], A::Error> {
+                let mut a = [0.0; D];
+                for (i, x) in a.iter_mut().enumerate() {
+                    *x = seq
+                        .next_element()?
+                        .ok_or_else(|| A::Error::invalid_length(i, &self))?;
+                }
+                Ok(a)
+            }
+        }
+        d.deserialize_tuple(D, Point::<D>)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

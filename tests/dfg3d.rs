@@ -26,7 +26,7 @@ fn run(s: &Scene) -> (Sim3, Recorder) {
 
 /// A bar stretched by its initial velocity (v_x = 100 s⁻¹ (x − 0.15 m),
 /// ±10 m/s at the ends) with a band of failed particles across its
-/// middle: 3D has no initial cracks, so the band is a body of its own, one
+/// middle: the band is a body of its own (not an initial crack), one
 /// cell (two particle layers) wide, of a material that fails as soon as it
 /// is stretched (time to failure, eq. 24, with σ_f = 1 Pa and c_f = 10⁹
 /// m/s: failed in the first step). All three bodies are one contact group

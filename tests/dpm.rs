@@ -186,6 +186,22 @@ fn the_bar_in_3d_dissipates_its_fracture_energy() {
 }
 
 #[test]
+fn a_crack_in_a_3d_bar_is_refused_naming_its_key() {
+    // the method diffracts its kernels about 2D crack tips only
+    let text = bar_in_3d(&scene_text("dpm_bar.toml")).replace(
+        "material = \"bar\"\n",
+        "material = \"bar\"\ncracks = [{ points = [[50.0, 0.0, 0.0], [50.0, 4.0, 0.0], [50.0, 4.0, 8.0]] }]\n",
+    );
+    match Scene::from_text(&text, None) {
+        Ok(_) => panic!("a 3D damage-particle scene with a crack validated"),
+        Err(e) => {
+            assert_eq!(e.errors[0].path, "bodies[0].cracks", "{e}");
+            assert!(e.errors[0].reason.contains("are 2D"), "{e}");
+        }
+    }
+}
+
+#[test]
 fn a_support_too_small_for_the_moment_matrix_is_a_clear_error() {
     // validation keeps the support in [1.2, 4]; below it (here forced
     // past validation) a face point of a cell is covered by one row of

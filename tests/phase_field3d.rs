@@ -435,3 +435,66 @@ fn a_3d_gamma_takes_9_or_21_numbers() {
     let mut run = cleave::methods::build(&s).expect("a 4th-order 3D phase field runs");
     run.step().expect("a step");
 }
+
+/// A block 12 l₀ long (x) and 3 l₀ × 3 l₀ in section with an initial
+/// crack written in the scene as a flat polygon (a triangle whose plane
+/// x = 6.0625 l₀ holds one particle layer and which covers the block's
+/// whole section), line profile, h = l₀/4, 2 × 2 × 2 particles per cell:
+/// after the first step's solve Ψ_f over the block is Ḡc × the section
+/// (9 l₀²) within 2 %, as for the imposed plane above (the face meets the
+/// block's free faces at right angles, where the 1D profile has no flux;
+/// the ends lie 6 l₀ away, where c = 1 − e⁻⁶). With the crack ending
+/// halfway (a rectangle over y < 1.5 l₀), half of it and the crack
+/// front's share: positive, and below that of the trial field
+/// c = 1 − e^(−d/2l₀) with d the distance to the face, which the
+/// minimiser cannot exceed: its density Ḡc e^(−d/l₀)/(2l₀) over the
+/// half-space ahead of the front adds Ḡc π l₀/2 per unit length of front
+/// (measured: 1.03 Ḡc l₀ per unit length, against 1.57).
+#[test]
+fn an_initial_crack_face_in_a_3d_scene_holds_gc_per_unit_area() {
+    let scene = |points: &str| {
+        format!(
+            r#"
+[grid]
+cell_size = 0.25
+min = [-0.5, -0.5, -0.5]
+max = [12.5, 3.5, 3.5]
+
+[time]
+end = 1.0
+dt = 1.0e-6
+
+[[bodies]]
+shape = {{ type = "box", min = [0.0, 0.0, 0.0], max = [12.0, 3.0, 3.0] }}
+material = {{ model = "linear_elastic", density = 1000.0, youngs_modulus = 1.0e6, poissons_ratio = 0.3, phase_field = {{ gc = 1.0, l0 = 1.0 }} }}
+particles_per_cell = 8
+cracks = [{{ points = {points} }}]
+"#
+        )
+    };
+    let run = |text: &str| {
+        let scene = cleave::scene::Scene::from_text(text, None).expect("the scene validates");
+        let mut run = cleave::methods::build(&scene).expect("the scene runs");
+        run.step().expect("a step");
+        run.row().fracture_energy
+    };
+    let through = run(&scene(
+        "[[6.0625, -1.0, -1.0], [6.0625, 7.0, -1.0], [6.0625, -1.0, 7.0]]",
+    ));
+    let per_area = through / 9.0;
+    println!("through the section: Ψ_f {through:.4}, per area {per_area:.4} against Ḡc = 1");
+    assert!(
+        (per_area / GC - 1.0).abs() < 0.02,
+        "Ψ_f per area {per_area}"
+    );
+    let half = run(&scene(
+        "[[6.0625, -1.0, -1.0], [6.0625, 1.5, -1.0], [6.0625, 1.5, 4.0], [6.0625, -1.0, 4.0]]",
+    ));
+    let front = half - through / 2.0;
+    let trial = std::f64::consts::FRAC_PI_2 * GC * L0 * 3.0 * per_area;
+    println!(
+        "halfway: Ψ_f {half:.4}, the front's share {front:.4} ({:.3} Ḡc l₀ per length; trial {trial:.4})",
+        front / 3.0
+    );
+    assert!(front > 0.0 && front < trial, "Ψ_f of the half crack {half}");
+}

@@ -1,9 +1,10 @@
 //! 3D scenes (issue 32, the scene side): a scene whose `grid.max` has
 //! three components describes a 3D problem; it validates with errors that
 //! name their field, seeds its bodies, and runs the explicit core,
-//! continuum damage, DFG partitioning, the phase field and snapshots; what
-//! is still 2D (a phase field's material angle, initial cracks and crack
-//! origins) is refused naming its key. 2D scenes serialise as before.
+//! continuum damage, DFG partitioning, the phase field, initial cracks
+//! (flat polygons), crack tips and snapshots; what is still 2D (a phase
+//! field's material angle, the damage particle method's cracks) is refused
+//! naming its key. 2D scenes serialise as before.
 
 use cleave::jobs::{JobConfig, JobError, JobManager};
 use cleave::scene::{Format, Scene, SceneError};
@@ -251,6 +252,32 @@ fn a_vector_of_the_wrong_length_is_refused_at_its_field() {
         "has 2 components",
     );
     refused_at(&damaged, "bodies[0].crack_origin", "has 2 components");
+    // a 3D crack is a flat polygon: three points or more, in one plane,
+    // enclosing an area
+    let crack = |points: &str| {
+        replace(
+            BLOCK,
+            "poissons_ratio = 0.3 }",
+            &format!("poissons_ratio = 0.3, damage = {{ model = \"rankine\", strength = 1.0e4, fracture_energy = 10.0 }} }}\ncracks = [{{ points = {points} }}]"),
+        )
+    };
+    refused_at(
+        &crack("[[0.2, 0.2, 0.2], [0.3, 0.2, 0.2]]"),
+        "bodies[0].cracks[0].points",
+        "at least 3 points, got 2",
+    );
+    refused_at(
+        &crack("[[0.2, 0.2, 0.2], [0.3, 0.2, 0.2], [0.4, 0.2, 0.2]]"),
+        "bodies[0].cracks[0].points",
+        "no area",
+    );
+    refused_at(
+        &crack("[[0.3, 0.1, 0.1], [0.3, 0.25, 0.1], [0.3, 0.25, 0.3], [0.31, 0.1, 0.3]]"),
+        "bodies[0].cracks[0].points",
+        "off the plane",
+    );
+    let flat = crack("[[0.3, 0.1, 0.1], [0.3, 0.25, 0.1], [0.3, 0.25, 0.3], [0.3, 0.1, 0.3]]");
+    Scene::from_text(&flat, Some(Format::Toml)).expect("a flat 3D crack validates");
 }
 
 #[test]
@@ -451,19 +478,32 @@ fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue(
         .expect("a 3D DFG scene validates");
     let mut run = cleave::methods::build(&scene).expect("a 3D DFG scene runs");
     run.step().expect("a 3D step with DFG");
-    // a tracked crack tip is still 2D
+    // an initial crack (a flat polygon) and a tracked crack tip run in 3D:
+    // the particles on the face start broken, the tip has three coordinates
     let text = damaged.replace(
         "velocity = [0.0, 0.0, -1.0]",
-        "velocity = [0.0, 0.0, -1.0]\ncrack_origin = [0.3, 0.2, 0.2]",
+        "velocity = [0.0, 0.0, -1.0]\ncrack_origin = [0.3, 0.1, 0.2]\n\
+         cracks = [{ points = [[0.3, 0.1, 0.1], [0.3, 0.25, 0.1], [0.3, 0.25, 0.3], [0.3, 0.1, 0.3]] }]",
     );
     let scene = Scene::from_text(&text, Some(Format::Toml)).expect("the 3D scene validates");
-    match cleave::methods::build(&scene) {
-        Ok(_) => panic!("a 3D scene with a crack origin was built"),
-        Err(e) => {
-            assert_eq!(e.errors[0].path, "bodies[0].crack_origin", "{e}");
-            assert!(e.errors[0].reason.contains("not run yet"), "{e}");
-        }
-    }
+    let mut run = cleave::methods::build(&scene).expect("a 3D crack runs");
+    let columns = run.series_columns();
+    let tip: Vec<&str> = columns
+        .iter()
+        .filter(|c| c.starts_with("crack_"))
+        .map(|c| c.as_str())
+        .collect();
+    assert_eq!(
+        tip,
+        [
+            "crack_tip_x",
+            "crack_tip_y",
+            "crack_tip_z",
+            "crack_length",
+            "crack_speed"
+        ]
+    );
+    run.step().expect("a 3D step with an initial crack");
     let flat = Scene::from_text(FLAT, Some(Format::Toml)).unwrap();
     assert!(cleave::methods::build(&flat).is_ok());
 

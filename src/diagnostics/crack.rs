@@ -5,16 +5,18 @@
 //! `fracture::damage::model::DamageState::crack_tips`) farthest from the body's crack
 //! origin; its distance
 //! from the origin is the crack length, and the change of that length
-//! between two series rows over their time apart is the tip speed.
+//! between two series rows over their time apart is the tip speed. In 3D
+//! a crack has a front, not a tip: the "tip" is the point of the broken
+//! region farthest from the origin, and its length that distance.
 
 use rayon::prelude::*;
 
 /// The crack tip of one body at one series row.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CrackTip {
+pub struct CrackTip<const D: usize = 2> {
     /// Tip position, m (NaN while no particle is broken, or before the
     /// model has a field to look at).
-    pub x: [f64; 2],
+    pub x: [f64; D],
     /// Distance of the tip from the origin, m (0 while there is no crack;
     /// NaN before the model has a field).
     pub length: f64,
@@ -23,24 +25,28 @@ pub struct CrackTip {
     pub speed: f64,
 }
 
-impl CrackTip {
-    pub const UNKNOWN: CrackTip = CrackTip {
-        x: [f64::NAN; 2],
+impl<const D: usize> CrackTip<D> {
+    pub const UNKNOWN: CrackTip<D> = CrackTip {
+        x: [f64::NAN; D],
         length: f64::NAN,
         speed: f64::NAN,
     };
 }
 
 /// Follows one body's crack tip from row to row.
+///
+/// Its checkpoint bytes are the origin's `D` numbers and the last row
+/// (a 2D tracker's are what they were before the dimension was generic).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct TipTracker {
-    pub origin: [f64; 2],
+pub struct TipTracker<const D: usize = 2> {
+    #[serde(with = "crate::tensor::serde_point")]
+    pub origin: [f64; D],
     /// (time, crack length) at the last measured row.
     last: Option<(f64, f64)>,
 }
 
-impl TipTracker {
-    pub fn new(origin: [f64; 2]) -> TipTracker {
+impl<const D: usize> TipTracker<D> {
+    pub fn new(origin: [f64; D]) -> TipTracker<D> {
         TipTracker { origin, last: None }
     }
 
@@ -48,18 +54,21 @@ impl TipTracker {
     /// holds, at `time`.
     pub fn measure(
         &mut self,
-        x: &[[f64; 2]],
+        x: &[[f64; D]],
         particles: &[u32],
         broken: impl Fn(usize) -> bool + Sync,
         time: f64,
-    ) -> CrackTip {
+    ) -> CrackTip<D> {
         let o = self.origin;
         let (d2, p) = particles
             .par_iter()
             .filter(|&&p| broken(p as usize))
             .map(|&p| {
                 let x = x[p as usize];
-                ((x[0] - o[0]).powi(2) + (x[1] - o[1]).powi(2), p)
+                // the sum in axis order from the first term (2D: the bits
+                // it was)
+                let d2 = (1..D).fold((x[0] - o[0]).powi(2), |s, k| s + (x[k] - o[k]).powi(2));
+                (d2, p)
             })
             // the farthest; the lowest index among equals (deterministic)
             .reduce(
@@ -73,7 +82,7 @@ impl TipTracker {
                 },
             );
         let (tip, length) = if p == u32::MAX {
-            ([f64::NAN; 2], 0.0)
+            ([f64::NAN; D], 0.0)
         } else {
             (x[p as usize], d2.sqrt())
         };

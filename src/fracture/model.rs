@@ -117,12 +117,15 @@ impl SeriesOut {
         }
     }
 
-    /// The four crack-tip columns `crack_tip_x`, `crack_tip_y`,
-    /// `crack_length`, `crack_speed`, each followed by `suffix`.
-    pub fn push_tip(&mut self, suffix: &str, tip: &CrackTip) {
-        let names = ["crack_tip_x", "crack_tip_y", "crack_length", "crack_speed"];
-        let values = [tip.x[0], tip.x[1], tip.length, tip.speed];
-        for (n, v) in names.into_iter().zip(values) {
+    /// The crack-tip columns `crack_tip_x`, `crack_tip_y` (and in 3D
+    /// `crack_tip_z`), `crack_length`, `crack_speed`, each followed by
+    /// `suffix`.
+    pub fn push_tip<const D: usize>(&mut self, suffix: &str, tip: &CrackTip<D>) {
+        let axes = ["crack_tip_x", "crack_tip_y", "crack_tip_z"];
+        let names = axes[..D].iter().chain(&["crack_length", "crack_speed"]);
+        let rest = [tip.length, tip.speed];
+        let values = tip.x.iter().chain(&rest);
+        for (n, &v) in names.zip(values) {
             if self.declaring {
                 self.names.push(format!("{n}{suffix}"));
             } else {
@@ -131,9 +134,9 @@ impl SeriesOut {
         }
     }
 
-    /// The four crack-tip columns of each tracked body ([`Self::push_tip`]),
+    /// The crack-tip columns of each tracked body ([`Self::push_tip`]),
     /// suffixed `_b<i>` when several bodies report one ([`body_suffix`]).
-    pub fn push_tips(&mut self, bodies: &[usize], tips: &[CrackTip]) {
+    pub fn push_tips<const D: usize>(&mut self, bodies: &[usize], tips: &[CrackTip<D>]) {
         for (b, tip) in bodies.iter().zip(tips) {
             self.push_tip(&body_suffix(*b, bodies.len()), tip);
         }

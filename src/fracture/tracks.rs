@@ -1,24 +1,29 @@
 //! The initial cracks and crack tips of the models that break particles
 //! (continuum damage, the eigen models): a body's `cracks` become broken
 //! particles, and a body with a crack origin has its crack tip measured
-//! ([`CrackTracks::tips`]). 2D only: in 3D there are neither
-//! ([`crate::methods::runnable`] refuses `cracks` and `crack_origin`).
+//! ([`CrackTracks::tips`]). In 2D a crack is a polyline, in 3D a flat
+//! polygon (`Scene::cracks`); the tracking is the same in both.
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::fragments::{FragmentFinder, NONE};
 use crate::particles::Particles;
 use crate::scene::Scene;
-use std::any::Any;
 
 /// The bodies whose crack tip is tracked.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct CrackTracks {
-    tracks: Vec<TrackedCrack>,
+#[derive(Debug, Clone)]
+pub(crate) struct CrackTracks<const D: usize = 2> {
+    tracks: Vec<TrackedCrack<D>>,
+}
+
+impl<const D: usize> Default for CrackTracks<D> {
+    fn default() -> Self {
+        CrackTracks { tracks: Vec::new() }
+    }
 }
 
 /// A body whose crack tip is tracked.
 #[derive(Debug, Clone)]
-struct TrackedCrack {
+struct TrackedCrack<const D: usize> {
     body: usize,
     /// Its particles not on an initial crack.
     particles: Vec<u32>,
@@ -26,33 +31,23 @@ struct TrackedCrack {
     member: Vec<bool>,
     /// Those of them that started within the seed radius of the origin.
     roots: Vec<u32>,
-    tracker: TipTracker,
+    tracker: TipTracker<D>,
 }
 
-impl CrackTracks {
+impl<const D: usize> CrackTracks<D> {
     /// The particles on the initial cracks of the bodies for which
     /// `breaks(b)` (those within 0.55 particle spacings of a body's crack
-    /// polylines), and the trackers of those bodies with a crack origin
+    /// polylines or faces), and the trackers of those bodies with a crack origin
     /// (default: the first crack point), rooted at the particles within
     /// `seed_radius` of it. Call with the particles in their final order.
-    pub(crate) fn place<const D: usize, const V: usize>(
+    pub(crate) fn place<const V: usize>(
         scene: &Scene,
         parts: &Particles<D, V>,
         seed_radius: f64,
         breaks: impl Fn(usize) -> bool,
-    ) -> (CrackTracks, Vec<usize>) {
+    ) -> (CrackTracks<D>, Vec<usize>) {
         let mut out = (CrackTracks::default(), Vec::new());
-        let Some(x2) = (&parts.x as &dyn Any).downcast_ref::<Vec<[f64; 2]>>() else {
-            assert!(
-                scene
-                    .file
-                    .bodies
-                    .iter()
-                    .all(|b| b.cracks.is_empty() && b.crack_origin.is_none()),
-                "initial cracks and crack origins are 2D (methods::runnable refuses them in 3D)"
-            );
-            return out;
-        };
+        let x = &parts.x;
         for (b, spec) in scene.file.bodies.iter().enumerate() {
             if !breaks(b) {
                 continue;
@@ -60,7 +55,7 @@ impl CrackTracks {
             let spacing = scene.particle_spacing(b);
             let mut particles = Vec::new();
             for p in (0..parts.len()).filter(|&p| parts.body[p] as usize == b) {
-                if crate::geometry::on_cracks(x2[p], &spec.cracks, spacing) {
+                if scene.cracks[b].iter().any(|c| c.holds(&x[p], spacing)) {
                     out.1.push(p);
                 } else {
                     particles.push(p as u32);
@@ -73,12 +68,13 @@ impl CrackTracks {
                 let mut member = vec![false; parts.len()];
                 particles.iter().for_each(|&p| member[p as usize] = true);
                 let r2 = seed_radius * seed_radius;
-                let x = &x2;
+                let o: [f64; D] = o.get::<D>();
                 let roots: Vec<u32> = particles
                     .iter()
                     .copied()
                     .filter(|&p| {
-                        (x[p as usize][0] - o[0]).powi(2) + (x[p as usize][1] - o[1]).powi(2) < r2
+                        let x = x[p as usize];
+                        (1..D).fold((x[0] - o[0]).powi(2), |s, k| s + (x[k] - o[k]).powi(2)) < r2
                     })
                     .collect();
                 out.0.tracks.push(TrackedCrack {
@@ -86,7 +82,7 @@ impl CrackTracks {
                     particles,
                     member,
                     roots,
-                    tracker: TipTracker::new(o.xy()),
+                    tracker: TipTracker::new(o),
                 });
             }
         }
@@ -99,12 +95,12 @@ impl CrackTracks {
     }
 
     /// The trackers' state (what a checkpoint keeps).
-    pub(crate) fn trackers(&self) -> Vec<TipTracker> {
+    pub(crate) fn trackers(&self) -> Vec<TipTracker<D>> {
         self.tracks.iter().map(|t| t.tracker).collect()
     }
 
     /// Takes up the trackers' state [`Self::trackers`] gave.
-    pub(crate) fn restore(&mut self, trackers: Vec<TipTracker>) -> Result<(), String> {
+    pub(crate) fn restore(&mut self, trackers: Vec<TipTracker<D>>) -> Result<(), String> {
         if trackers.len() != self.tracks.len() {
             return Err(format!(
                 "{} tracked cracks in the checkpoint, {} in the scene",
@@ -125,18 +121,15 @@ impl CrackTracks {
     /// the crack's root is found however far the body has moved): the
     /// crack that grows from the origin, not damage elsewhere (at an
     /// impact face, say). Its tip is its particle farthest from the
-    /// origin. In 3D none.
-    pub(crate) fn tips<const D: usize, const V: usize>(
+    /// origin.
+    pub(crate) fn tips<const V: usize>(
         &mut self,
         finder: &mut FragmentFinder,
         spacing: &[f64],
         parts: &Particles<D, V>,
         time: f64,
         broken: impl Fn(usize) -> bool + Sync,
-    ) -> Vec<CrackTip> {
-        let Some(x2) = (&parts.x as &dyn Any).downcast_ref::<Vec<[f64; 2]>>() else {
-            return Vec::new();
-        };
+    ) -> Vec<CrackTip<D>> {
         self.tracks
             .iter_mut()
             .map(|t| {
@@ -158,7 +151,7 @@ impl CrackTracks {
                 seeds.sort_unstable();
                 seeds.dedup();
                 t.tracker.measure(
-                    x2,
+                    &parts.x,
                     &t.particles,
                     |p| seeds.binary_search(&found.label[p]).is_ok(),
                     time,

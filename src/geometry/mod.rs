@@ -8,7 +8,7 @@
 mod shapes3;
 mod vector;
 
-pub use shapes3::{bounds_3d, contains_3d, seed_3d, seed_cost_3d, volume};
+pub use shapes3::{bounds_3d, contains_3d, seed_3d, seed_cost_3d, volume, CrackFace};
 pub use vector::{Matrix, Point2, Vector};
 
 use serde::{Deserialize, Serialize};
@@ -414,14 +414,42 @@ pub fn distance_to_polyline<P: Point2>(p: [f64; 2], pts: &[P]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Whether a particle at `p` with lattice spacing `spacing` lies on one of
-/// the initial cracks: within 0.55 spacings of its polyline (one particle
-/// row for a crack along a row, two for a crack between rows). A crack is
-/// anything that gives its polyline's points (the scene's `CrackSpec` does).
-pub fn on_cracks<P: Point2>(p: [f64; 2], cracks: &[impl AsRef<[P]>], spacing: f64) -> bool {
-    cracks
-        .iter()
-        .any(|c| distance_to_polyline(p, c.as_ref()) < 0.55 * spacing)
+/// An initial crack as the models place it: in 2D the polyline through
+/// its points, in 3D the flat polygon they outline ([`CrackFace`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum CrackGeometry {
+    Polyline(Vec<[f64; 2]>),
+    Face(CrackFace),
+}
+
+impl CrackGeometry {
+    /// A scene's crack in a scene of `dim` dimensions, or why its points
+    /// make none in 3D ([`CrackFace::new`]).
+    pub fn new(points: &[Vector], dim: usize) -> Result<CrackGeometry, String> {
+        if dim == 3 {
+            let pts: Vec<[f64; 3]> = points.iter().map(|p| p.xyz()).collect();
+            CrackFace::new(&pts).map(CrackGeometry::Face)
+        } else {
+            Ok(CrackGeometry::Polyline(
+                points.iter().map(|p| p.xy()).collect(),
+            ))
+        }
+    }
+
+    /// Distance from a point given by its 2 or 3 coordinates, m.
+    pub fn distance(&self, x: &[f64]) -> f64 {
+        match self {
+            CrackGeometry::Polyline(pts) => distance_to_polyline([x[0], x[1]], pts),
+            CrackGeometry::Face(f) => f.distance([x[0], x[1], x[2]]),
+        }
+    }
+
+    /// Whether a particle at `x` with lattice spacing `spacing` lies on
+    /// the crack: within 0.55 spacings of it (one particle row or layer
+    /// for a crack along one, two for a crack between them).
+    pub fn holds(&self, x: &[f64], spacing: f64) -> bool {
+        self.distance(x) < 0.55 * spacing
+    }
 }
 
 #[cfg(test)]

@@ -189,6 +189,120 @@ pub fn seed_cost_3d(shape: &ShapeSpec, holes: &[ShapeSpec], lat: &Lattice<3>) ->
     rows * per_row + points * (1 + holes.len()) as f64
 }
 
+/// A 3D initial crack: the flat polygon its points outline (in order;
+/// convex or not, read by the even–odd rule), with the frame in which
+/// distances to it are measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrackFace {
+    points: Vec<[f64; 3]>,
+    /// The points' mean, on the plane.
+    origin: [f64; 3],
+    /// The plane's unit normal and two unit axes in it.
+    normal: [f64; 3],
+    u: [f64; 3],
+    v: [f64; 3],
+    /// The outline in (u, v) about `origin`.
+    outline: Vec<[f64; 2]>,
+}
+
+impl CrackFace {
+    /// The face through `points`, or why they outline none: fewer than
+    /// three, no area (all on one line), or a point off the plane of the
+    /// others by more than 10⁻⁹ of the outline's size.
+    pub fn new(points: &[[f64; 3]]) -> Result<CrackFace, String> {
+        let n = points.len();
+        if n < 3 {
+            return Err(format!(
+                "a 3D crack is a flat polygon and needs at least 3 points, got {n}"
+            ));
+        }
+        // Newell's normal: twice the vector area, exact for a flat polygon
+        let mut normal = [0.0; 3];
+        for i in 0..n {
+            let (a, b) = (points[i], points[(i + 1) % n]);
+            let c = cross(a, b);
+            (0..3).for_each(|k| normal[k] += c[k]);
+        }
+        let size = points
+            .iter()
+            .flat_map(|a| points.iter().map(move |b| dot(sub(*a, *b), sub(*a, *b))))
+            .fold(0.0, f64::max)
+            .sqrt();
+        let twice_area = dot(normal, normal).sqrt();
+        if !(twice_area > 1e-12 * size * size) {
+            return Err("its points enclose no area (they lie on one line)".into());
+        }
+        normal = normal.map(|c| c / twice_area);
+        let mut origin = [0.0; 3];
+        for p in points {
+            (0..3).for_each(|k| origin[k] += p[k] / n as f64);
+        }
+        for (q, p) in points.iter().enumerate() {
+            let off = dot(sub(*p, origin), normal).abs();
+            if off > 1e-9 * size {
+                return Err(format!(
+                    "point {q} lies {off:e} m off the plane of the others: a 3D crack is a flat polygon"
+                ));
+            }
+        }
+        // u along the first edge (not degenerate: some edge is not, and
+        // the first that is not is taken)
+        let edge = (0..n)
+            .map(|i| sub(points[(i + 1) % n], points[i]))
+            .find(|e| dot(*e, *e) > 0.0)
+            .unwrap_or([1.0, 0.0, 0.0]);
+        let along = sub(edge, normal.map(|c| c * dot(edge, normal)));
+        let u = along.map(|c| c / dot(along, along).sqrt());
+        let v = cross(normal, u);
+        let outline = points
+            .iter()
+            .map(|p| {
+                let w = sub(*p, origin);
+                [dot(w, u), dot(w, v)]
+            })
+            .collect();
+        Ok(CrackFace {
+            points: points.to_vec(),
+            origin,
+            normal,
+            u,
+            v,
+            outline,
+        })
+    }
+
+    /// Distance from `p` to the face (its inside and its edges), m.
+    pub fn distance(&self, p: [f64; 3]) -> f64 {
+        let w = sub(p, self.origin);
+        if super::point_in_polygon(&self.outline, [dot(w, self.u), dot(w, self.v)]) {
+            return dot(w, self.normal).abs();
+        }
+        let n = self.points.len();
+        (0..n)
+            .map(|i| {
+                let (a, b) = (self.points[i], self.points[(i + 1) % n]);
+                let (ab, ap) = (sub(b, a), sub(p, a));
+                let len2 = dot(ab, ab);
+                let t = if len2 > 0.0 {
+                    (dot(ap, ab) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let d = sub(ap, ab.map(|c| c * t));
+                dot(d, d).sqrt()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -389,6 +503,67 @@ mod tests {
             seed_cost_3d(&block, &[hole], &lat),
             // 40 x 30 x 30 cells, 2 per direction: 80 x 60 x 60 points, twice
             2.0 * 80.0 * 60.0 * 60.0
+        );
+    }
+
+    /// A crack face's distance: to the plane over the face, to the nearest
+    /// edge (or corner) beside it, for a triangle and an L-shaped
+    /// (non-convex) hexagon turned out of every coordinate plane.
+    #[test]
+    fn a_crack_face_measures_distance_to_its_inside_and_its_edges() {
+        // a frame: the face's plane is spanned by e1, e2; n = e1 × e2
+        let (a, b) = (0.3f64, 0.7f64);
+        let e1 = [a.cos() * b.cos(), a.sin() * b.cos(), b.sin()];
+        let e2 = [-a.sin(), a.cos(), 0.0];
+        let n = cross(e1, e2);
+        let c = [0.5, 0.4, 0.6];
+        let at = |u: f64, v: f64, w: f64| -> [f64; 3] {
+            std::array::from_fn(|k| c[k] + u * e1[k] + v * e2[k] + w * n[k])
+        };
+        // the L: the unit square less its upper right quarter
+        let l = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.0, 0.5),
+            (0.5, 0.5),
+            (0.5, 1.0),
+            (0.0, 1.0),
+        ];
+        let pts: Vec<[f64; 3]> = l.iter().map(|&(u, v)| at(u, v, 0.0)).collect();
+        let face = CrackFace::new(&pts).unwrap();
+        let close = |x: f64, y: f64| assert!((x - y).abs() < 1e-12, "{x} vs {y}");
+        close(face.distance(at(0.25, 0.25, 0.1)), 0.1);
+        close(face.distance(at(0.25, 0.75, -0.2)), 0.2);
+        // over the notch (not on the face): to its nearest edge
+        close(face.distance(at(0.75, 0.75, 0.0)), 0.25);
+        close(face.distance(at(0.6, 0.9, 0.0)), 0.1);
+        close(face.distance(at(0.75, 0.6, 0.0)), 0.1);
+        close(face.distance(at(0.75, 0.6, 0.3)), 0.1f64.hypot(0.3));
+        // beyond an outer corner
+        close(face.distance(at(-0.3, -0.4, 0.0)), 0.5);
+        // the same points in reverse order make the same face
+        let rev: Vec<[f64; 3]> = pts.iter().rev().copied().collect();
+        let face2 = CrackFace::new(&rev).unwrap();
+        close(face2.distance(at(0.25, 0.25, 0.1)), 0.1);
+        close(face2.distance(at(0.75, 0.6, 0.3)), 0.1f64.hypot(0.3));
+        // a triangle
+        let tri =
+            CrackFace::new(&[at(0.0, 0.0, 0.0), at(1.0, 0.0, 0.0), at(0.0, 1.0, 0.0)]).unwrap();
+        close(tri.distance(at(0.2, 0.2, -0.05)), 0.05);
+        close(tri.distance(at(1.0, 1.0, 0.0)), 0.5f64.sqrt());
+    }
+
+    #[test]
+    fn a_crack_face_refuses_points_that_make_no_flat_polygon() {
+        let few = CrackFace::new(&[[0.0; 3], [1.0, 0.0, 0.0]]).unwrap_err();
+        assert!(few.contains("at least 3 points, got 2"), "{few}");
+        let line = CrackFace::new(&[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]).unwrap_err();
+        assert!(line.contains("no area"), "{line}");
+        let bent = CrackFace::new(&[[0.0; 3], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 1e-3]])
+            .unwrap_err();
+        assert!(
+            bent.contains("off the plane") && bent.contains("point "),
+            "{bent}"
         );
     }
 }

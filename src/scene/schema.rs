@@ -672,10 +672,11 @@ pub struct BodySpec {
     /// interact by frictional contact; bodies in one group share a field.
     #[serde(default)]
     pub contact_group: u32,
-    /// Initial cracks: polylines along which, for a phase-field material,
-    /// the history field is set so that c ≈ 0 there (Borden et al. 2012),
-    /// and for a damage material the particles are fully damaged (those
-    /// within 0.55 particle spacings of the line).
+    /// Initial cracks: polylines (2D) or flat polygons (3D: three or more
+    /// points in one plane, in order) along which, for a phase-field
+    /// material, the history field is set so that c ≈ 0 there (Borden et
+    /// al. 2012), and for a damage or eigen material the particles are
+    /// fully broken (those within 0.55 particle spacings of the crack).
     #[serde(default)]
     pub cracks: Vec<CrackSpec>,
     /// Where the crack-tip diagnostic measures from (phase-field or damage
@@ -703,8 +704,10 @@ impl BodySpec {
     }
 }
 
-/// An initial crack as a polyline of at least two points, m (2 or 3
-/// components each, as the grid has).
+/// An initial crack, m: in 2D a polyline of at least two points, in 3D
+/// a flat polygon of at least three (its outline, in order; validation
+/// refuses points off one plane), 2 or 3 components each, as the grid has
+/// ([`crate::geometry::CrackGeometry`]).
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CrackSpec {
@@ -712,13 +715,6 @@ pub struct CrackSpec {
     /// How a phase-field body's initial history is laid along the crack.
     #[serde(default)]
     pub profile: CrackProfile,
-}
-
-/// A crack's polyline, for [`crate::geometry::on_cracks`].
-impl AsRef<[Vector]> for CrackSpec {
-    fn as_ref(&self) -> &[Vector] {
-        &self.points
-    }
 }
 
 /// The initial history of a phase-field crack (Kakouris & Triantafyllou §5.1: "an initial

@@ -5,7 +5,7 @@ use super::memory::{self, MemoryBudget, MemoryEstimate};
 use super::plan::Plan;
 use super::schema::*;
 use super::{phase_field_gamma, FieldError, ResolvedDamage, SceneError};
-use crate::geometry::{self, Lattice};
+use crate::geometry::{self, CrackGeometry, Lattice};
 use crate::grid::shape;
 use crate::material::ElasticConstants;
 use serde::Serialize;
@@ -108,6 +108,9 @@ pub struct Scene {
     pub materials: Vec<ResolvedMaterial>,
     /// For each body, its index into `materials`.
     pub body_material: Vec<usize>,
+    /// For each body, its initial cracks (`cracks`) as the models place
+    /// them: polylines in 2D, flat polygons in 3D.
+    pub cracks: Vec<Vec<CrackGeometry>>,
     /// Cells along x and y (the grid's `max` is rounded up to whole cells).
     pub cells: [usize; 2],
     /// Cells along z in a 3D scene; None in 2D.
@@ -254,6 +257,7 @@ impl Scene {
             );
         }
         let mut body_material = Vec::with_capacity(file.bodies.len());
+        let mut cracks = Vec::with_capacity(file.bodies.len());
         let mut seedable = Vec::with_capacity(file.bodies.len());
         let mut groups = std::collections::BTreeSet::new();
         for (i, body) in file.bodies.iter().enumerate() {
@@ -357,11 +361,12 @@ impl Scene {
             if let Some(o) = body.crack_origin {
                 c.vector(&format!("{path}.crack_origin"), o, dim);
             }
+            let mut body_cracks = Vec::new();
             for (k, crack) in body.cracks.iter().enumerate() {
                 if crack.profile == CrackProfile::Borden && breaks(&file, &body.material) {
                     c.err(&format!("{path}.cracks[{k}].profile"), "the borden profile is an initial history field: it is for phase-field materials, not damage or eigen models");
                 }
-                if crack.points.len() < 2 {
+                if dim == 2 && crack.points.len() < 2 {
                     c.err(
                         &format!("{path}.cracks[{k}].points"),
                         format!(
@@ -370,10 +375,18 @@ impl Scene {
                         ),
                     );
                 }
+                let mut ok = true;
                 for (q, pt) in crack.points.iter().enumerate() {
-                    c.vector(&format!("{path}.cracks[{k}].points[{q}]"), *pt, dim);
+                    ok &= c.vector(&format!("{path}.cracks[{k}].points[{q}]"), *pt, dim);
+                }
+                if ok {
+                    match CrackGeometry::new(&crack.points, dim) {
+                        Ok(g) => body_cracks.push(g),
+                        Err(why) => c.err(&format!("{path}.cracks[{k}].points"), why),
+                    }
                 }
             }
+            cracks.push(body_cracks);
             body_material.push(mat.unwrap_or(usize::MAX));
             groups.insert(body.contact_group);
             seedable.push(check_body(&mut c, &path, body, &file.grid, dim, cells3));
@@ -493,6 +506,7 @@ impl Scene {
             file,
             materials,
             body_material,
+            cracks,
             cells,
             cells_z,
             particle_counts,

@@ -2,11 +2,9 @@
 //! per-material laws of [`crate::fracture::damage`], the energy they have
 //! released, and the crack tips of the bodies that track one.
 //!
-//! One model for 2D and 3D (`FractureModel<D, V>`; the state itself has no
-//! dimension). In 3D there are no initial cracks and no crack tips:
-//! `cracks` are 2D polylines and the tip tracker measures in the plane, so
-//! [`crate::methods::runnable`] refuses `cracks` and `crack_origin` in a 3D
-//! scene; fragments are found in 3D as in 2D.
+//! One model for 2D and 3D (`FractureModel<D, V>`): initial cracks are
+//! polylines in 2D and flat polygons in 3D, the tip tracker and the
+//! fragments measure in either ([`CrackTracks`]).
 
 use crate::diagnostics::crack::{CrackTip, TipTracker};
 use crate::diagnostics::fragments::{FragmentFinder, Fragments};
@@ -24,12 +22,12 @@ use rayon::prelude::*;
 /// Damage above this counts as cracked for the crack tip.
 const TIP_D: f64 = 0.9;
 
-pub(crate) struct DamageState {
+pub(crate) struct DamageState<const D: usize = 2> {
     law: DamageLaw,
     /// Energy released by damage since t = 0, J.
     pub dissipated: f64,
     /// The bodies with a crack origin.
-    tips: CrackTracks,
+    tips: CrackTracks<D>,
     /// Particles that start this close to a crack origin root its crack, m.
     seed_radius: f64,
     /// Damage below which a particle counts as intact for fragments.
@@ -43,13 +41,13 @@ pub(crate) struct DamageState {
 /// far and the crack-tip trackers (the rest follows from the scene and the
 /// particle arrays).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub(crate) struct DamageSaved {
+pub(crate) struct DamageSaved<const D: usize = 2> {
     dissipated: f64,
-    tips: Vec<TipTracker>,
+    tips: Vec<TipTracker<D>>,
 }
 
 /// The damage stage for a scene whose plan has it, with the initial
-/// cracks placed (2D).
+/// cracks placed.
 pub(crate) fn build<const D: usize, const V: usize>(
     at: &mut SetupContext<'_, D, V>,
 ) -> Option<Box<dyn FractureModel<D, V>>> {
@@ -58,14 +56,14 @@ pub(crate) fn build<const D: usize, const V: usize>(
     Some(Box::new(state))
 }
 
-impl DamageState {
+impl<const D: usize> DamageState<D> {
     /// The laws of the scene's materials, or `None` without damage. Fills
     /// `parts.damage` and `parts.strength` (drawn in seeding order, that
     /// of `parts.id`, whatever order the particles are stored in).
-    pub(crate) fn new<const D: usize, const V: usize>(
+    pub(crate) fn new<const V: usize>(
         scene: &Scene,
         parts: &mut Particles<D, V>,
-    ) -> Option<DamageState> {
+    ) -> Option<DamageState<D>> {
         // the plan decides: a named damage material no body uses adds nothing
         if !scene.plan.has(crate::scene::Stage::Damage) {
             return None;
@@ -109,7 +107,7 @@ impl DamageState {
     /// crack-tip trackers of bodies with a crack origin
     /// ([`CrackTracks::place`]). Call with the particles in their final
     /// order.
-    pub(crate) fn place_cracks<const D: usize, const V: usize>(
+    pub(crate) fn place_cracks<const V: usize>(
         &mut self,
         scene: &Scene,
         parts: &mut Particles<D, V>,
@@ -126,20 +124,20 @@ impl DamageState {
         self.tips = tips;
     }
 
-    fn saved(&self) -> DamageSaved {
+    fn saved(&self) -> DamageSaved<D> {
         DamageSaved {
             dissipated: self.dissipated,
             tips: self.tips.trackers(),
         }
     }
 
-    fn restore_saved(&mut self, s: DamageSaved) -> Result<(), String> {
+    fn restore_saved(&mut self, s: DamageSaved<D>) -> Result<(), String> {
         self.tips.restore(s.tips)?;
         self.dissipated = s.dissipated;
         Ok(())
     }
 
-    pub(crate) fn update<const D: usize, const V: usize>(
+    pub(crate) fn update<const V: usize>(
         &mut self,
         parts: &mut Particles<D, V>,
         dt: f64,
@@ -156,10 +154,7 @@ impl DamageState {
 
     /// The fragments of undamaged material of the damage-model materials
     /// ([`crate::diagnostics::fragments`]).
-    pub(crate) fn fragments<const D: usize, const V: usize>(
-        &mut self,
-        parts: &Particles<D, V>,
-    ) -> Fragments<D> {
+    pub(crate) fn fragments<const V: usize>(&mut self, parts: &Particles<D, V>) -> Fragments<D> {
         let (models, limit) = (&self.law.models, self.fragment_damage);
         self.finder.find(
             &parts.x,
@@ -174,10 +169,7 @@ impl DamageState {
 
     /// Mass-weighted mean speed of the particles of damage-model materials
     /// (the paper's "average material velocity magnitude", Fig. 18), m/s.
-    pub(crate) fn mean_speed<const D: usize, const V: usize>(
-        &self,
-        parts: &Particles<D, V>,
-    ) -> f64 {
+    pub(crate) fn mean_speed<const V: usize>(&self, parts: &Particles<D, V>) -> f64 {
         let (mut m, mut mv) = (0.0, 0.0);
         for p in 0..parts.len() {
             if self.law.models[parts.material[p] as usize].is_some() {
@@ -194,11 +186,11 @@ impl DamageState {
 
     /// The crack tips at `time`: a body's crack is its broken particles
     /// (D > 0.9) connected to the origin ([`CrackTracks::tips`]).
-    pub(crate) fn crack_tips<const D: usize, const V: usize>(
+    pub(crate) fn crack_tips<const V: usize>(
         &mut self,
         parts: &Particles<D, V>,
         time: f64,
-    ) -> Vec<CrackTip> {
+    ) -> Vec<CrackTip<D>> {
         let damage = &parts.damage;
         self.tips
             .tips(&mut self.finder, &self.spacing, parts, time, |p| {
@@ -207,7 +199,7 @@ impl DamageState {
     }
 }
 
-impl<const D: usize, const V: usize> FractureModel<D, V> for DamageState {
+impl<const D: usize, const V: usize> FractureModel<D, V> for DamageState<D> {
     fn name(&self) -> &'static str {
         "damage"
     }

@@ -1,7 +1,7 @@
 //! The eigen stage as the step runs it: the laws of [`crate::fracture::eigen`],
 //! the ε-neighbour lists, the energy released, fragments and crack tips.
-//! One model for 2D and 3D (in 3D there are no initial cracks and no crack
-//! tips, as for continuum damage).
+//! One model for 2D and 3D (initial cracks and crack tips as for continuum
+//! damage: [`CrackTracks`]).
 
 use super::softening::Softening;
 use super::{EigenLaw, Scratch, SKIN};
@@ -33,7 +33,7 @@ pub(crate) struct EigenState<const D: usize> {
     key: Vec<u16>,
     neighbours: Neighbours<D>,
     scratch: Scratch,
-    tips: CrackTracks,
+    tips: CrackTracks<D>,
     /// χ below which a point counts as intact for fragments.
     fragment_chi: f64,
     /// Initial particle spacing per body, m.
@@ -45,11 +45,11 @@ pub(crate) struct EigenState<const D: usize> {
 /// counters, and the crack-tip trackers. The neighbour lists are built
 /// again (their sums do not depend on when they were built).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub(crate) struct EigenSaved {
+pub(crate) struct EigenSaved<const D: usize = 2> {
     dissipated: f64,
     started: u64,
     failed: u64,
-    tips: Vec<TipTracker>,
+    tips: Vec<TipTracker<D>>,
 }
 
 /// The eigen stage for a scene whose plan has it, with the initial cracks
@@ -229,7 +229,7 @@ impl<const D: usize, const V: usize> FractureModel<D, V> for EigenState<D> {
     }
 
     fn restore(&mut self, state: &[u8], _at: RestoreContext<'_, D, V>) -> Result<(), String> {
-        let s: EigenSaved = decode(state)?;
+        let s: EigenSaved<D> = decode(state)?;
         self.tips.restore(s.tips)?;
         self.dissipated = s.dissipated;
         self.started = s.started;

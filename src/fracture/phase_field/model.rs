@@ -30,13 +30,13 @@ use crate::fracture::phase_field::system::{
     self, FactorKind, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem,
     SolveMethod, SolveStats,
 };
+use crate::geometry::CrackGeometry;
 use crate::grid::shape::{by_kernel, Kernel};
 use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, miehe_split_3d, Elastic};
 use crate::particles::Particles;
 use crate::scene::{
-    phase_field_gamma, CrackProfile, CrackSpec, PhaseFieldMethod, PlaneKind, PlaneStressSplit,
-    Scene, Stage,
+    phase_field_gamma, CrackProfile, PhaseFieldMethod, PlaneKind, PlaneStressSplit, Scene, Stage,
 };
 use crate::tensor::resize;
 use rayon::prelude::*;
@@ -48,28 +48,29 @@ const CRACK_B: f64 = 1e6;
 /// Borden et al.'s B for a `borden` crack profile.
 const BORDEN_B: f64 = 1e3;
 
-/// The initial history of a particle at `x` from a body's initial cracks
-/// (the largest over the cracks; 0 off them), by each crack's profile
-/// ([`CrackProfile`]); `spacing` is the body's particle spacing.
+/// The initial history of a particle at `x` (its 2 or 3 coordinates) from
+/// a body's initial cracks (the largest over the cracks; 0 off them), by
+/// each crack's profile ([`CrackProfile`]) and geometry (a polyline in 2D,
+/// a flat polygon in 3D); `spacing` is the body's particle spacing.
 fn initial_history(
-    x: [f64; 2],
-    cracks: &[CrackSpec],
+    x: &[f64],
+    cracks: &[(CrackProfile, CrackGeometry)],
     params: &PhaseFieldParams,
     spacing: f64,
 ) -> f64 {
     let unit = params.gc_bar / (4.0 * params.l0);
     cracks
         .iter()
-        .map(|c| match c.profile {
+        .map(|(profile, c)| match profile {
             CrackProfile::Line => {
-                if crate::geometry::on_cracks(x, std::slice::from_ref(c), spacing) {
+                if c.holds(x, spacing) {
                     CRACK_B * unit
                 } else {
                     0.0
                 }
             }
             CrackProfile::Borden => {
-                let d = crate::geometry::distance_to_polyline(x, &c.points);
+                let d = c.distance(x);
                 BORDEN_B * unit * (1.0 - 2.0 * d / params.l0).max(0.0)
             }
         })
@@ -87,7 +88,7 @@ struct Body<const D: usize> {
     /// Nodal c of the last solve (all grid nodes).
     c: Vec<f64>,
     /// The crack-tip diagnostic, if tracked.
-    tip: Option<TipTracker>,
+    tip: Option<TipTracker<D>>,
     /// Plane stress with the in-plane split ([`PlaneStressSplit::InPlane`]).
     in_plane: bool,
 }
@@ -132,9 +133,8 @@ pub(crate) struct RowStats {
     pub residual: f64,
 }
 
-/// The phase fields of a simulation in `D` dimensions (2 or 3; in 3D the
-/// 2nd-order model, no initial cracks and no crack tip:
-/// [`crate::methods::runnable`] refuses the rest).
+/// The phase fields of a simulation in `D` dimensions (2 or 3; in 3D no
+/// material angle: [`crate::methods::runnable`] refuses it).
 pub struct PhaseFields<const D: usize = 2> {
     bodies: Vec<Body<D>>,
     method: SolveMethod,
@@ -163,9 +163,9 @@ pub struct PhaseFields<const D: usize = 2> {
 /// c and H are in the particle arrays) and the crack-tip tracker, and
 /// whether c is current for the next step.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
-pub(crate) struct PhaseState {
+pub(crate) struct PhaseState<const D: usize = 2> {
     c: Vec<Vec<f64>>,
-    tips: Vec<Option<TipTracker>>,
+    tips: Vec<Option<TipTracker<D>>>,
     current: bool,
 }
 
@@ -193,7 +193,7 @@ pub(crate) fn build<const D: usize, const V: usize>(
 
 impl<const D: usize> PhaseFields<D> {
     /// Builds the phase fields of the scene's phase-field bodies, sets up the
-    /// particles' c (1) and history (with the initial cracks, 2D). None if
+    /// particles' c (1) and history (with the initial cracks). None if
     /// no body has a phase field.
     pub(crate) fn new<const V: usize>(
         scene: &Scene,
@@ -228,7 +228,13 @@ impl<const D: usize> PhaseFields<D> {
                 .crack_origin
                 .or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()));
             let in_plane = pf.plane_stress_split == PlaneStressSplit::InPlane;
-            bodies.push((b, spec.cracks.clone(), params, particles, origin, in_plane));
+            let cracks: Vec<_> = spec
+                .cracks
+                .iter()
+                .map(|c| c.profile)
+                .zip(scene.cracks[b].iter().cloned())
+                .collect();
+            bodies.push((b, cracks, params, particles, origin, in_plane));
         }
         if bodies.is_empty() {
             return None;
@@ -241,9 +247,7 @@ impl<const D: usize> PhaseFields<D> {
                 let spacing = scene.particle_spacing(b);
                 for &p in &particles {
                     let p = p as usize;
-                    // (no cracks in 3D: runnable refuses them)
-                    let x = crate::tensor::resize::<D, 2>(parts.x[p]);
-                    parts.history[p] = initial_history(x, &cracks, &params, spacing);
+                    parts.history[p] = initial_history(&parts.x[p], &cracks, &params, spacing);
                 }
                 Body {
                     body: b as u16,
@@ -251,7 +255,7 @@ impl<const D: usize> PhaseFields<D> {
                     params,
                     system: PhaseFieldSystem::new(),
                     c: Vec::new(),
-                    tip: origin.map(|o| TipTracker::new(o.xy())),
+                    tip: origin.map(|o| TipTracker::new(o.get::<D>())),
                     in_plane,
                 }
             })
@@ -289,7 +293,7 @@ impl<const D: usize> PhaseFields<D> {
         })
     }
 
-    fn state(&self) -> PhaseState {
+    fn state(&self) -> PhaseState<D> {
         PhaseState {
             c: self.bodies.iter().map(|b| b.c.clone()).collect(),
             tips: self.bodies.iter().map(|b| b.tip).collect(),
@@ -299,7 +303,7 @@ impl<const D: usize> PhaseFields<D> {
 
     /// Takes up a checkpoint's [`PhaseState`] for a grid of `nodes` nodes;
     /// the solver starts afresh (analysis and factor on the next solve).
-    fn restore_state(&mut self, s: PhaseState, nodes: usize) -> Result<(), String> {
+    fn restore_state(&mut self, s: PhaseState<D>, nodes: usize) -> Result<(), String> {
         if s.c.len() != self.bodies.len() || s.tips.len() != self.bodies.len() {
             return Err(format!(
                 "{} phase-field bodies in the checkpoint, {} in the scene",
@@ -567,15 +571,11 @@ impl<const D: usize> PhaseFields<D> {
 
     /// The crack tips of the tracked bodies at `time`; the speeds are
     /// measured from the previous call.
-    /// In 3D no tip is tracked (runnable refuses `crack_origin`): none.
     pub(crate) fn crack_tips<const V: usize>(
         &mut self,
         parts: &Particles<D, V>,
         time: f64,
-    ) -> Vec<CrackTip> {
-        let Some(x2) = (&parts.x as &dyn std::any::Any).downcast_ref::<Vec<[f64; 2]>>() else {
-            return Vec::new();
-        };
+    ) -> Vec<CrackTip<D>> {
         let mut tips = Vec::new();
         for body in &mut self.bodies {
             let Some(tracker) = body.tip.as_mut() else {
@@ -584,7 +584,7 @@ impl<const D: usize> PhaseFields<D> {
             tips.push(if body.c.is_empty() {
                 CrackTip::UNKNOWN // before the first solve c is not known yet
             } else {
-                tracker.measure(x2, &body.particles, |p| parts.phase[p] < TIP_C, time)
+                tracker.measure(&parts.x, &body.particles, |p| parts.phase[p] < TIP_C, time)
             });
         }
         tips
@@ -817,31 +817,43 @@ mod tests {
         };
         let unit = 3.0 / (4.0 * 2.5e-4);
         let crack = |profile| {
-            vec![CrackSpec {
-                points: vec![[0.0, 0.0].into(), [1.0e-3, 0.0].into()],
-                profile,
-            }]
+            let pts = [[0.0, 0.0].into(), [1.0e-3, 0.0].into()];
+            vec![(profile, CrackGeometry::new(&pts, 2).unwrap())]
         };
         let spacing = 1.0e-4;
         // line: the particles within 0.55 spacings, all at B = 1e6
         let line = crack(CrackProfile::Line);
         assert_eq!(
-            initial_history([5e-4, 0.5e-4], &line, &params, spacing),
+            initial_history(&[5e-4, 0.5e-4], &line, &params, spacing),
             CRACK_B * unit
         );
         assert_eq!(
-            initial_history([5e-4, 0.6e-4], &line, &params, spacing),
+            initial_history(&[5e-4, 0.6e-4], &line, &params, spacing),
             0.0
         );
         // Borden: B = 1e3 on the line, falling linearly to 0 at l0/2
         let borden = crack(CrackProfile::Borden);
-        let h = |y: f64| initial_history([5e-4, y], &borden, &params, spacing);
+        let h = |y: f64| initial_history(&[5e-4, y], &borden, &params, spacing);
         assert!((h(0.0) - BORDEN_B * unit).abs() < 1e-9 * h(0.0));
         assert!((h(-0.625e-4) - 0.5 * BORDEN_B * unit).abs() < 1e-9 * h(0.0));
         assert_eq!(h(1.3e-4), 0.0);
         // beyond the crack's end the distance is to its end point
-        let past = initial_history([1.0e-3 + 0.625e-4, 0.0], &borden, &params, spacing);
+        let past = initial_history(&[1.0e-3 + 0.625e-4, 0.0], &borden, &params, spacing);
         assert!((past - 0.5 * BORDEN_B * unit).abs() < 1e-9 * past);
+        // 3D: the same profile across a square face in the plane x = 0;
+        // past its edge the distance is to the edge
+        let face: Vec<crate::geometry::Vector> = vec![
+            [0.0, 0.0, 0.0].into(),
+            [0.0, 1.0e-3, 0.0].into(),
+            [0.0, 1.0e-3, 1.0e-3].into(),
+            [0.0, 0.0, 1.0e-3].into(),
+        ];
+        let face = vec![(CrackProfile::Borden, CrackGeometry::new(&face, 3).unwrap())];
+        let h3 = |x: [f64; 3]| initial_history(&x, &face, &params, spacing);
+        assert!((h3([0.0, 5e-4, 5e-4]) - BORDEN_B * unit).abs() < 1e-9 * h(0.0));
+        assert!((h3([-0.625e-4, 2e-4, 9e-4]) - 0.5 * BORDEN_B * unit).abs() < 1e-9 * h(0.0));
+        assert!((h3([0.0, 5e-4, 1.0e-3 + 0.625e-4]) - 0.5 * BORDEN_B * unit).abs() < 1e-9 * h(0.0));
+        assert_eq!(h3([1.3e-4, 5e-4, 5e-4]), 0.0);
     }
 
     /// A series row reports Ψ_f where c was solved, not where G2P has
