@@ -3,7 +3,7 @@
 # changing one thing of scenes/notched_bar_3d.toml at a time: the table in
 # docs/verification.md ("Damage in 3D"). Usage, from the repository root,
 # after `cargo build --release -p cleave-client`:
-#   bash docs/scripts/notched_bar_3d.sh            # about 2 minutes
+#   bash docs/scripts/notched_bar_3d.sh            # about 3 minutes
 #   FINE=1 bash docs/scripts/notched_bar_3d.sh     # + h = 1 mm (4 more)
 set -euo pipefail
 bin=${BIN:-target/release/cleave}
@@ -36,6 +36,9 @@ variant "linear shape functions" 's/"gimp"/"linear"/'
 variant "quadratic B-splines" 's/"gimp"/"quadratic_bspline"/'
 variant "notch 2 mm (one cell)" 's/min = \[0.010, 0.0039, 0.0039\], max = \[0.014,/min = [0.011, 0.0039, 0.0039], max = [0.013,/'
 variant "σ_f = 10 MPa (l_mat 10 mm)" 's/strength = 5.0e6/strength = 1.0e7/'
+variant "notch 1 mm (one particle layer, x 11–12 mm)" 's/min = \[0.010, 0.0039, 0.0039\], max = \[0.014,/min = [0.011, 0.0039, 0.0039], max = [0.012,/'
+variant "an initial crack instead of the notch: a flat rectangle through the layer x = 11.5 mm, y < 9.9 mm, the whole depth (its 72 particles start broken)" \
+  's/^holes = .*$/cracks = [{ points = [[0.0115, 0.003, 0.003], [0.0115, 0.0099, 0.003], [0.0115, 0.0099, 0.017], [0.0115, 0.003, 0.017]] }]\ncrack_origin = [0.0115, 0.0099, 0.010]/'
 if [ -n "${FINE:-}" ]; then
   variant "h = 1 mm, l_ch = h" 's/cell_size = 0.002/cell_size = 0.001/; s/char_length = 0.002/char_length = 0.001/'
 fi
