@@ -219,6 +219,25 @@ pub mod serde_point {
 mod tests {
     use super::*;
 
+    /// A point written through [`serde_point`] has the bytes of the fixed
+    /// array it replaced (2D checkpoints load as before) and reads back in
+    /// 3D; a short record is an error, not a zero.
+    #[test]
+    fn a_point_is_written_as_the_fixed_array_it_replaces() {
+        #[derive(serde::Serialize, serde::Deserialize, PartialEq, Debug)]
+        struct P<const D: usize> {
+            #[serde(with = "serde_point")]
+            x: [f64; D],
+        }
+        let two = postcard::to_allocvec(&P { x: [1.5, -2.0] }).unwrap();
+        assert_eq!(two, postcard::to_allocvec(&[1.5f64, -2.0]).unwrap());
+        let three = P { x: [1.0, 2.0, 3.0] };
+        let bytes = postcard::to_allocvec(&three).unwrap();
+        assert_eq!(bytes, postcard::to_allocvec(&[1.0f64, 2.0, 3.0]).unwrap());
+        assert_eq!(postcard::from_bytes::<P<3>>(&bytes).unwrap(), three);
+        assert!(postcard::from_bytes::<P<3>>(&bytes[..16]).is_err());
+    }
+
     #[test]
     fn voigt_indices_cover_each_component_once() {
         for (d, len) in [(2, 3), (3, 6)] {
