@@ -7,6 +7,7 @@ use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
+use tonic_types::StatusExt;
 
 fn cleave_bin() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_cleave"))
@@ -378,6 +379,19 @@ async fn errors_have_the_right_status_codes() {
         "{}",
         e.message()
     );
+    // and for programs, the field in google.rpc.BadRequest
+    let details = e.get_error_details();
+    let violations = &details
+        .bad_request()
+        .expect("a BadRequest")
+        .field_violations;
+    assert!(
+        violations
+            .iter()
+            .any(|v| v.field == "materials.steel.youngs_modulus"
+                && v.description == "must be > 0, got -3"),
+        "{violations:?}"
+    );
     let v = c
         .validate_scene(proto::ValidateSceneRequest {
             scene: bad,
@@ -602,6 +616,12 @@ async fn hostile_requests_get_the_promised_status_and_bounded_answers() {
     ] {
         assert_eq!(e.code(), tonic::Code::InvalidArgument, "{e:?}");
         assert!(e.message().starts_with(&format!("{field}: ")), "{e:?}");
+        let details = e.get_error_details();
+        let v = &details
+            .bad_request()
+            .expect("a BadRequest")
+            .field_violations;
+        assert!(v.len() == 1 && v[0].field == field, "{v:?}");
     }
     // ValidateScene gives the memory estimate and the time step
     let v = c
