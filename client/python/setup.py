@@ -7,6 +7,7 @@ the copy an sdist carries in `proto/`. The proto is compiled as
 `cleave_client/_proto/cleave.proto` so that the generated modules import
 each other by their place in the package, with no rewriting of their text.
 """
+import re
 import shutil
 import tempfile
 from pathlib import Path
@@ -72,4 +73,26 @@ class SdistWithProto(sdist):
         shutil.copyfile(proto_file(), dest / "cleave.proto")
 
 
-setup(cmdclass={"build_py": BuildPyWithStubs, "sdist": SdistWithProto})
+def requirements() -> list[str]:
+    """What the package needs to run. The generated modules check at import
+    that grpcio and protobuf are at least the versions their generator
+    targets, which are the ones grpcio-tools itself requires: those
+    requirements are copied from the grpcio-tools this build runs."""
+    from importlib.metadata import requires
+
+    made_by = [r for r in requires("grpcio-tools") or []
+               if re.match(r"(grpcio|protobuf)\b(?![-_.\w])", r) and ";" not in r]
+    for name, floor in (("grpcio", "grpcio>=1.62"), ("protobuf", "protobuf>=5.26")):
+        if not any(re.match(name + r"(?![-_.\w])", r) for r in made_by):
+            made_by.append(floor)
+    return made_by + [
+        "googleapis-common-protos>=1.63",
+        "numpy>=1.23",
+        "tomli>=2; python_version < '3.11'",
+    ]
+
+
+setup(
+    install_requires=requirements(),
+    cmdclass={"build_py": BuildPyWithStubs, "sdist": SdistWithProto},
+)

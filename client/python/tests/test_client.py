@@ -141,3 +141,50 @@ def test_a_server_that_is_not_there_is_unavailable():
             c.validate(SCENES / "two_disks.toml")
         with pytest.raises(cc.Unavailable):
             list(c.job("job-000001").watch(reconnect_timeout=0.5))
+
+
+def self_signed(tmp_path):
+    """A certificate for localhost and 127.0.0.1, and its key (PEM files)."""
+    import datetime
+    import ipaddress
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    key = ec.generate_private_key(ec.SECP256R1())
+    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "localhost")])
+    now = datetime.datetime.now(datetime.timezone.utc)
+    cert = (x509.CertificateBuilder().subject_name(name).issuer_name(name)
+            .public_key(key.public_key()).serial_number(x509.random_serial_number())
+            .not_valid_before(now - datetime.timedelta(minutes=5))
+            .not_valid_after(now + datetime.timedelta(days=1))
+            .add_extension(x509.SubjectAlternativeName([
+                x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]), critical=False)
+            .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
+            .sign(key, hashes.SHA256()))
+    cert_path, key_path = tmp_path / "cert.pem", tmp_path / "key.pem"
+    cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                           serialization.NoEncryption()))
+    return cert_path, key_path
+
+
+def test_tls_with_the_servers_authority(tmp_path):
+    cert, key = self_signed(tmp_path)
+    s = Server(tmp_path / "data", "--tls-cert", str(cert), "--tls-key", str(key))
+    try:
+        with cc.Client(f"https://localhost:{s.port}", ca_cert=cert) as c:
+            job = c.submit(SCENES / "two_disks.toml")
+            assert job.wait().state == "succeeded"
+            assert job.fields(names=["mass"])["mass"].shape == (6456,)
+        # plain text to a TLS server, or TLS without its authority, fails
+        with cc.Client(f"localhost:{s.port}", timeout=5) as c:
+            with pytest.raises(cc.CleaveError):
+                c.validate(SCENES / "two_disks.toml")
+        with cc.Client(f"https://localhost:{s.port}", timeout=5) as c:
+            with pytest.raises(cc.Unavailable):
+                c.validate(SCENES / "two_disks.toml")
+    finally:
+        s.stop()
