@@ -65,10 +65,10 @@ impl<const D: usize> TipTracker<D> {
             .filter(|&&p| broken(p as usize))
             .map(|&p| {
                 let x = x[p as usize];
-                // the sum in axis order from the first term (2D: the bits
-                // it was)
-                let d2 = (1..D).fold((x[0] - o[0]).powi(2), |s, k| s + (x[k] - o[k]).powi(2));
-                (d2, p)
+                // `dot` sums in axis order from the first term (2D: the
+                // bits it was)
+                let d = crate::tensor::sub(x, o);
+                (crate::tensor::dot(d, d), p)
             })
             // the farthest; the lowest index among equals (deterministic)
             .reduce(

@@ -74,7 +74,8 @@ impl<const D: usize> CrackTracks<D> {
                     .copied()
                     .filter(|&p| {
                         let x = x[p as usize];
-                        (1..D).fold((x[0] - o[0]).powi(2), |s, k| s + (x[k] - o[k]).powi(2)) < r2
+                        let d = crate::tensor::sub(x, o);
+                        crate::tensor::dot(d, d) < r2
                     })
                     .collect();
                 out.0.tracks.push(TrackedCrack {

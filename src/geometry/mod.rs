@@ -11,6 +11,7 @@ mod vector;
 pub use shapes3::{bounds_3d, contains_3d, seed_3d, seed_cost_3d, volume, CrackFace};
 pub use vector::{Matrix, Point2, Vector};
 
+use crate::tensor;
 use serde::{Deserialize, Serialize};
 
 /// A region of the plane or of space: a body's `shape` and its `holes` in
@@ -400,18 +401,22 @@ impl<'a> RowTest<'a> {
 /// Distance from `p` to the polyline through `pts`, m.
 pub fn distance_to_polyline<P: Point2>(p: [f64; 2], pts: &[P]) -> f64 {
     pts.windows(2)
-        .map(|w| {
-            let (a, b) = (w[0].xy(), w[1].xy());
-            let ab = [b[0] - a[0], b[1] - a[1]];
-            let len2 = ab[0] * ab[0] + ab[1] * ab[1];
-            let t = if len2 > 0.0 {
-                (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            ((p[0] - a[0] - t * ab[0]).powi(2) + (p[1] - a[1] - t * ab[1]).powi(2)).sqrt()
-        })
+        .map(|w| distance_to_segment(p, w[0].xy(), w[1].xy()))
         .fold(f64::INFINITY, f64::min)
+}
+
+/// Distance from `p` to the segment `a`–`b` (to `a` when they coincide),
+/// in any dimension: the polylines of 2D cracks and the edges of 3D ones.
+pub fn distance_to_segment<const D: usize>(p: [f64; D], a: [f64; D], b: [f64; D]) -> f64 {
+    let (ab, ap) = (tensor::sub(b, a), tensor::sub(p, a));
+    let len2 = tensor::dot(ab, ab);
+    let t = if len2 > 0.0 {
+        (tensor::dot(ap, ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let d: [f64; D] = std::array::from_fn(|k| ap[k] - t * ab[k]);
+    tensor::dot(d, d).sqrt()
 }
 
 /// An initial crack as the models place it: in 2D the polyline through

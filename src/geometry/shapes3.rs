@@ -3,6 +3,7 @@
 //! with a third axis (particles at the sub-cell centres).
 
 use super::{cell_range, polygon_area2, polygon_edges, Aabb, Lattice, RowTest, ShapeSpec};
+use crate::tensor::{dot, sub};
 
 /// Bounding box of a 3D shape (a 2D shape's is its own in xy, flat at
 /// z = 0: validation keeps 2D shapes out of 3D scenes).
@@ -279,18 +280,7 @@ impl CrackFace {
         }
         let n = self.points.len();
         (0..n)
-            .map(|i| {
-                let (a, b) = (self.points[i], self.points[(i + 1) % n]);
-                let (ab, ap) = (sub(b, a), sub(p, a));
-                let len2 = dot(ab, ab);
-                let t = if len2 > 0.0 {
-                    (dot(ap, ab) / len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let d = sub(ap, ab.map(|c| c * t));
-                dot(d, d).sqrt()
-            })
+            .map(|i| super::distance_to_segment(p, self.points[i], self.points[(i + 1) % n]))
             .fold(f64::INFINITY, f64::min)
     }
 }
@@ -301,14 +291,6 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[cfg(test)]
