@@ -303,7 +303,7 @@ fn load_average() -> String {
         .unwrap_or_else(|| "unknown".into())
 }
 
-fn cpu_name() -> String {
+pub(crate) fn cpu_name() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|c| {

@@ -6,6 +6,7 @@
 mod bench;
 mod bench_dfg;
 mod bench_pf;
+mod bench_scene;
 mod gc_polar;
 mod remote;
 mod study;
@@ -82,8 +83,15 @@ enum Command {
         resume: bool,
     },
     /// Measure particle-steps per second of the explicit step (1 and 2
-    /// threads, or `--threads`).
+    /// threads, or `--threads`), on the built-in block or, with `--scene`,
+    /// on any scene with the time of each stage of its plan.
     Bench {
+        /// Time this scene's steps instead of the built-in block: per
+        /// thread count, ms per step, particle-steps per second, speed-up,
+        /// parallel efficiency and every stage's ms per step (printed;
+        /// written to --out if given).
+        #[arg(long, conflicts_with_all = ["dim", "largest", "transfer", "kernel", "taichi"])]
+        scene: Option<PathBuf>,
         /// Dimension of the benchmark block: 2 (linear elastic, FLIP and
         /// APIC) or 3 (neo-Hookean, APIC, 8 particles per cell).
         #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
@@ -593,6 +601,7 @@ fn local_main(command: Command) -> ExitCode {
             }
         }
         Command::Bench {
+            scene,
             dim,
             out,
             steps,
@@ -601,15 +610,21 @@ fn local_main(command: Command) -> ExitCode {
             kernel,
             taichi,
             threads,
-        } => match bench_dims(
-            dim,
-            out,
-            steps,
-            largest,
-            (transfer, kernel),
-            taichi,
-            &threads,
-        ) {
+        } => match match scene {
+            Some(scene) => thread_counts(&threads).and_then(|t| {
+                anyhow::ensure!(steps > 0, "--steps must be at least 1");
+                bench_scene::run(&scene, out.as_deref(), steps, &t)
+            }),
+            None => bench_dims(
+                dim,
+                out,
+                steps,
+                largest,
+                (transfer, kernel),
+                taichi,
+                &threads,
+            ),
+        } {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");
@@ -617,6 +632,19 @@ fn local_main(command: Command) -> ExitCode {
             }
         },
     }
+}
+
+/// `--threads LIST`: counts ≥ 1, comma-separated.
+fn thread_counts(threads: &str) -> anyhow::Result<Vec<usize>> {
+    threads
+        .split(',')
+        .map(|t| match t.trim().parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => Err(anyhow::anyhow!(
+                "--threads: {t:?} is not a thread count (give counts ≥ 1, comma-separated)"
+            )),
+        })
+        .collect()
 }
 
 /// `cleave bench` in 2D or 3D, with each dimension's defaults.
@@ -630,15 +658,7 @@ fn bench_dims(
     threads: &str,
 ) -> anyhow::Result<()> {
     anyhow::ensure!(steps > 0, "--steps must be at least 1");
-    let threads = threads
-        .split(',')
-        .map(|t| match t.trim().parse::<usize>() {
-            Ok(n) if n >= 1 => Ok(n),
-            _ => Err(anyhow::anyhow!(
-                "--threads: {t:?} is not a thread count (give counts ≥ 1, comma-separated)"
-            )),
-        })
-        .collect::<anyhow::Result<Vec<usize>>>()?;
+    let threads = thread_counts(threads)?;
     if dim == 3 {
         // The 3D problem is the issue's: APIC only, so a transfer list
         // other than `apic` would silently measure something else.

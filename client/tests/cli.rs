@@ -1171,6 +1171,65 @@ fn bench_3d_writes_the_table_with_bytes_per_particle() {
     assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
 }
 
+/// `cleave bench --scene`: any scene's steps at each thread count, with a
+/// row for every stage of its plan (here a phase-field one, whose plan is
+/// not the explicit step's) and the parallel efficiency; the options of
+/// the built-in block are refused beside it, and a scene that ends in the
+/// warm-up has nothing to time.
+#[test]
+fn bench_scene_times_every_stage_of_the_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scene.md");
+    let scene = scenes().join("p1_plate_coarse.toml");
+    let o = cleave()
+        .args(["bench", "--scene"])
+        .arg(&scene)
+        .args(["--steps", "3", "--threads", "1,2", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let doc = std::fs::read_to_string(&out).unwrap();
+    assert!(doc.contains("--steps 3 --threads 1,2"), "{doc}");
+    let plan = cleave()
+        .args(["validate", "--json"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&plan.stdout).unwrap();
+    let stages = v["stages"].as_array().expect("the plan's stages");
+    assert!(stages.iter().any(|s| s == "phase_field_stagger"), "{v}");
+    for s in stages {
+        let row = format!("| {} |", s.as_str().unwrap());
+        assert!(
+            doc.lines().any(|l| l.starts_with(&row)),
+            "no row {row}: {doc}"
+        );
+    }
+    for threads in ["| 1 | 3 |", "| 2 | 3 |"] {
+        let row = doc.lines().find(|l| l.starts_with(threads)).unwrap();
+        // the first count's efficiency is 100 % by definition
+        assert!(
+            threads != "| 1 | 3 |" || row.ends_with("| 1.00 | 100 % |"),
+            "{row}"
+        );
+    }
+    let o = cleave()
+        .args(["bench", "--dim", "3", "--scene"])
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    // one step long
+    let o = cleave()
+        .args(["bench", "--scene"])
+        .arg(scenes().join("pf_straight_crack.toml"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("warm-up"), "{}", stderr(&o));
+}
+
 /// `cleave gc-polar` with a 3D tensor (9 numbers): Gc of a plane by its
 /// normal and the extremes over the sphere, from the 1D profile along n.
 /// γ with a(n) = 1 + 3 n_z⁴: Gc_min = √2 Ḡc (a = 1) with n in the xy plane,
