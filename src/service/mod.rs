@@ -38,14 +38,57 @@ fn status(e: JobError) -> Status {
     }
 }
 
+/// Bytes of a scene's problems a refusal carries, in its message and
+/// again in its details. Both travel in the trailing metadata, encoded
+/// (the message percent-encoded, the details in base64: together about
+/// 3.5 times these bytes), and gRPC clients cap that at 8 KiB (grpc's
+/// soft limit; 16 KiB hard): over the cap a refusal reaches them as
+/// RESOURCE_EXHAUSTED instead of INVALID_ARGUMENT (3 000 bad bodies did).
+/// `ValidateScene` lists every problem in its reply's body.
+const REFUSAL_BYTES: usize = 1536;
+
+/// The longest path or reason a refusal quotes (a reason may echo the
+/// scene).
+const REASON_BYTES: usize = 512;
+
 fn invalid(e: &SceneError) -> Status {
-    bad_request(
-        format!("invalid scene: {e}"),
-        e.errors
-            .iter()
-            .map(|f| FieldViolation::new(&f.path, &f.reason))
-            .collect(),
-    )
+    let clip = |s: &str| -> String {
+        if s.len() <= REASON_BYTES {
+            return s.to_string();
+        }
+        let mut end = REASON_BYTES;
+        while !s.is_char_boundary(end) {
+            end -= 1;
+        }
+        format!("{}…", &s[..end])
+    };
+    let (mut shown, mut bytes) = (Vec::new(), 0);
+    for f in &e.errors {
+        let v = FieldViolation::new(clip(&f.path), clip(&f.reason));
+        let n = v.field.len() + v.description.len() + 3;
+        if !shown.is_empty() && bytes + n > REFUSAL_BYTES {
+            break;
+        }
+        bytes += n;
+        shown.push(v);
+    }
+    let mut message: Vec<String> = shown
+        .iter()
+        .map(|v| {
+            if v.field.is_empty() {
+                v.description.clone()
+            } else {
+                format!("{}: {}", v.field, v.description)
+            }
+        })
+        .collect();
+    let rest = e.errors.len() - shown.len();
+    if rest > 0 {
+        message.push(format!(
+            "… and {rest} more problems (ValidateScene lists every one)"
+        ));
+    }
+    bad_request(format!("invalid scene: {}", message.join("\n")), shown)
 }
 
 /// INVALID_ARGUMENT for people and for programs: the message, and a

@@ -113,6 +113,20 @@ def test_a_bad_scene_raises_with_the_fields_path(client):
     assert [f.path for f in e.value.fields] == ["fields"]
 
 
+def test_a_scene_with_thousands_of_problems_is_refused_as_invalid(client):
+    # the refusal carries as many problems as fit in a few KiB of trailers
+    # (over the clients' cap it would arrive as RESOURCE_EXHAUSTED), and
+    # says how many more ValidateScene lists
+    doc = cc._scene.scene_document(SCENES / "two_disks.toml")
+    doc["bodies"] = [dict(doc["bodies"][0], material=f"nope{i}") for i in range(3000)]
+    with pytest.raises(cc.InvalidScene) as e:
+        client.submit(doc)
+    fields = e.value.fields
+    assert 1 <= len(fields) < 3000 and all(f.path.startswith("bodies[") for f in fields), fields[:3]
+    assert f"and {3000 - len(fields)} more problems (ValidateScene lists every one)" in e.value.message
+    assert len(client.validate(doc).errors) == 3000
+
+
 def test_cancel_and_a_failed_wait(client):
     job = client.submit(SCENES / "two_disks.toml")
     job.cancel()
