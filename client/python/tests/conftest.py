@@ -6,6 +6,7 @@ fail, naming the path, when they are missing, rather than skip.
 """
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import socket
@@ -75,19 +76,12 @@ def embedded_run(scene: Path, out: Path) -> Path:
 
 
 def read_vtp(path: Path) -> dict[str, np.ndarray]:
-    """The point arrays of a cleave .vtp (raw appended data, UInt64 sizes)."""
-    b = path.read_bytes()
-    at = b.index(b"<AppendedData")
-    head, start = b[:at].decode(), b.index(b"_", at) + 1
-    types = {"Float64": "<f8", "UInt32": "<u4", "Int64": "<i8"}
-    out = {}
-    pat = r'<DataArray type="(\w+)" Name="(\w+)" NumberOfComponents="(\d+)" format="appended" offset="(\d+)"'
-    for ty, name, k, off in re.findall(pat, head):
-        k, off = int(k), int(off)
-        n = int(np.frombuffer(b[start + off:start + off + 8], "<u8")[0])
-        a = np.frombuffer(b[start + off + 8:start + off + 8 + n], types[ty])
-        out[name] = a.reshape(-1, k) if k > 1 else a
-    return out
+    """The point arrays of a cleave .vtp: the docs' own reader
+    (``docs/scripts/crack_band.py``), which the measurements use."""
+    spec = importlib.util.spec_from_file_location("crack_band", REPO / "docs" / "scripts" / "crack_band.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.read_vtp(path)
 
 
 class Proxy:

@@ -296,9 +296,7 @@ class Validation:
     def raise_for_errors(self) -> None:
         """Raises :class:`~cleave_client.InvalidScene` naming every field."""
         if not self.valid:
-            text = "\n".join(str(e) for e in self.errors)
-            raise errors.InvalidScene(f"invalid scene: {text}",
-                                      grpc.StatusCode.INVALID_ARGUMENT, self.errors)
+            raise errors.InvalidScene.of(self.errors)
 
 
 def _target(url: str) -> tuple[str, bool]:

@@ -54,6 +54,14 @@ class InvalidScene(InvalidArgument):
     """``INVALID_ARGUMENT`` for a scene: ``fields`` holds every problem with
     its path into the scene."""
 
+    @classmethod
+    def of(cls, fields) -> "InvalidScene":
+        """The refusal of a scene with these problems, worded as the server
+        words it: ``invalid scene:`` and a line per problem."""
+        fields = tuple(fields)
+        return cls("invalid scene: " + "\n".join(str(f) for f in fields),
+                   grpc.StatusCode.INVALID_ARGUMENT, fields)
+
 
 class NotFound(CleaveError):
     """``NOT_FOUND``: no such job or snapshot."""

@@ -21,7 +21,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional, Union
 
-import grpc
 import numpy as np
 
 from . import errors
@@ -64,8 +63,7 @@ def set_key(doc: dict, key: str, value: Any) -> None:
     are made); ``"on"``/``"off"`` switch a whole table. Raises
     :class:`~cleave_client.InvalidScene` naming the key."""
     def bad(reason: str) -> errors.InvalidScene:
-        return errors.InvalidScene(f"invalid scene: {key}: {reason}", grpc.StatusCode.INVALID_ARGUMENT,
-                                   (errors.FieldError(key, reason),))
+        return errors.InvalidScene.of([errors.FieldError(key, reason)])
 
     try:
         segs = _segments(key)
@@ -382,8 +380,7 @@ def run(client, scene: SceneLike, vary, metric: str, reference: str = "finest",
         problems.extend(errors.FieldError(f.path, f"{f.reason} (with {tag})") for f in check.errors)
         variants.append((settings, d))
     if problems:
-        raise errors.InvalidScene("invalid scene: " + "\n".join(str(p) for p in problems),
-                                  grpc.StatusCode.INVALID_ARGUMENT, tuple(problems))
+        raise errors.InvalidScene.of(problems)
     out_dir = Path(out) if out is not None else None
     jobs = []
     for k, (_, d) in enumerate(variants):
