@@ -560,6 +560,7 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
             max_particles: u64::MAX,
             max_memory: None,
             max_queued: 100,
+            store: cleave::jobs::StoreSpec::Sqlite,
             // the overhead measured is that of the service alone
             checkpoint_every: None,
         },

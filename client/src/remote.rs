@@ -249,6 +249,7 @@ fn job_json(j: &proto::Job) -> serde_json::Value {
         "error": j.error,
         "particles": j.particles,
         "stages": j.stages,
+        "worker": j.worker,
         "progress": j.progress.as_ref().map(|p| json!({"step": p.step, "time": p.time, "fraction": p.fraction, "eta_seconds": p.eta_seconds})),
         "summary": j.summary.as_ref().map(summary_json),
     })
@@ -795,11 +796,15 @@ pub fn print_job(j: &proto::Job, json_out: bool) {
     if json_out {
         println!("{}", job_json(j));
     } else {
-        let extra = if j.error.is_empty() {
+        let mut extra = if j.error.is_empty() {
             String::new()
         } else {
             format!("  {}", j.error)
         };
+        // servers that share a queue say which runs the job
+        if !j.worker.is_empty() {
+            extra = format!("  [on {}]{extra}", j.worker);
+        }
         let state = match (&j.progress, j.state == proto::JobState::Running as i32) {
             (Some(p), true) => format!("{} {:.0}%", state_name(j.state), 100.0 * p.fraction),
             _ => state_name(j.state).to_string(),
@@ -842,6 +847,9 @@ pub fn print_job_details(j: &proto::Job) {
     println!("started:    {}", utc(j.started_at));
     println!("ended:      {}", utc(j.finished_at));
     println!("particles:  {}", j.particles);
+    if !j.worker.is_empty() {
+        println!("worker:     {}", j.worker);
+    }
     println!("plan:       {}", j.stages.join(" → "));
     if let Some(p) = &j.progress {
         println!(

@@ -57,6 +57,7 @@ impl Server {
                 max_particles: 1_000_000,
                 max_memory: None,
                 max_queued: 8,
+                store: cleave::jobs::StoreSpec::Sqlite,
                 checkpoint_every: None,
             },
             token: None,

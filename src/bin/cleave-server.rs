@@ -3,7 +3,7 @@
 //! how many threads, the bearer token, limits, TLS.
 
 use clap::Parser;
-use cleave::jobs::JobConfig;
+use cleave::jobs::{JobConfig, StoreSpec};
 use cleave::service::{serve, ServerConfig};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -15,9 +15,27 @@ struct Args {
     /// printed as `listening on ADDR`).
     #[arg(long, env = "CLEAVE_LISTEN", default_value = "127.0.0.1:50051")]
     listen: SocketAddr,
-    /// Directory of the job database and results.
+    /// Directory of the job database and results. With a PostgreSQL store,
+    /// the results' directory, which every server of the fleet must reach
+    /// (a shared file system).
     #[arg(long, env = "CLEAVE_DATA_DIR", default_value = "./cleave-data")]
     data_dir: PathBuf,
+    /// Where the job records live: `sqlite` (in the data directory, one
+    /// server) or a PostgreSQL URL, `postgres://user:password@host/db`,
+    /// that several servers share: each serves the API for every job and
+    /// runs jobs from the one queue.
+    #[arg(
+        long,
+        env = "CLEAVE_STORE",
+        default_value = "sqlite",
+        hide_env_values = true
+    )]
+    store: String,
+    /// Seconds a fleet server's claim on a running job lasts without
+    /// renewal (it renews four times a second): if its server dies, another
+    /// takes the job this long after, from its last checkpoint.
+    #[arg(long, env = "CLEAVE_LEASE", default_value_t = 10.0)]
+    lease: f64,
     /// Jobs running at once; the rest wait in the queue.
     #[arg(long, env = "CLEAVE_MAX_CONCURRENT_JOBS", default_value_t = 1)]
     max_concurrent_jobs: usize,
@@ -74,6 +92,7 @@ fn main() -> anyhow::Result<()> {
             max_particles: a.max_particles,
             max_memory: a.max_memory,
             max_queued: a.max_queued_jobs,
+            store: StoreSpec::parse(&a.store, a.lease).map_err(anyhow::Error::msg)?,
             checkpoint_every: match cleave::checkpoint::CheckpointTimer::interval(
                 a.checkpoint_every,
             )

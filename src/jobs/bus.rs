@@ -7,8 +7,8 @@ use super::{JobProgress, JobState, JobSummary};
 use std::sync::Mutex;
 use tokio::sync::watch;
 
-/// One event of a job.
-#[derive(Debug, Clone, PartialEq)]
+/// One event of a job (as JSON in a fleet's database).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum JobEvent {
     State {
         state: JobState,
@@ -69,6 +69,21 @@ impl JobBus {
     /// A receiver that changes whenever an event is appended.
     pub fn subscribe(&self) -> watch::Receiver<usize> {
         self.len.subscribe()
+    }
+
+    /// Number of events so far.
+    pub fn len(&self) -> usize {
+        *self.len.borrow()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Whether the job's last event has been appended.
+    pub fn is_final(&self) -> bool {
+        let events = self.events.lock().unwrap_or_else(|p| p.into_inner());
+        events.last().is_some_and(JobEvent::is_final)
     }
 
     pub fn last_progress(&self) -> Option<JobProgress> {

@@ -16,10 +16,12 @@
 //! shut-down server checkpoints its running jobs before it stops them.
 
 mod bus;
+pub mod pg;
 pub mod snapfile;
 mod store;
 
 pub use bus::{JobBus, JobEvent};
+pub use pg::PgStore;
 pub use store::Store;
 
 use crate::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
@@ -117,6 +119,9 @@ pub struct JobRecord {
     pub progress: Option<JobProgress>,
     /// The scene's `meta.name` (empty if it has none).
     pub scene_name: String,
+    /// In a fleet, the server (`host-pid`) that runs it or ran it last;
+    /// empty otherwise.
+    pub worker: String,
 }
 
 /// What can go wrong with a request.
@@ -132,6 +137,12 @@ pub enum JobError {
     Exhausted(String),
     #[error("{0}")]
     Store(String),
+    /// The job database cannot be reached (for now).
+    #[error("{0}")]
+    Unavailable(String),
+    /// A worker's claim on a job was taken over by another worker.
+    #[error("{0}")]
+    Fenced(String),
 }
 
 /// Limits and sizes of the job runner.
@@ -147,6 +158,52 @@ pub struct JobConfig {
     pub max_queued: usize,
     /// Wall time between a running job's checkpoints (None: none).
     pub checkpoint_every: Option<std::time::Duration>,
+    /// Where the job records live.
+    pub store: StoreSpec,
+}
+
+/// Where a server keeps its job records.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StoreSpec {
+    /// `cleave.sqlite` in the data directory: one server.
+    Sqlite,
+    /// A PostgreSQL database that several servers share (a fleet), with
+    /// the data directory on storage they all reach; a job's claim is
+    /// leased for `lease` and renewed every [`RENEW_EVERY`].
+    Postgres {
+        url: String,
+        lease: std::time::Duration,
+    },
+}
+
+impl StoreSpec {
+    /// `sqlite` (or empty), or a `postgres://` / `postgresql://` URL (or
+    /// key=value connection string starting with `host=`), leased for
+    /// `lease_s` seconds.
+    pub fn parse(text: &str, lease_s: f64) -> Result<StoreSpec, String> {
+        let t = text.trim();
+        if t.is_empty() || t == "sqlite" {
+            return Ok(StoreSpec::Sqlite);
+        }
+        if !(t.starts_with("postgres://")
+            || t.starts_with("postgresql://")
+            || t.starts_with("host="))
+        {
+            return Err(format!(
+                "--store: {t:?} is neither `sqlite` nor a PostgreSQL URL (postgres://user@host/db)"
+            ));
+        }
+        if !(lease_s.is_finite() && (1.0..=3600.0).contains(&lease_s)) {
+            return Err(format!(
+                "--lease: {lease_s} s; a lease is 1 to 3600 s (renewed every {} ms)",
+                RENEW_EVERY.as_millis()
+            ));
+        }
+        Ok(StoreSpec::Postgres {
+            url: t.to_string(),
+            lease: std::time::Duration::from_secs_f64(lease_s),
+        })
+    }
 }
 
 /// Seconds since the Unix epoch.
@@ -157,15 +214,59 @@ pub fn now() -> f64 {
 }
 
 struct Queue {
+    /// Jobs waiting to run (one server; a fleet's queue is its database).
     waiting: VecDeque<String>,
     /// Cancellation flags of the running jobs.
     running: HashMap<String, Arc<AtomicBool>>,
     shutdown: bool,
 }
 
+/// Where a manager keeps its jobs.
+enum Backend {
+    Local(Store),
+    Fleet(Box<Fleet>),
+}
+
+/// A server's part in a fleet.
+struct Fleet {
+    /// The connection of the API's calls.
+    api: PgStore,
+    /// This server's name in claims (`host-pid`).
+    worker: String,
+    lease: std::time::Duration,
+    /// The jobs this server runs, by id.
+    held: Mutex<HashMap<String, Held>>,
+    /// The database answered the last renewal or ping.
+    reachable: AtomicBool,
+}
+
+/// A job this server has claimed.
+struct Held {
+    token: i64,
+    cancel: Arc<AtomicBool>,
+    /// The claim is no longer ours (or may not be): write nothing more.
+    lost: Arc<AtomicBool>,
+}
+
+impl Backend {
+    fn get(&self, id: &str) -> Result<JobRecord, JobError> {
+        match self {
+            Backend::Local(s) => s.get(id),
+            Backend::Fleet(f) => f.api.get(id),
+        }
+    }
+
+    fn job_dir(&self, id: &str) -> PathBuf {
+        match self {
+            Backend::Local(s) => s.job_dir(id),
+            Backend::Fleet(f) => f.api.job_dir(id),
+        }
+    }
+}
+
 struct Inner {
     config: JobConfig,
-    store: Store,
+    store: Backend,
     queue: Mutex<Queue>,
     wake: Condvar,
     buses: Mutex<HashMap<String, Arc<JobBus>>>,
@@ -182,32 +283,69 @@ pub struct JobManager {
 /// Snapshot metadata of a finished or running job.
 pub type SnapshotHeader = snapfile::SnapshotHeader;
 
+/// How often an idle fleet runner asks the database for a job.
+const CLAIM_POLL: std::time::Duration = std::time::Duration::from_millis(250);
+/// How often a fleet server renews its leases (and so learns of a cancel
+/// asked for on another server).
+const RENEW_EVERY: std::time::Duration = std::time::Duration::from_millis(250);
+/// How often a fleet server reads the new events of the jobs watched on it.
+pub const EVENT_POLL: std::time::Duration = std::time::Duration::from_millis(100);
+
+/// This process's name in a fleet: the host's name and the process id.
+fn worker_name() -> String {
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|h| h.trim().to_string())
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "host".into());
+    format!("{host}-{}", std::process::id())
+}
+
 impl JobManager {
-    /// Opens the store, settles jobs a previous server left behind (running
-    /// ones resume from their checkpoint, first in the queue, or without
-    /// one become FAILED "server stopped"; queued ones are queued again),
-    /// and starts the runner threads.
+    /// Opens the store and starts the runner threads. With SQLite (one
+    /// server) it first settles the jobs a previous server left behind:
+    /// running ones resume from their checkpoint, first in the queue, or
+    /// without one become FAILED "server stopped"; queued ones are queued
+    /// again. In a fleet there is nothing to settle: a job whose server
+    /// died is claimed again when its lease lapses.
     pub fn start(config: JobConfig) -> Result<JobManager, JobError> {
-        let store = Store::open(&config.data_dir)?;
-        let queued = store.ids_in_state(JobState::Queued)?;
         let mut waiting = VecDeque::new();
-        for id in store.ids_in_state(JobState::Running)? {
-            if checkpoint_path(&store.job_dir(&id)).exists() {
-                store.set_state(&id, JobState::Queued)?;
-                tracing::warn!(job = %id, "the server stopped while it was running: queued to resume from its checkpoint");
-                waiting.push_back(id);
-            } else {
-                store.finish(
-                    &id,
-                    JobState::Failed,
-                    now(),
-                    Some("server stopped while the job was running"),
-                    None,
-                )?;
-                tracing::warn!(job = %id, "marked FAILED: the server stopped while it was running");
+        let store = match &config.store {
+            StoreSpec::Sqlite => {
+                let store = Store::open(&config.data_dir)?;
+                let queued = store.ids_in_state(JobState::Queued)?;
+                for id in store.ids_in_state(JobState::Running)? {
+                    if checkpoint_path(&store.job_dir(&id)).exists() {
+                        store.set_state(&id, JobState::Queued)?;
+                        tracing::warn!(job = %id, "the server stopped while it was running: queued to resume from its checkpoint");
+                        waiting.push_back(id);
+                    } else {
+                        store.finish(
+                            &id,
+                            JobState::Failed,
+                            now(),
+                            Some("server stopped while the job was running"),
+                            None,
+                        )?;
+                        tracing::warn!(job = %id, "marked FAILED: the server stopped while it was running");
+                    }
+                }
+                waiting.extend(queued);
+                Backend::Local(store)
             }
-        }
-        waiting.extend(queued);
+            StoreSpec::Postgres { url, lease } => {
+                let worker = worker_name();
+                tracing::info!(%worker, lease_s = lease.as_secs_f64(), "a worker of the fleet");
+                Backend::Fleet(Box::new(Fleet {
+                    api: PgStore::open(url, &config.data_dir)?,
+                    worker,
+                    lease: *lease,
+                    held: Mutex::new(HashMap::new()),
+                    reachable: AtomicBool::new(true),
+                }))
+            }
+        };
         let inner = Arc::new(Inner {
             store,
             queue: Mutex::new(Queue {
@@ -220,19 +358,38 @@ impl JobManager {
             stopping: AtomicBool::new(false),
             config,
         });
+        let spawn = |name: String, f: Box<dyn FnOnce() + Send>| {
+            std::thread::Builder::new()
+                .name(name)
+                .spawn(f)
+                .map(|_| ())
+                .map_err(|e| JobError::Store(format!("cannot start a thread: {e}")))
+        };
         for k in 0..inner.config.max_concurrent.max(1) {
             let inner = inner.clone();
-            std::thread::Builder::new()
-                .name(format!("cleave-runner-{k}"))
-                .spawn(move || runner(inner))
-                .map_err(|e| JobError::Store(format!("cannot start a runner thread: {e}")))?;
+            spawn(
+                format!("cleave-runner-{k}"),
+                Box::new(move || runner(inner)),
+            )?;
+        }
+        if let Backend::Fleet(f) = &inner.store {
+            let (keeper, pump) = (f.api.connection(), f.api.connection());
+            let i = inner.clone();
+            spawn(
+                "cleave-leases".into(),
+                Box::new(move || keeper_loop(i, keeper)),
+            )?;
+            let i = inner.clone();
+            spawn("cleave-events".into(), Box::new(move || pump_loop(i, pump)))?;
         }
         Ok(JobManager { inner })
     }
 
     /// Stops taking jobs from the queue. Running jobs finish their step and
     /// stop; with checkpoints on, they save one first and the next server
-    /// resumes them, otherwise they are cancelled.
+    /// resumes them (in a fleet, any server: the job goes back to the
+    /// queue), otherwise they are cancelled (in a fleet, queued again to
+    /// run from the start).
     pub fn shutdown(&self) {
         let mut q = lock(&self.inner.queue);
         q.shutdown = true;
@@ -260,6 +417,15 @@ impl JobManager {
 
     pub fn config(&self) -> &JobConfig {
         &self.inner.config
+    }
+
+    /// Whether the job store answers (always, for SQLite; in a fleet, the
+    /// database answered within the last renewal period).
+    pub fn store_reachable(&self) -> bool {
+        match &self.inner.store {
+            Backend::Local(_) => true,
+            Backend::Fleet(f) => f.reachable.load(Ordering::SeqCst),
+        }
     }
 
     /// Checks a scene, its memory estimate against this server's budget
@@ -300,29 +466,38 @@ impl JobManager {
                 self.inner.config.max_particles
             )));
         }
-        let mut q = lock(&self.inner.queue);
-        if q.waiting.len() >= self.inner.config.max_queued {
-            return Err(JobError::Exhausted(format!(
-                "{} jobs are already queued (the limit is {})",
-                q.waiting.len(),
-                self.inner.config.max_queued
-            )));
-        }
+        let max_queued = self.inner.config.max_queued;
+        let too_many = |n: usize| {
+            JobError::Exhausted(format!(
+                "{n} jobs are already queued (the limit is {max_queued})"
+            ))
+        };
         let stages: Vec<String> = scene.plan.names().into_iter().map(String::from).collect();
-        let id = self.inner.store.insert(
-            label,
-            text,
-            &scene.file.meta.name,
-            now(),
-            particles,
-            &stages,
-        )?;
-        let bus = Arc::new(JobBus::new());
-        bus.push_state(JobState::Queued, None);
-        lock(&self.inner.buses).insert(id.clone(), bus);
-        q.waiting.push_back(id.clone());
+        let name = &scene.file.meta.name;
+        let id = match &self.inner.store {
+            Backend::Local(store) => {
+                let mut q = lock(&self.inner.queue);
+                if q.waiting.len() >= max_queued {
+                    return Err(too_many(q.waiting.len()));
+                }
+                let id = store.insert(label, text, name, now(), particles, &stages)?;
+                let bus = Arc::new(JobBus::new());
+                bus.push_state(JobState::Queued, None);
+                lock(&self.inner.buses).insert(id.clone(), bus);
+                q.waiting.push_back(id.clone());
+                id
+            }
+            Backend::Fleet(f) => {
+                // the fleet's queue: its limit is checked, not held, while
+                // other servers queue too
+                let n = f.api.count_in_state(JobState::Queued)?;
+                if n >= max_queued {
+                    return Err(too_many(n));
+                }
+                f.api.insert(label, text, name, now(), particles, &stages)?
+            }
+        };
         self.inner.wake.notify_one();
-        drop(q);
         tracing::info!(job = %id, particles, "queued");
         self.get(&id)
     }
@@ -330,9 +505,12 @@ impl JobManager {
     /// A job with its latest progress.
     pub fn get(&self, id: &str) -> Result<JobRecord, JobError> {
         let mut r = self.inner.store.get(id)?;
-        if let Some(bus) = lock(&self.inner.buses).get(id) {
-            r.progress = bus.last_progress();
-        }
+        r.progress = match &self.inner.store {
+            Backend::Local(_) => lock(&self.inner.buses)
+                .get(id)
+                .and_then(|bus| bus.last_progress()),
+            Backend::Fleet(f) => f.api.last_progress(id)?,
+        };
         Ok(r)
     }
 
@@ -352,21 +530,35 @@ impl JobManager {
                     .map_err(|_| JobError::Precondition(format!("invalid page_token {token:?}")))?,
             )
         };
-        let (jobs, next) =
-            self.inner
-                .store
-                .list(page_size.clamp(1, 1000), after, state, with_scene)?;
+        let size = page_size.clamp(1, 1000);
+        let (jobs, next) = match &self.inner.store {
+            Backend::Local(s) => s.list(size, after, state, with_scene)?,
+            Backend::Fleet(f) => f.api.list(size, after, state, with_scene)?,
+        };
         Ok((jobs, next.map(|n| n.to_string()).unwrap_or_default()))
     }
 
     /// Cancels a queued or running job; a finished job is returned as is.
+    /// In a fleet, a job running on another server stops at that server's
+    /// next lease renewal (within [`RENEW_EVERY`]).
     pub fn cancel(&self, id: &str) -> Result<JobRecord, JobError> {
-        let record = self.inner.store.get(id)?;
+        let store = match &self.inner.store {
+            Backend::Local(store) => store,
+            Backend::Fleet(f) => {
+                if f.api.cancel(id, now())? == JobState::Running {
+                    if let Some(flag) = lock(&self.inner.queue).running.get(id) {
+                        flag.store(true, Ordering::SeqCst);
+                    }
+                }
+                return self.get(id);
+            }
+        };
+        let record = store.get(id)?;
         let mut q = lock(&self.inner.queue);
         if let Some(pos) = q.waiting.iter().position(|j| j == id) {
             q.waiting.remove(pos);
             drop(q);
-            self.inner.store.finish(
+            store.finish(
                 id,
                 JobState::Cancelled,
                 now(),
@@ -386,24 +578,33 @@ impl JobManager {
     }
 
     /// The event log of a job (rebuilt from the store for jobs of an
-    /// earlier server).
+    /// earlier server; in a fleet, read from the database and kept up to
+    /// date every [`EVENT_POLL`] while someone watches it).
     pub fn bus(&self, id: &str) -> Arc<JobBus> {
         let mut buses = lock(&self.inner.buses);
         if let Some(b) = buses.get(id) {
             return b.clone();
         }
         let bus = Arc::new(JobBus::new());
-        if let Ok(r) = self.inner.store.get(id) {
-            bus.push_state(JobState::Queued, None);
-            if r.started_at.is_some() {
-                bus.push_state(JobState::Running, None);
-            }
-            if r.state.is_final() {
-                if let Some(s) = r.summary {
-                    bus.push(JobEvent::Summary(s));
+        match &self.inner.store {
+            Backend::Local(store) => {
+                if let Ok(r) = store.get(id) {
+                    bus.push_state(JobState::Queued, None);
+                    if r.started_at.is_some() {
+                        bus.push_state(JobState::Running, None);
+                    }
+                    if r.state.is_final() {
+                        if let Some(s) = r.summary {
+                            bus.push(JobEvent::Summary(s));
+                        }
+                        bus.push_state(r.state, r.error.clone());
+                    }
                 }
-                bus.push_state(r.state, r.error.clone());
             }
+            Backend::Fleet(f) => match f.api.events_since(id, 0) {
+                Ok(events) => events.into_iter().for_each(|e| bus.push(e)),
+                Err(e) => tracing::warn!(job = %id, error = %e, "cannot read the job's events yet"),
+            },
         }
         buses.insert(id.to_string(), bus.clone());
         bus
@@ -494,50 +695,353 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// A runner thread: takes queued jobs one at a time until shutdown.
+/// A runner thread: takes jobs one at a time until shutdown, from the
+/// server's queue or, in a fleet, by claiming them in the database.
 fn runner(inner: Arc<Inner>) {
+    let fleet_conn = match &inner.store {
+        Backend::Local(_) => None,
+        Backend::Fleet(f) => Some(f.api.connection()),
+    };
+    let mut last_warning: Option<Instant> = None;
     loop {
-        let (id, cancel) = {
+        let taken = {
             let mut q = lock(&inner.queue);
             loop {
                 if q.shutdown {
                     return;
                 }
-                if let Some(id) = q.waiting.pop_front() {
-                    let flag = Arc::new(AtomicBool::new(false));
-                    q.running.insert(id.clone(), flag.clone());
-                    break (id, flag);
+                let Some(pg) = &fleet_conn else {
+                    if let Some(id) = q.waiting.pop_front() {
+                        break (id, None);
+                    }
+                    q = inner.wake.wait(q).unwrap_or_else(|p| p.into_inner());
+                    continue;
+                };
+                let Backend::Fleet(f) = &inner.store else {
+                    unreachable!("a fleet connection is made only for a fleet")
+                };
+                drop(q);
+                match pg.claim(&f.worker, f.lease.as_secs_f64(), now()) {
+                    Ok(Some(claim)) => {
+                        q = lock(&inner.queue);
+                        if q.shutdown {
+                            // taken as the server stopped: give it back
+                            drop(q);
+                            let _ = pg.release(&claim.id, claim.token, "the server is stopping");
+                            return;
+                        }
+                        break (claim.id.clone(), Some(claim));
+                    }
+                    Ok(None) => {}
+                    Err(e) => {
+                        if last_warning.is_none_or(|t| t.elapsed().as_secs() >= 10) {
+                            tracing::warn!(error = %e, "cannot claim jobs");
+                            last_warning = Some(Instant::now());
+                        }
+                    }
                 }
-                q = inner.wake.wait(q).unwrap_or_else(|p| p.into_inner());
+                q = lock(&inner.queue);
+                if !q.shutdown {
+                    q = inner
+                        .wake
+                        .wait_timeout(q, CLAIM_POLL)
+                        .unwrap_or_else(|p| p.into_inner())
+                        .0;
+                }
             }
         };
+        let (id, claim) = taken;
+        let cancel = Arc::new(AtomicBool::new(false));
+        lock(&inner.queue)
+            .running
+            .insert(id.clone(), cancel.clone());
         let manager = JobManager {
             inner: inner.clone(),
         };
-        let bus = manager.bus(&id);
-        if let Err(e) = run_job(&inner, &id, &bus, &cancel) {
-            tracing::error!(job = %id, error = %e, "job bookkeeping failed");
-            let msg = format!("internal error: {e}");
-            let _ = inner
-                .store
-                .finish(&id, JobState::Failed, now(), Some(&msg), None);
-            bus.push_state(JobState::Failed, Some(msg));
+        match (&inner.store, claim, &fleet_conn) {
+            (Backend::Local(store), _, _) => {
+                let bus = manager.bus(&id);
+                let ledger = Ledger::Local { store, bus: &bus };
+                if let Err(e) = run_job(&inner, &id, &ledger, &cancel, None) {
+                    tracing::error!(job = %id, error = %e, "job bookkeeping failed");
+                    let msg = format!("internal error: {e}");
+                    let _ = ledger.end(&id, JobState::Failed, Some(&msg), None);
+                }
+            }
+            (Backend::Fleet(f), Some(claim), Some(pg)) => {
+                let lost = Arc::new(AtomicBool::new(false));
+                lock(&f.held).insert(
+                    id.clone(),
+                    Held {
+                        token: claim.token,
+                        cancel: cancel.clone(),
+                        lost: lost.clone(),
+                    },
+                );
+                if claim.rerun {
+                    tracing::warn!(job = %id, token = claim.token, "claimed a job that ran before (its server stopped or died)");
+                }
+                let ledger = Ledger::Fleet {
+                    store: pg,
+                    token: claim.token,
+                    lost: &lost,
+                };
+                match run_job(&inner, &id, &ledger, &cancel, Some(&lost)) {
+                    Ok(()) => {}
+                    // the claim is gone: the job is its next owner's
+                    Err(JobError::Fenced(e)) => {
+                        tracing::warn!(job = %id, error = %e, "left to another server")
+                    }
+                    Err(e) => {
+                        tracing::error!(job = %id, error = %e, "job bookkeeping failed");
+                        let msg = format!("internal error: {e}");
+                        let _ = ledger.end(&id, JobState::Failed, Some(&msg), None);
+                    }
+                }
+                lock(&f.held).remove(&id);
+            }
+            _ => unreachable!("a fleet's runner always has a claim and a connection"),
         }
         lock(&inner.queue).running.remove(&id);
     }
 }
 
-/// Runs one job to its end and records the outcome.
+/// A fleet server's lease keeper: every [`RENEW_EVERY`] it renews the
+/// leases of the jobs it runs, passes on cancels asked for on any server,
+/// and stops a job whose claim was taken over. If the database cannot be
+/// reached for half a lease, it stops its jobs: their leases may lapse
+/// and another server take them, so this one must write nothing more (it
+/// has half a lease of margin for the step in progress). The job stays
+/// RUNNING in the database and is claimed again when its lease lapses.
+fn keeper_loop(inner: Arc<Inner>, pg: PgStore) {
+    let Backend::Fleet(f) = &inner.store else {
+        return;
+    };
+    let lease = f.lease.as_secs_f64();
+    let mut last_ok = Instant::now();
+    loop {
+        let held: Vec<(String, i64)> = lock(&f.held)
+            .iter()
+            .map(|(id, h)| (id.clone(), h.token))
+            .collect();
+        if held.is_empty() && lock(&inner.queue).shutdown {
+            return;
+        }
+        let asked = Instant::now();
+        let answer = if held.is_empty() {
+            pg.ping().map(|_| Vec::new())
+        } else {
+            pg.renew(&f.worker, &held, lease)
+        };
+        match answer {
+            Ok(leases) => {
+                last_ok = asked;
+                if !f.reachable.swap(true, Ordering::SeqCst) {
+                    tracing::info!("the database answers again");
+                }
+                let map = lock(&f.held);
+                for ((id, _), l) in held.iter().zip(leases) {
+                    let Some(h) = map.get(id) else { continue };
+                    match l {
+                        pg::Lease::Held { cancel: true } => h.cancel.store(true, Ordering::SeqCst),
+                        pg::Lease::Held { cancel: false } => {}
+                        pg::Lease::Lost => {
+                            if !h.lost.swap(true, Ordering::SeqCst) {
+                                tracing::warn!(job = %id, "another server claimed the job: stopping it");
+                            }
+                            h.cancel.store(true, Ordering::SeqCst);
+                        }
+                    }
+                }
+            }
+            Err(e) => {
+                if f.reachable.swap(false, Ordering::SeqCst) {
+                    tracing::warn!(error = %e, "the database does not answer");
+                }
+                if last_ok.elapsed().as_secs_f64() > 0.5 * lease {
+                    for (id, h) in lock(&f.held).iter() {
+                        if !h.lost.swap(true, Ordering::SeqCst) {
+                            tracing::warn!(job = %id, "no lease renewal for half a lease: stopping the job, another server will resume it");
+                        }
+                        h.cancel.store(true, Ordering::SeqCst);
+                    }
+                }
+            }
+        }
+        std::thread::sleep(RENEW_EVERY);
+    }
+}
+
+/// A fleet server's event pump: every [`EVENT_POLL`] it appends the new
+/// events of each job watched on this server to its log, from the
+/// database, and forgets the logs no one watches.
+fn pump_loop(inner: Arc<Inner>, pg: PgStore) {
+    loop {
+        if lock(&inner.queue).shutdown {
+            return;
+        }
+        let buses: Vec<(String, Arc<JobBus>)> = {
+            let mut map = lock(&inner.buses);
+            // a log only the map holds has no watcher
+            map.retain(|_, b| Arc::strong_count(b) > 1);
+            map.iter()
+                .filter(|(_, b)| !b.is_final())
+                .map(|(id, b)| (id.clone(), b.clone()))
+                .collect()
+        };
+        for (id, bus) in buses {
+            match pg.events_since(&id, bus.len()) {
+                Ok(events) => events.into_iter().for_each(|e| bus.push(e)),
+                Err(e) => {
+                    tracing::debug!(job = %id, error = %e, "cannot read events");
+                    break;
+                }
+            }
+        }
+        std::thread::sleep(EVENT_POLL);
+    }
+}
+
+/// Where a running job's record and events go.
+enum Ledger<'a> {
+    /// One server: the SQLite store and the in-memory log.
+    Local { store: &'a Store, bus: &'a JobBus },
+    /// A fleet: the database, every write fenced by the claim's token.
+    Fleet {
+        store: &'a PgStore,
+        token: i64,
+        lost: &'a AtomicBool,
+    },
+}
+
+impl Ledger<'_> {
+    /// Appends an event (a progress event that the database does not take
+    /// is dropped: the next one carries the news).
+    fn event(&self, id: &str, e: JobEvent) {
+        match self {
+            Ledger::Local { bus, .. } => bus.push(e),
+            Ledger::Fleet { store, token, lost } => {
+                if lost.load(Ordering::SeqCst) {
+                    return;
+                }
+                match store.push(id, *token, &e) {
+                    Ok(()) => {}
+                    Err(JobError::Fenced(_)) => lost.store(true, Ordering::SeqCst),
+                    Err(err) => {
+                        tracing::debug!(job = %id, error = %err, "an event was not recorded")
+                    }
+                }
+            }
+        }
+    }
+
+    /// The job's record. In a fleet the database may be away for a moment
+    /// (a restart): asked again until it answers or the claim is lost.
+    fn record(&self, id: &str) -> Result<JobRecord, JobError> {
+        match self {
+            Ledger::Local { store, .. } => store.get(id),
+            Ledger::Fleet { store, lost, .. } => {
+                Self::retried(id, lost, "read the job", || store.get(id))
+            }
+        }
+    }
+
+    /// `f` until it does not fail for want of the database, or the claim
+    /// is lost.
+    fn retried<T>(
+        id: &str,
+        lost: &AtomicBool,
+        what: &str,
+        mut f: impl FnMut() -> Result<T, JobError>,
+    ) -> Result<T, JobError> {
+        loop {
+            if lost.load(Ordering::SeqCst) {
+                return Err(JobError::Fenced(format!(
+                    "{id}: this server's claim lapsed before it could {what}"
+                )));
+            }
+            match f() {
+                Err(JobError::Unavailable(e)) => {
+                    tracing::warn!(job = %id, error = %e, "cannot {what} yet: retrying");
+                    std::thread::sleep(RENEW_EVERY);
+                }
+                other => return other,
+            }
+        }
+    }
+
+    /// The job has started (a fleet's claim recorded it already).
+    fn started(&self, id: &str) -> Result<(), JobError> {
+        if let Ledger::Local { store, bus } = self {
+            store.set_running(id, now())?;
+            bus.push_state(JobState::Running, None);
+        }
+        Ok(())
+    }
+
+    /// Records a job's end: its state, error and summary, and the events
+    /// that tell it. In a fleet the database may be away for a moment (a
+    /// restart): the end is retried until it is recorded or the claim is
+    /// lost (the job's next owner then runs it from its checkpoint).
+    fn end(
+        &self,
+        id: &str,
+        state: JobState,
+        error: Option<&str>,
+        summary: Option<&JobSummary>,
+    ) -> Result<(), JobError> {
+        match self {
+            Ledger::Local { store, bus } => {
+                store.finish(id, state, now(), error, summary)?;
+                if let Some(s) = summary {
+                    bus.push(JobEvent::Summary(*s));
+                }
+                bus.push_state(state, error.map(String::from));
+                Ok(())
+            }
+            Ledger::Fleet { store, token, lost } => {
+                Self::retried(id, lost, "record the job's end", || {
+                    store.finish(id, *token, state, now(), error, summary)
+                })
+            }
+        }
+    }
+
+    /// The server is stopping: the job waits for the next server (one
+    /// server: the store keeps it RUNNING until this server starts again;
+    /// a fleet: it goes back to the queue for any server).
+    fn stopped(&self, id: &str, why: &str) -> Result<(), JobError> {
+        match self {
+            Ledger::Local { bus, .. } => {
+                bus.push_state(JobState::Queued, Some(why.into()));
+                Ok(())
+            }
+            Ledger::Fleet { store, token, lost } => {
+                Self::retried(id, lost, "give the job back", || {
+                    store.release(id, *token, why)
+                })
+            }
+        }
+    }
+
+    fn is_fleet(&self) -> bool {
+        matches!(self, Ledger::Fleet { .. })
+    }
+}
+
+/// Runs one job to its end and records the outcome. `lost` (a fleet) is
+/// set when this server's claim is no longer safe: the job stops and
+/// writes nothing more.
 fn run_job(
     inner: &Inner,
     id: &str,
-    bus: &JobBus,
+    ledger: &Ledger<'_>,
     cancel: &Arc<AtomicBool>,
+    lost: Option<&Arc<AtomicBool>>,
 ) -> Result<(), JobError> {
-    let record = inner.store.get(id)?;
+    let record = ledger.record(id)?;
     let scene = Scene::from_text(&record.scene, None)?;
-    inner.store.set_running(id, now())?;
-    bus.push_state(JobState::Running, None);
+    ledger.started(id)?;
     tracing::info!(job = %id, "running");
     let dir = inner.store.job_dir(id);
     std::fs::create_dir_all(&dir)
@@ -548,11 +1052,7 @@ fn run_job(
             Ok(r) => Some(r),
             Err(e) => {
                 let msg = format!("cannot resume from its checkpoint: {e}");
-                inner
-                    .store
-                    .finish(id, JobState::Failed, now(), Some(&msg), None)?;
-                bus.push_state(JobState::Failed, Some(msg));
-                return Ok(());
+                return ledger.end(id, JobState::Failed, Some(&msg), None);
             }
         }
     } else {
@@ -570,10 +1070,12 @@ fn run_job(
         }
     };
     let mut observer = JobObserver {
+        id,
         dir: dir.clone(),
         series: std::io::BufWriter::new(series),
-        bus,
+        ledger,
         cancel: cancel.clone(),
+        lost: lost.cloned(),
         started: Instant::now(),
         last_emit: None,
         snapshots: saved.snapshots,
@@ -600,25 +1102,28 @@ fn run_job(
             sim.run(&mut observer).map_err(|e| e.to_string())
         }))
     });
+    if observer.is_lost() {
+        // another server owns the job now: its files and record are its
+        tracing::warn!(job = %id, "stopped without recording anything: the claim was lost");
+        return Ok(());
+    }
     let _ = std::io::Write::flush(&mut observer.series);
     let wall = observer.wall_before + observer.started.elapsed().as_secs_f64();
-    if inner.stopping.load(Ordering::SeqCst)
-        && observer.stop_next
+    let stopped_by_server = inner.stopping.load(Ordering::SeqCst)
         && matches!(&outcome, Ok(Ok(s)) if s.cancelled)
-    {
-        // stopped by the server's shutdown after a checkpoint: the next
-        // server resumes it (the store keeps it RUNNING until then)
-        bus.push_state(
-            JobState::Queued,
-            Some(
-                "the server is stopping; the job resumes from its checkpoint when it starts again"
-                    .into(),
-            ),
-        );
+        // one server resumes only what it checkpointed; a fleet runs an
+        // unsaved job again from the start
+        && (observer.stop_next || ledger.is_fleet());
+    if stopped_by_server {
+        let why = if observer.stop_next {
+            "the server is stopping; the job resumes from its checkpoint when it starts again"
+        } else {
+            "the server is stopping; the job runs again from the start on the next server"
+        };
+        ledger.stopped(id, why)?;
         tracing::info!(job = %id, "checkpointed for the next server");
         return Ok(());
     }
-    let _ = std::fs::remove_file(&cp_path);
     let mut summary = JobSummary {
         wall_seconds: wall,
         snapshots: observer.snapshots,
@@ -656,11 +1161,10 @@ fn run_job(
             )
         }
     };
-    inner
-        .store
-        .finish(id, state, now(), error.as_deref(), Some(&summary))?;
-    bus.push(JobEvent::Summary(summary));
-    bus.push_state(state, error.clone());
+    // the checkpoint goes once the end is recorded: a server that dies
+    // between the two leaves a job that resumes, not one that restarts
+    ledger.end(id, state, error.as_deref(), Some(&summary))?;
+    let _ = std::fs::remove_file(&cp_path);
     tracing::info!(job = %id, state = state.as_str(), error = error.as_deref().unwrap_or(""), wall, "finished");
     Ok(())
 }
@@ -706,10 +1210,13 @@ fn resume_job(
 
 /// Streams a running job's results to its directory and its event log.
 struct JobObserver<'a> {
+    id: &'a str,
     dir: PathBuf,
     series: std::io::BufWriter<std::fs::File>,
-    bus: &'a JobBus,
+    ledger: &'a Ledger<'a>,
     cancel: Arc<AtomicBool>,
+    /// A fleet: the claim is lost, write nothing more.
+    lost: Option<Arc<AtomicBool>>,
     started: Instant,
     last_emit: Option<(Instant, f64)>,
     snapshots: u32,
@@ -723,8 +1230,17 @@ struct JobObserver<'a> {
     stop_next: bool,
 }
 
+impl JobObserver<'_> {
+    fn is_lost(&self) -> bool {
+        self.lost.as_ref().is_some_and(|l| l.load(Ordering::SeqCst))
+    }
+}
+
 impl Observer for JobObserver<'_> {
     fn checkpoint(&mut self, mut cp: crate::checkpoint::Checkpoint<'_>) -> Result<(), String> {
+        if self.is_lost() {
+            return Ok(());
+        }
         let series_bytes =
             crate::output::flushed_len(&mut self.series, &self.dir.join("series.csv"))
                 .map_err(|e| e.to_string())?;
@@ -747,6 +1263,9 @@ impl Observer for JobObserver<'_> {
 
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
         use std::io::Write;
+        if self.is_lost() {
+            return Ok(());
+        }
         crate::output::write_series_line(&mut self.series, row)
             .and_then(|_| self.series.flush())
             .map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))?;
@@ -756,7 +1275,7 @@ impl Observer for JobObserver<'_> {
     }
 
     fn snapshot(&mut self, snap: &Snapshot) -> Result<(), String> {
-        if self.cancel.load(Ordering::SeqCst) {
+        if self.cancel.load(Ordering::SeqCst) || self.is_lost() {
             return Ok(()); // cancelled: write nothing more
         }
         snapfile::write(&snapshot_path(&self.dir, snap.index), snap)?;
@@ -793,16 +1312,19 @@ impl Observer for JobObserver<'_> {
             } else {
                 0.0
             };
-            self.bus.push(JobEvent::Progress(JobProgress {
-                step: p.step,
-                time: p.time,
-                end_time: p.end_time,
-                fraction,
-                eta_seconds: eta,
-                kinetic_energy: p.kinetic_energy,
-                strain_energy: p.strain_energy,
-                wall_seconds: wall,
-            }));
+            self.ledger.event(
+                self.id,
+                JobEvent::Progress(JobProgress {
+                    step: p.step,
+                    time: p.time,
+                    end_time: p.end_time,
+                    fraction,
+                    eta_seconds: eta,
+                    kinetic_energy: p.kinetic_energy,
+                    strain_energy: p.strain_energy,
+                    wall_seconds: wall,
+                }),
+            );
             self.last_emit = Some((now, fraction));
         }
         if self.checkpoints.due(p) {

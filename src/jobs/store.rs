@@ -49,6 +49,7 @@ fn record(row: &rusqlite::Row<'_>) -> rusqlite::Result<JobRecord> {
         summary: summary.and_then(|s| serde_json::from_str(&s).ok()),
         progress: None,
         scene_name: row.get(11)?,
+        worker: String::new(),
     })
 }
 

@@ -35,6 +35,8 @@ fn status(e: JobError) -> Status {
         JobError::Precondition(m) => Status::failed_precondition(m),
         JobError::Exhausted(m) => Status::resource_exhausted(m),
         JobError::Store(m) => Status::internal(m),
+        JobError::Unavailable(m) => Status::unavailable(m),
+        JobError::Fenced(m) => Status::aborted(m),
     }
 }
 
@@ -242,6 +244,7 @@ fn job_to_proto(r: jobs::JobRecord, with_scene: bool) -> proto::Job {
         summary: r.summary.as_ref().map(summary_to_proto),
         scene: if with_scene { r.scene } else { String::new() },
         scene_name: r.scene_name,
+        worker: r.worker,
     }
 }
 
@@ -308,6 +311,9 @@ fn snapshot_to_proto(h: &jobs::SnapshotHeader) -> proto::SnapshotInfo {
         }),
     }
 }
+
+/// How often health reflects whether the job store answers.
+const HEALTH_EVERY: std::time::Duration = std::time::Duration::from_millis(250);
 
 /// Runs a blocking job-manager call off the async runtime.
 async fn blocking<T: Send + 'static>(
@@ -743,10 +749,38 @@ pub async fn serve_on(
     config: ServerConfig,
     shutdown: impl std::future::Future<Output = ()> + Send,
 ) -> anyhow::Result<()> {
-    let jobs = JobManager::start(config.jobs.clone())?;
+    // off the runtime: a fleet's store connects with a blocking client
+    let job_config = config.jobs.clone();
+    let jobs = tokio::task::spawn_blocking(move || JobManager::start(job_config)).await??;
     let addr = listener.local_addr()?;
     let (reporter, health) = tonic_health::server::health_reporter();
     reporter.set_serving::<CleaveServer<CleaveService>>().await;
+    // a fleet server whose database is away says so (it keeps serving
+    // what it can, and its health comes back with the database)
+    let watched = jobs.clone();
+    let health_task = tokio::spawn(async move {
+        use tonic_health::ServingStatus;
+        let mut serving = true;
+        loop {
+            tokio::time::sleep(HEALTH_EVERY).await;
+            let now = watched.store_reachable();
+            if now != serving {
+                serving = now;
+                let status = if now {
+                    ServingStatus::Serving
+                } else {
+                    ServingStatus::NotServing
+                };
+                reporter.set_service_status("", status).await;
+                reporter
+                    .set_service_status(
+                        <CleaveServer<CleaveService> as tonic::server::NamedService>::NAME,
+                        status,
+                    )
+                    .await;
+            }
+        }
+    });
     // Both reflection versions: grpcurl and other tools ask for either.
     let reflection_builder = || {
         tonic_reflection::server::Builder::configure()
@@ -787,6 +821,7 @@ pub async fn serve_on(
             shutdown,
         )
         .await?;
+    health_task.abort();
     jobs.shutdown();
     // the running jobs' last step and checkpoint (a minute is ample for
     // the largest scenes' checkpoint: `scenes/p1_plate.toml` writes ~0.4 GB)

@@ -107,6 +107,9 @@ class JobInfo:
     summary: Optional[Summary]
     scene: Optional[str]
     scene_name: str
+    #: The server (``host-pid``) that runs or ran the job, where servers
+    #: share a queue (``cleave-server --store postgres://...``); else "".
+    worker: str = ""
 
     @property
     def finished(self) -> bool:
@@ -128,6 +131,7 @@ class JobInfo:
             summary=Summary._of(j.summary) if j.HasField("summary") else None,
             scene=j.scene if full else None,
             scene_name=j.scene_name,
+            worker=j.worker,
         )
 
 
