@@ -5,6 +5,7 @@
 
 mod bench;
 mod bench_dfg;
+mod bench_fleet;
 mod bench_pf;
 mod bench_scene;
 mod gc_polar;
@@ -125,6 +126,24 @@ enum Command {
         /// back in the same process (the speed-up is against the first).
         #[arg(long, default_value = "1,2")]
         threads: String,
+    },
+    /// Jobs per hour of small jobs with one server on SQLite, one on
+    /// PostgreSQL and three sharing a PostgreSQL queue (real
+    /// `cleave-server` processes), and the PostgreSQL store's cost per job.
+    BenchFleet {
+        /// A PostgreSQL server's URL (`postgres://USER@HOST:PORT/postgres`)
+        /// on which the bench may create databases (`cleave_bench_*`).
+        #[arg(long)]
+        postgres: String,
+        /// Jobs per case.
+        #[arg(long, default_value_t = 60)]
+        jobs: usize,
+        /// Rounds (the cases alternate in each; medians are reported).
+        #[arg(long, default_value_t = 3)]
+        rounds: usize,
+        /// Markdown file for the table.
+        #[arg(long, default_value = "docs/fleet-performance.md")]
+        out: PathBuf,
     },
     /// Measure the overhead of running through a server (in this process)
     /// and the FetchFields throughput.
@@ -387,6 +406,7 @@ impl Command {
             | Command::Get { server, json, .. }
             | Command::Cancel { server, json, .. } => Some((server, *json)),
             Command::Bench { .. }
+            | Command::BenchFleet { .. }
             | Command::BenchService { .. }
             | Command::BenchPhaseField { .. }
             | Command::BenchDfg { .. }
@@ -536,6 +556,18 @@ fn local_main(command: Command) -> ExitCode {
             json,
         } => measure(&series, &metric, reference.as_deref(), json),
         Command::Plot { series, out } => match plot(&series, out.as_deref()) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                ExitCode::from(EXIT_FAILED)
+            }
+        },
+        Command::BenchFleet {
+            postgres,
+            jobs,
+            rounds,
+            out,
+        } => match bench_fleet::run(&postgres, jobs.max(1), rounds.max(1), &out) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("error: {e:#}");
@@ -1205,7 +1237,7 @@ fn remote_main(target: &remote::Target, command: Command) -> ExitCode {
                 Ok(ExitCode::SUCCESS)
             }
             Command::Cancel { job, json, .. } => remote::cancel_and_report(&mut client, &job, json).await,
-            Command::Bench { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } | Command::Metric { .. } => {
+            Command::Bench { .. } | Command::BenchFleet { .. } | Command::BenchService { .. } | Command::BenchPhaseField { .. } | Command::BenchDfg { .. } | Command::GcPolar { .. } | Command::Plot { .. } | Command::Metric { .. } => {
                 eprintln!("error: this command runs in this process; drop --server");
                 Ok(ExitCode::from(EXIT_INVALID))
             }

@@ -846,7 +846,11 @@ fn keeper_loop(inner: Arc<Inner>, pg: PgStore) {
                         pg::Lease::Held { cancel: true } => h.cancel.store(true, Ordering::SeqCst),
                         pg::Lease::Held { cancel: false } => {}
                         pg::Lease::Lost => {
-                            if !h.lost.swap(true, Ordering::SeqCst) {
+                            // a job that ended between the list and the
+                            // renewal is lost too, and harmlessly: its end
+                            // is recorded
+                            let ended = pg.get(id).is_ok_and(|r| r.state.is_final());
+                            if !h.lost.swap(true, Ordering::SeqCst) && !ended {
                                 tracing::warn!(job = %id, "another server claimed the job: stopping it");
                             }
                             h.cancel.store(true, Ordering::SeqCst);
@@ -1104,6 +1108,9 @@ fn run_job(
     });
     if observer.is_lost() {
         // another server owns the job now: its files and record are its
+        // (what the series writer still buffers is dropped, not flushed)
+        let JobObserver { series, .. } = observer;
+        drop(series.into_parts());
         tracing::warn!(job = %id, "stopped without recording anything: the claim was lost");
         return Ok(());
     }
@@ -1296,13 +1303,21 @@ impl Observer for JobObserver<'_> {
             }
             return Control::Stop;
         }
-        // At most one progress event per 1 % or 0.25 s.
+        // At most one progress event per 1 % or 0.25 s. In a fleet each
+        // is a database transaction and watchers read them every
+        // EVENT_POLL, so they are also that far apart (but the last).
         let now = Instant::now();
         let fraction = p.fraction();
+        let gap = if self.ledger.is_fleet() {
+            EVENT_POLL.as_secs_f64()
+        } else {
+            0.0
+        };
         let due = match self.last_emit {
             None => true,
             Some((t, f)) => {
-                fraction - f >= 0.01 || (now - t).as_secs_f64() >= 0.25 || fraction >= 1.0
+                let since = (now - t).as_secs_f64();
+                (fraction - f >= 0.01 && since >= gap) || since >= 0.25 || fraction >= 1.0
             }
         };
         if due {
