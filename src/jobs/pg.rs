@@ -392,58 +392,61 @@ impl PgStore {
         summary: Option<&JobSummary>,
     ) -> Result<(), JobError> {
         let text = summary.map(|s| serde_json::to_string(s).unwrap_or_default());
-        self.with(|c| {
-            let mut tx = c.transaction()?;
-            let n = tx.execute(
-                "UPDATE jobs SET state = $1, finished_at = $2, error = $3,
-                     summary = COALESCE($4, summary), lease_until = NULL
-                 WHERE id = $5 AND token = $6 AND state = 'RUNNING'",
-                &[&state.as_str(), &finished_at, &error, &text, &id, &token],
-            )?;
-            if n == 0 {
-                return Ok(false);
-            }
-            if let Some(s) = summary {
-                push_event(&mut tx, id, Some(token), &JobEvent::Summary(*s))?;
-            }
-            push_event(
-                &mut tx,
-                id,
-                Some(token),
-                &JobEvent::State {
-                    state,
-                    error: error.map(String::from),
-                },
-            )?;
-            tx.commit()?;
-            Ok(true)
-        })?
-        .then_some(())
-        .ok_or_else(|| fenced(id))
+        let mut events: Vec<JobEvent> =
+            summary.map(|s| JobEvent::Summary(*s)).into_iter().collect();
+        events.push(JobEvent::State {
+            state,
+            error: error.map(String::from),
+        });
+        self.fenced_transition(
+            id,
+            token,
+            "UPDATE jobs SET state = $3, finished_at = $4, error = $5,
+                 summary = COALESCE($6, summary), lease_until = NULL
+             WHERE id = $1 AND token = $2 AND state = 'RUNNING'",
+            &[&state.as_str(), &finished_at, &error, &text],
+            &events,
+        )
     }
 
     /// Gives a held job back to the queue (this server is stopping): the
     /// next claim runs it again, from its checkpoint if it saved one.
     pub fn release(&self, id: &str, token: i64, why: &str) -> Result<(), JobError> {
+        self.fenced_transition(
+            id,
+            token,
+            "UPDATE jobs SET state = 'QUEUED', worker = '', lease_until = NULL
+             WHERE id = $1 AND token = $2 AND state = 'RUNNING'",
+            &[],
+            &[JobEvent::State {
+                state: JobState::Queued,
+                error: Some(why.to_string()),
+            }],
+        )
+    }
+
+    /// Moves a running job on with `update` (whose `$1`, `$2` are the id
+    /// and the claim's token, followed by `params`) and records `events`,
+    /// in one transaction, if the claim is still this token's; `Fenced`
+    /// if another claim took the job (nothing is written then).
+    fn fenced_transition(
+        &self,
+        id: &str,
+        token: i64,
+        update: &str,
+        params: &[&(dyn postgres::types::ToSql + Sync)],
+        events: &[JobEvent],
+    ) -> Result<(), JobError> {
+        let mut all: Vec<&(dyn postgres::types::ToSql + Sync)> = vec![&id, &token];
+        all.extend_from_slice(params);
         self.with(|c| {
             let mut tx = c.transaction()?;
-            let n = tx.execute(
-                "UPDATE jobs SET state = 'QUEUED', worker = '', lease_until = NULL
-                 WHERE id = $1 AND token = $2 AND state = 'RUNNING'",
-                &[&id, &token],
-            )?;
-            if n == 0 {
+            if tx.execute(update, &all)? == 0 {
                 return Ok(false);
             }
-            push_event(
-                &mut tx,
-                id,
-                Some(token),
-                &JobEvent::State {
-                    state: JobState::Queued,
-                    error: Some(why.to_string()),
-                },
-            )?;
+            for e in events {
+                push_event(&mut tx, id, Some(token), e)?;
+            }
             tx.commit()?;
             Ok(true)
         })?
