@@ -516,6 +516,7 @@ fn a_3d_scene_with_what_is_still_2d_is_refused_by_the_methods_and_the_job_queue(
         max_memory: None,
         max_queued: 4,
         store: cleave::jobs::StoreSpec::Sqlite,
+        results: cleave::jobs::ResultsSpec::DataDir,
         checkpoint_every: None,
     })
     .unwrap();

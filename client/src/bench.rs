@@ -561,6 +561,7 @@ pub fn run_service(out: &Path, repeats: usize) -> anyhow::Result<()> {
             max_memory: None,
             max_queued: 100,
             store: cleave::jobs::StoreSpec::Sqlite,
+            results: cleave::jobs::ResultsSpec::DataDir,
             // the overhead measured is that of the service alone
             checkpoint_every: None,
         },

@@ -3,77 +3,115 @@
 //! throwaway PostgreSQL cluster with `.ci/postgres.sh` (as an unprivileged
 //! user). Where no PostgreSQL server is installed the tests say so and pass,
 //! unless `CLEAVE_REQUIRE_POSTGRES` is set, as `.ci/run` sets it after
-//! installing one.
+//! installing one. The results-in-a-bucket test starts an S3 endpoint
+//! (moto's server, `.ci/s3.sh`) the same way (`CLEAVE_REQUIRE_S3`).
 
 use cleave::jobs::{pg::Lease, JobError, JobEvent, JobState, PgStore};
 use cleave::service::proto::{self, cleave_client::CleaveClient, job_event::Event};
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
+
+mod common;
+use common::{cleave_bin, Server};
+
+/// A server of the fleet on the database at `url`.
+fn fleet_server(data: &Path, url: &str, flags: &[&str], env: &[(&str, String)]) -> Server {
+    let mut args = vec!["--store", url];
+    args.extend_from_slice(flags);
+    Server::start_in(data, &args, env)
+}
+
+fn same_files(a: &Path, b: &Path) {
+    common::same_files(a, b, 4)
+}
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn cleave_bin() -> PathBuf {
-    PathBuf::from(env!("CARGO_BIN_EXE_cleave"))
-}
-
-fn server_bin() -> PathBuf {
-    let p = cleave_bin().with_file_name(format!("cleave-server{}", std::env::consts::EXE_SUFFIX));
-    assert!(
-        p.exists(),
-        "{} is missing: run the tests with `cargo test --release --workspace`",
-        p.display()
-    );
-    p
-}
-
-/// A throwaway PostgreSQL cluster, stopped when dropped.
-struct Cluster {
+/// A throwaway service a `.ci` script starts in a temporary directory
+/// (`bash .ci/SCRIPT start DIR` prints its URL) and stops when dropped.
+struct Service {
+    script: &'static str,
     dir: tempfile::TempDir,
     url: String,
 }
 
-impl Cluster {
-    /// Starts one, or says why not (None) where PostgreSQL is not
-    /// installed and no one asked for it.
-    fn start() -> Option<Cluster> {
+impl Service {
+    /// Starts one, or says why not (None) where the service is not
+    /// installed (the script exits 3) and `require` is not set.
+    fn start(script: &'static str, require: &str, hint: &str) -> Option<Service> {
         let dir = tempfile::tempdir().unwrap();
         let o = Command::new("bash")
-            .arg(root().join(".ci/postgres.sh"))
+            .arg(root().join(".ci").join(script))
             .arg("start")
             .arg(dir.path())
             .output()
             .expect("run bash");
         if !o.status.success() {
             let why = String::from_utf8_lossy(&o.stderr);
-            if o.status.code() == Some(3) && std::env::var_os("CLEAVE_REQUIRE_POSTGRES").is_none() {
-                eprintln!("SKIPPED: {why} (install PostgreSQL to run the fleet tests)");
+            if o.status.code() == Some(3) && std::env::var_os(require).is_none() {
+                eprintln!("SKIPPED: {why} ({hint})");
                 return None;
             }
-            panic!("cannot start PostgreSQL: {why}");
+            panic!("{script} start: {why}");
         }
         let url = String::from_utf8_lossy(&o.stdout).trim().to_string();
-        Some(Cluster { dir, url })
+        Some(Service { script, dir, url })
     }
 
+    /// `bash .ci/SCRIPT WHAT DIR`, which must succeed.
     fn ctl(&self, what: &str) {
         let o = Command::new("bash")
-            .arg(root().join(".ci/postgres.sh"))
+            .arg(root().join(".ci").join(self.script))
             .arg(what)
             .arg(self.dir.path())
             .output()
             .unwrap();
         assert!(
             o.status.success(),
-            "postgres {what}: {}",
+            "{} {what}: {}",
+            self.script,
             String::from_utf8_lossy(&o.stderr)
         );
     }
+}
 
-    /// A new empty database; its URL. (On a thread of its own: the
+impl Drop for Service {
+    fn drop(&mut self) {
+        let _ = Command::new("bash")
+            .arg(root().join(".ci").join(self.script))
+            .arg("stop")
+            .arg(self.dir.path())
+            .output();
+    }
+}
+
+/// A throwaway PostgreSQL cluster (`Service::postgres`) or S3 endpoint
+/// with an empty bucket `cleave-test` (`Service::s3`, moto's server).
+impl Service {
+    /// A PostgreSQL cluster, or None where PostgreSQL is not installed and
+    /// no one asked for it.
+    fn postgres() -> Option<Service> {
+        Service::start(
+            "postgres.sh",
+            "CLEAVE_REQUIRE_POSTGRES",
+            "install PostgreSQL to run the fleet tests",
+        )
+    }
+
+    /// An S3 endpoint, or None where moto is not installed and no one
+    /// asked for it.
+    fn s3() -> Option<Service> {
+        Service::start(
+            "s3.sh",
+            "CLEAVE_REQUIRE_S3",
+            "pip install 'moto[server]' to run the bucket tests",
+        )
+    }
+
+    /// PostgreSQL: a new empty database; its URL. (On a thread of its own: the
     /// blocking client cannot run on an async test's runtime.)
     fn database(&self, name: &str) -> String {
         std::thread::scope(|s| {
@@ -86,67 +124,38 @@ impl Cluster {
         });
         self.url.replace("/postgres", &format!("/{name}"))
     }
-}
 
-impl Drop for Cluster {
-    fn drop(&mut self) {
-        let _ = Command::new("bash")
-            .arg(root().join(".ci/postgres.sh"))
-            .arg("stop")
-            .arg(self.dir.path())
-            .output();
+    /// S3: what a server needs in its environment to reach the bucket.
+    fn env(&self) -> Vec<(&'static str, String)> {
+        vec![
+            ("AWS_ENDPOINT", self.url.clone()),
+            ("AWS_ALLOW_HTTP", "true".into()),
+            ("AWS_REGION", "us-east-1".into()),
+            ("AWS_ACCESS_KEY_ID", "test".into()),
+            ("AWS_SECRET_ACCESS_KEY", "test".into()),
+        ]
     }
-}
 
-struct Server {
-    child: Child,
-    url: String,
-}
-
-impl Server {
-    fn start(data: &Path, store: &str, extra: &[&str]) -> Server {
-        let mut child = Command::new(server_bin())
-            .args(["--listen", "127.0.0.1:0", "--data-dir"])
-            .arg(data)
-            .args(["--threads-per-job", "1", "--store", store])
-            .args(extra)
-            .env("RUST_LOG", "warn")
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start cleave-server");
-        let mut line = String::new();
-        BufReader::new(child.stdout.take().unwrap())
-            .read_line(&mut line)
+    /// S3: the names of the objects under `prefix` (moto answers a listing
+    /// without a signature).
+    fn keys(&self, prefix: &str) -> Vec<String> {
+        let o = Command::new("python3")
+            .args([
+                "-c",
+                "import sys, urllib.request; print(urllib.request.urlopen(sys.argv[1]).read().decode())",
+            ])
+            .arg(format!(
+                "{}/cleave-test?list-type=2&prefix={prefix}",
+                self.url
+            ))
+            .output()
             .unwrap();
-        let addr = line
-            .trim()
-            .strip_prefix("listening on ")
-            .unwrap_or_else(|| panic!("unexpected server output {line:?}"))
-            .to_string();
-        Server {
-            child,
-            url: format!("http://{addr}"),
-        }
-    }
-
-    /// Its name in claims: `host-pid`.
-    fn pid_suffix(&self) -> String {
-        format!("-{}", self.child.id())
-    }
-
-    async fn client(&self) -> CleaveClient<tonic::transport::Channel> {
-        CleaveClient::connect(self.url.clone())
-            .await
-            .unwrap()
-            .max_decoding_message_size(usize::MAX)
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout)
+            .split("<Key>")
+            .skip(1)
+            .filter_map(|k| k.split_once("</Key>").map(|(k, _)| k.to_string()))
+            .collect()
     }
 }
 
@@ -198,25 +207,6 @@ fn fetch(server: &str, id: &str, out: &Path) {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-}
-
-fn same_files(a: &Path, b: &Path) {
-    let mut names: Vec<_> = std::fs::read_dir(a)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    names.sort();
-    assert!(names.len() >= 4, "too few files in {}", a.display());
-    for n in names {
-        let x = std::fs::read(a.join(&n)).unwrap();
-        let y = std::fs::read(b.join(&n)).unwrap_or_default();
-        assert!(
-            x == y,
-            "{n:?} differs between {} and {}",
-            a.display(),
-            b.display()
-        );
-    }
 }
 
 async fn submit(
@@ -280,6 +270,21 @@ async fn wait_until(
     }
 }
 
+/// Waits (up to 120 s) for the job to end; it must have succeeded.
+async fn wait_succeeded(c: &mut CleaveClient<tonic::transport::Channel>, id: &str) {
+    let j = wait_until(c, id, Duration::from_secs(120), "finished", |j| {
+        proto::JobState::try_from(j.state)
+            .is_ok_and(|s| s != proto::JobState::Queued && s != proto::JobState::Running)
+    })
+    .await;
+    assert_eq!(
+        j.state,
+        proto::JobState::Succeeded as i32,
+        "{id}: {}",
+        j.error
+    );
+}
+
 /// The whole event stream of a job, as one server tells it.
 async fn events(c: &mut CleaveClient<tonic::transport::Channel>, id: &str) -> Vec<proto::JobEvent> {
     let mut s = c
@@ -292,6 +297,22 @@ async fn events(c: &mut CleaveClient<tonic::transport::Channel>, id: &str) -> Ve
         out.push(e);
     }
     out
+}
+
+/// The step of the first progress after the last RUNNING of a job's
+/// events: where its last run started (a resumed run, at its checkpoint).
+fn last_run_starts_at(events: &[proto::JobEvent]) -> u64 {
+    let running = events
+        .iter()
+        .rposition(|e| matches!(&e.event, Some(Event::State(s)) if s.state == proto::JobState::Running as i32))
+        .expect("a RUNNING state");
+    events[running..]
+        .iter()
+        .find_map(|e| match &e.event {
+            Some(Event::Progress(p)) => Some(p.step),
+            _ => None,
+        })
+        .expect("progress after the last RUNNING")
 }
 
 fn states(events: &[proto::JobEvent]) -> Vec<proto::JobState> {
@@ -309,7 +330,9 @@ fn states(events: &[proto::JobEvent]) -> Vec<proto::JobState> {
 /// version.
 #[test]
 fn claims_are_exclusive_and_fenced() {
-    let Some(pg) = Cluster::start() else { return };
+    let Some(pg) = Service::postgres() else {
+        return;
+    };
     let url = pg.database("store");
     let dir = tempfile::tempdir().unwrap();
     let store = PgStore::open(&url, dir.path()).unwrap();
@@ -436,12 +459,14 @@ fn claims_are_exclusive_and_fenced() {
 /// job's results, byte for byte those of an embedded run.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn three_servers_run_thirty_jobs_once_each() {
-    let Some(pg) = Cluster::start() else { return };
+    let Some(pg) = Service::postgres() else {
+        return;
+    };
     let url = pg.database("three");
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     let servers: Vec<Server> = (0..3)
-        .map(|_| Server::start(&data, &url, &["--lease", "5"]))
+        .map(|_| fleet_server(&data, &url, &["--lease", "5"], &[]))
         .collect();
     let scenes: Vec<String> = (0..3)
         .map(|k| spin_scene(0.002 * (k + 1) as f64, 6))
@@ -514,15 +539,42 @@ async fn three_servers_run_thirty_jobs_once_each() {
 /// another within a second.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_killed_servers_job_is_finished_by_another_from_its_checkpoint() {
-    let Some(pg) = Cluster::start() else { return };
-    let url = pg.database("kill");
+    let Some(pg) = Service::postgres() else {
+        return;
+    };
+    killed_server_takeover(&pg, "kill", None).await;
+}
+
+/// The same with the results in an S3 bucket and each server a data
+/// directory of its own: the checkpoint reaches the next server through
+/// the bucket, and a server that never ran the job serves its files.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn results_in_a_bucket_survive_the_server_that_wrote_them() {
+    let Some(pg) = Service::postgres() else {
+        return;
+    };
+    let Some(s3) = Service::s3() else { return };
+    killed_server_takeover(&pg, "bucket", Some(&s3)).await;
+}
+
+async fn killed_server_takeover(pg: &Service, name: &str, s3: Option<&Service>) {
+    let url = pg.database(name);
     let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("data");
+    // one data directory for all, or one each with the bucket
+    let data = |k: usize| match s3 {
+        None => dir.path().join("data"),
+        Some(_) => dir.path().join(format!("data{k}")),
+    };
     let lease = 2.0;
     let every = 0.2;
-    let flags = ["--lease", "2", "--checkpoint-every", "0.2"];
+    let results = format!("s3://cleave-test/{name}");
+    let mut flags = vec!["--lease", "2", "--checkpoint-every", "0.2"];
+    if s3.is_some() {
+        flags.extend(["--results", &results]);
+    }
+    let env = s3.map(Service::env).unwrap_or_default();
     let mut servers: Vec<Option<Server>> = (0..2)
-        .map(|_| Some(Server::start(&data, &url, &flags)))
+        .map(|k| Some(fleet_server(&data(k), &url, &flags, &env)))
         .collect();
     let text = spin_scene(0.35, 40);
     let mut c0 = servers[0].as_ref().unwrap().client().await;
@@ -537,7 +589,7 @@ async fn a_killed_servers_job_is_finished_by_another_from_its_checkpoint() {
         .position(|s| running.worker.ends_with(&s.as_ref().unwrap().pid_suffix()))
         .expect("a server of ours runs it");
     // a checkpoint exists
-    let cp = data.join("jobs").join(&id).join("checkpoint.bin");
+    let cp = data(k).join("jobs").join(&id).join("checkpoint.bin");
     let t0 = Instant::now();
     while !cp.exists() {
         assert!(t0.elapsed() < Duration::from_secs(10), "no checkpoint");
@@ -565,17 +617,7 @@ async fn a_killed_servers_job_is_finished_by_another_from_its_checkpoint() {
         "{}",
         taken.error
     );
-    let done = wait_until(&mut c, &id, Duration::from_secs(120), "finished", |j| {
-        proto::JobState::try_from(j.state)
-            .is_ok_and(|s| matches!(s, proto::JobState::Succeeded | proto::JobState::Failed))
-    })
-    .await;
-    assert_eq!(
-        done.state,
-        proto::JobState::Succeeded as i32,
-        "{}",
-        done.error
-    );
+    wait_succeeded(&mut c, &id).await;
     let log = events(&mut c, &id).await;
     assert_eq!(
         states(&log),
@@ -586,15 +628,48 @@ async fn a_killed_servers_job_is_finished_by_another_from_its_checkpoint() {
             proto::JobState::Succeeded
         ]
     );
+    // the second run starts from the checkpoint, not from step 0
+    let resumed_at = last_run_starts_at(&log);
+    eprintln!("resumed at step {resumed_at}");
+    assert!(
+        resumed_at > 1,
+        "the takeover started again at step {resumed_at}"
+    );
     let local = dir.path().join("local");
     run_embedded(dir.path(), &text, &local);
     let remote = dir.path().join("remote");
     fetch(&other.url, &id, &remote);
     same_files(&local, &remote);
-    assert!(!cp.exists(), "the finished job's checkpoint is left");
+    let finisher_cp = data(1 - k).join("jobs").join(&id).join("checkpoint.bin");
+    assert!(
+        !finisher_cp.exists(),
+        "the finished job's checkpoint is left"
+    );
+    let second = fleet_server(&data(2), &url, &flags, &env);
+    if let Some(s3) = s3 {
+        let keys = s3.keys(&format!("{name}/jobs/{id}/"));
+        let names: Vec<&str> = keys.iter().filter_map(|k| k.rsplit('/').next()).collect();
+        assert_eq!(
+            names,
+            [
+                "series.csv",
+                "snapshot_0000.bin",
+                "snapshot_0001.bin",
+                "snapshot_0002.bin"
+            ],
+            "the bucket holds the job's files and no checkpoint"
+        );
+        // a server that never ran the job serves it from the bucket
+        let third = dir.path().join("third");
+        fetch(&second.url, &id, &third);
+        same_files(&local, &third);
+        assert!(
+            !data(2).join("jobs").join(&id).exists(),
+            "the API read a worker's directory"
+        );
+    }
 
     // cancel on a server that does not run the job
-    let second = Server::start(&data, &url, &flags);
     let mut c2 = second.client().await;
     let id = submit(&mut c2, &spin_scene(1.0, 10), "cancel me").await;
     let j = wait_until(&mut c2, &id, Duration::from_secs(30), "running", |j| {
@@ -626,17 +701,148 @@ async fn a_killed_servers_job_is_finished_by_another_from_its_checkpoint() {
     );
 }
 
+/// One server on SQLite with its results in a bucket, killed after a
+/// checkpoint and started again with its job directories gone (a new
+/// disk): it resumes the job from the bucket's checkpoint, with the
+/// results of an uninterrupted run.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_server_resumes_from_the_buckets_checkpoint() {
+    let Some(s3) = Service::s3() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let flags = [
+        "--results",
+        "s3://cleave-test/one",
+        "--checkpoint-every",
+        "0.2",
+    ];
+    let env = s3.env();
+    let mut server = Server::start_in(&data, &flags, &env);
+    let text = spin_scene(0.35, 40);
+    let mut c = server.client().await;
+    let id = submit(&mut c, &text, "one").await;
+    let t0 = Instant::now();
+    while !s3
+        .keys(&format!("one/jobs/{id}/"))
+        .iter()
+        .any(|k| k.ends_with("/checkpoint.bin"))
+    {
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "no checkpoint in the bucket"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    server.kill();
+    std::fs::remove_dir_all(data.join("jobs")).unwrap();
+    let server = Server::start_in(&data, &flags, &env);
+    let mut c = server.client().await;
+    wait_succeeded(&mut c, &id).await;
+    let resumed_at = last_run_starts_at(&events(&mut c, &id).await);
+    eprintln!("resumed at step {resumed_at}");
+    assert!(resumed_at > 1, "started again at step {resumed_at}");
+    let local = dir.path().join("local");
+    run_embedded(dir.path(), &text, &local);
+    let remote = dir.path().join("remote");
+    fetch(&server.url, &id, &remote);
+    same_files(&local, &remote);
+}
+
+/// `cleave study --server` against one server of three: the fleet's
+/// workers claim its runs, and it measures what the embedded study does.
+#[test]
+fn a_study_spreads_over_the_fleet() {
+    let Some(pg) = Service::postgres() else {
+        return;
+    };
+    let url = pg.database("study");
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    let servers: Vec<Server> = (0..3)
+        .map(|_| fleet_server(&data, &url, &["--lease", "5"], &[]))
+        .collect();
+    let path = dir.path().join("spin.toml");
+    std::fs::write(&path, spin_scene(0.02, 5)).unwrap();
+    let (a, b, _) = common::study_here_and_on(
+        &servers[0],
+        &path,
+        "time.cfl=0.2,0.25,0.3,0.35,0.4,0.45",
+        "final:kinetic_energy",
+        dir.path(),
+    );
+    assert_eq!(a.len(), 6);
+    assert!(a.iter().all(|m| m.0.is_f64()), "{a:?}");
+    assert_eq!(
+        a, b,
+        "the fleet's study measures what the embedded one does"
+    );
+    // every run ran once, and not all on one server
+    let o = servers[2].cli(&["list", "--json"]);
+    let jobs: Vec<serde_json::Value> =
+        serde_json::from_str(String::from_utf8_lossy(&o.stdout).trim()).unwrap();
+    assert_eq!(jobs.len(), 6);
+    let mut workers: Vec<&str> = jobs.iter().map(|j| j["worker"].as_str().unwrap()).collect();
+    assert!(
+        workers
+            .iter()
+            .all(|w| servers.iter().any(|s| w.ends_with(&s.pid_suffix()))),
+        "{workers:?}"
+    );
+    workers.sort();
+    workers.dedup();
+    eprintln!("the study's 6 runs ran on {} servers", workers.len());
+    assert!(workers.len() >= 2, "all runs on {workers:?}");
+}
+
+/// Waits until the server's health is SERVING (or, `serving` false, is
+/// not) for at most `within`.
+async fn wait_health(
+    health: &mut tonic_health::pb::health_client::HealthClient<tonic::transport::Channel>,
+    serving: bool,
+    within: Duration,
+) {
+    let t0 = Instant::now();
+    loop {
+        let h = health
+            .check(tonic_health::pb::HealthCheckRequest {
+                service: String::new(),
+            })
+            .await
+            .unwrap()
+            .into_inner();
+        let is = h.status == tonic_health::pb::health_check_response::ServingStatus::Serving as i32;
+        if is == serving {
+            return;
+        }
+        assert!(
+            t0.elapsed() < within,
+            "health not {} after {within:?}",
+            if serving { "SERVING" } else { "NOT_SERVING" }
+        );
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
 /// PostgreSQL restarted while jobs run and wait: no job is lost or run
 /// twice, the servers' health says NOT_SERVING while it is away and comes
 /// back, and the results are those of an embedded run.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_database_restart_loses_no_job() {
-    let Some(pg) = Cluster::start() else { return };
+    let Some(pg) = Service::postgres() else {
+        return;
+    };
     let url = pg.database("restart");
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("data");
     let servers: Vec<Server> = (0..2)
-        .map(|_| Server::start(&data, &url, &["--lease", "10", "--checkpoint-every", "0.3"]))
+        .map(|_| {
+            fleet_server(
+                &data,
+                &url,
+                &["--lease", "10", "--checkpoint-every", "0.3"],
+                &[],
+            )
+        })
         .collect();
     let text = spin_scene(0.1, 8);
     let mut c = servers[0].client().await;
@@ -657,27 +863,7 @@ async fn a_database_restart_loses_no_job() {
             .await
             .unwrap(),
     );
-    let serving = |h: &tonic_health::pb::HealthCheckResponse| {
-        h.status == tonic_health::pb::health_check_response::ServingStatus::Serving as i32
-    };
-    let t0 = Instant::now();
-    loop {
-        let h = health
-            .check(tonic_health::pb::HealthCheckRequest {
-                service: String::new(),
-            })
-            .await
-            .unwrap()
-            .into_inner();
-        if !serving(&h) {
-            break;
-        }
-        assert!(
-            t0.elapsed() < Duration::from_secs(5),
-            "still SERVING without its database"
-        );
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
+    wait_health(&mut health, false, Duration::from_secs(5)).await;
     let e = c
         .get_job(proto::GetJobRequest {
             job_id: ids[0].clone(),
@@ -688,35 +874,11 @@ async fn a_database_restart_loses_no_job() {
     assert_eq!(e.code(), tonic::Code::Unavailable, "{e}");
     tokio::time::sleep(Duration::from_millis(1500)).await;
     pg.ctl("restart");
-    let t0 = Instant::now();
-    loop {
-        let h = health
-            .check(tonic_health::pb::HealthCheckRequest {
-                service: String::new(),
-            })
-            .await
-            .unwrap()
-            .into_inner();
-        if serving(&h) {
-            break;
-        }
-        assert!(t0.elapsed() < Duration::from_secs(10), "not SERVING again");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
+    wait_health(&mut health, true, Duration::from_secs(10)).await;
     let local = dir.path().join("local");
     run_embedded(dir.path(), &text, &local);
     for id in &ids {
-        let j = wait_until(&mut c, id, Duration::from_secs(120), "finished", |j| {
-            proto::JobState::try_from(j.state)
-                .is_ok_and(|s| s != proto::JobState::Queued && s != proto::JobState::Running)
-        })
-        .await;
-        assert_eq!(
-            j.state,
-            proto::JobState::Succeeded as i32,
-            "{id}: {}",
-            j.error
-        );
+        wait_succeeded(&mut c, id).await;
         assert_eq!(
             states(&events(&mut c, id).await),
             [

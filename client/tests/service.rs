@@ -3,94 +3,22 @@
 //! API directly.
 
 use cleave::service::proto::{self, cleave_client::CleaveClient, job_event::Event};
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 use tonic_types::StatusExt;
 
-fn cleave_bin() -> PathBuf {
-    PathBuf::from(env!("CARGO_BIN_EXE_cleave"))
-}
+mod common;
+use common::{cleave_bin, Server};
 
-/// The server binary is built beside the client by `cargo test --workspace`.
-fn server_bin() -> PathBuf {
-    let p = cleave_bin().with_file_name(format!("cleave-server{}", std::env::consts::EXE_SUFFIX));
-    assert!(
-        p.exists(),
-        "{} is missing: run the tests with `cargo test --release --workspace`",
-        p.display()
-    );
-    p
+fn same_files5(a: &Path, b: &Path) {
+    common::same_files(a, b, 5)
 }
 
 fn scenes() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("..")
         .join("scenes")
-}
-
-struct Server {
-    child: Child,
-    url: String,
-    data: PathBuf,
-}
-
-impl Server {
-    fn start(data: &Path, extra: &[&str]) -> Server {
-        let mut child = Command::new(server_bin())
-            .args(["--listen", "127.0.0.1:0", "--data-dir"])
-            .arg(data)
-            .args(["--threads-per-job", "1"])
-            .args(extra)
-            .env("RUST_LOG", "warn")
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start cleave-server");
-        let mut line = String::new();
-        let stdout = child.stdout.take().expect("server stdout");
-        BufReader::new(stdout)
-            .read_line(&mut line)
-            .expect("read the listening line");
-        let addr = line
-            .trim()
-            .strip_prefix("listening on ")
-            .unwrap_or_else(|| panic!("unexpected server output {line:?}"))
-            .to_string();
-        Server {
-            child,
-            url: format!("http://{addr}"),
-            data: data.to_path_buf(),
-        }
-    }
-
-    fn cli(&self, args: &[&str]) -> Output {
-        Command::new(cleave_bin())
-            .arg("--server")
-            .arg(&self.url)
-            .args(args)
-            .output()
-            .expect("run cleave")
-    }
-
-    async fn client(&self) -> CleaveClient<tonic::transport::Channel> {
-        CleaveClient::connect(self.url.clone())
-            .await
-            .expect("connect")
-            .max_decoding_message_size(usize::MAX)
-    }
-
-    fn kill(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        self.kill();
-    }
 }
 
 fn stderr(o: &Output) -> String {
@@ -132,27 +60,6 @@ fn run_embedded(scene: &Path, out: &Path) {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", stderr(&o));
-}
-
-fn same_files(a: &Path, b: &Path) {
-    let mut names: Vec<_> = std::fs::read_dir(a)
-        .unwrap()
-        .map(|e| e.unwrap().file_name())
-        .collect();
-    names.sort();
-    assert!(names.len() >= 5, "too few files in {}", a.display());
-    for n in names {
-        let (x, y) = (
-            std::fs::read(a.join(&n)).unwrap(),
-            std::fs::read(b.join(&n)).unwrap_or_default(),
-        );
-        assert!(
-            x == y,
-            "{n:?} differs between {} and {}",
-            a.display(),
-            b.display()
-        );
-    }
 }
 
 async fn wait_state(
@@ -239,7 +146,7 @@ fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
     let remote = dir.path().join("remote");
     let o = server.cli(&["fetch", &id, "--out", remote.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    same_files(&local, &remote);
+    same_files5(&local, &remote);
     // `run --server` does all three and gives the same files too
     let remote2 = dir.path().join("remote2");
     let o = server.cli(&[
@@ -263,7 +170,7 @@ fn submit_watch_fetch_matches_an_embedded_run_bit_for_bit() {
             "rebin"
         ])
     );
-    same_files(&local, &remote2);
+    same_files5(&local, &remote2);
     // list and get
     let o = server.cli(&["list", "--json"]);
     let list: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
@@ -354,7 +261,7 @@ async fn a_3d_job_fetches_what_an_embedded_run_writes() {
     let remote = dir.path().join("remote");
     let o = server.cli(&["fetch", &job.id, "--out", remote.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    same_files(&local, &remote);
+    same_files5(&local, &remote);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -1051,7 +958,7 @@ async fn a_killed_server_keeps_finished_jobs_and_fails_the_interrupted_one() {
         .cli(&["fetch", &done, "--out", after.to_str().unwrap()])
         .status
         .success());
-    same_files(&before, &after);
+    same_files5(&before, &after);
     // watching a finished job of the earlier server replays its end
     let o = server.cli(&["watch", &done, "--json"]);
     assert!(o.status.success());
@@ -1177,7 +1084,7 @@ async fn a_job_resumes_from_its_checkpoint_after_a_kill_and_a_shutdown_with_the_
     let remote = dir.path().join("remote");
     let o = server.cli(&["fetch", &job.id, "--out", remote.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    same_files(&local, &remote);
+    same_files5(&local, &remote);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -1336,36 +1243,14 @@ fn a_study_against_a_server_measures_what_an_embedded_one_does() {
         .replace("end = 2.5e-4", "end = 5.0e-5");
     let path = dir.path().join("bar.toml");
     std::fs::write(&path, scene).unwrap();
-    let args = |out: &Path| {
-        vec![
-            "study".to_string(),
-            path.to_str().unwrap().to_string(),
-            "--vary".into(),
-            "time.cfl=0.2,0.5".into(),
-            "--metric".into(),
-            "final:momentum_x".into(),
-            "--json".into(),
-            "--out".into(),
-            out.to_str().unwrap().to_string(),
-        ]
-    };
-    let metrics = |o: &Output| -> Vec<(serde_json::Value, serde_json::Value)> {
-        assert!(o.status.success(), "{}", stderr(o));
-        let v: serde_json::Value = serde_json::from_str(stdout(o).trim()).unwrap();
-        v["runs"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|r| (r["metric"].clone(), r["steps"].clone()))
-            .collect()
-    };
-    let local = Command::new(cleave_bin())
-        .args(args(&dir.path().join("local")))
-        .output()
-        .unwrap();
-    let remote_args = args(&dir.path().join("remote"));
-    let remote = server.cli(&remote_args.iter().map(String::as_str).collect::<Vec<_>>());
-    let (a, b) = (metrics(&local), metrics(&remote));
+    let metrics = common::study_metrics;
+    let (a, b, remote_args) = common::study_here_and_on(
+        &server,
+        &path,
+        "time.cfl=0.2,0.5",
+        "final:momentum_x",
+        dir.path(),
+    );
     assert_eq!(a.len(), 2);
     assert!(a.iter().all(|m| m.0.is_f64()), "{a:?}");
     assert_eq!(a, b);

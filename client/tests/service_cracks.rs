@@ -58,6 +58,7 @@ impl Server {
                 max_memory: None,
                 max_queued: 8,
                 store: cleave::jobs::StoreSpec::Sqlite,
+                results: cleave::jobs::ResultsSpec::DataDir,
                 checkpoint_every: None,
             },
             token: None,

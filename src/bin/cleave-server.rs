@@ -3,7 +3,7 @@
 //! how many threads, the bearer token, limits, TLS.
 
 use clap::Parser;
-use cleave::jobs::{JobConfig, StoreSpec};
+use cleave::jobs::{JobConfig, ResultsSpec, StoreSpec};
 use cleave::service::{serve, ServerConfig};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -17,7 +17,8 @@ struct Args {
     listen: SocketAddr,
     /// Directory of the job database and results. With a PostgreSQL store,
     /// the results' directory, which every server of the fleet must reach
-    /// (a shared file system).
+    /// (a shared file system), unless the results are in a bucket
+    /// (`--results s3://…`): then each server's own working copy.
     #[arg(long, env = "CLEAVE_DATA_DIR", default_value = "./cleave-data")]
     data_dir: PathBuf,
     /// Where the job records live: `sqlite` (in the data directory, one
@@ -36,6 +37,14 @@ struct Args {
     /// takes the job this long after, from its last checkpoint.
     #[arg(long, env = "CLEAVE_LEASE", default_value_t = 10.0)]
     lease: f64,
+    /// Where the result files (series, snapshots, checkpoints) live:
+    /// `data-dir`, or an S3-compatible bucket, `s3://bucket/prefix`, that
+    /// every server of a fleet reaches. The bucket's endpoint, region and
+    /// credentials come from the AWS_* environment variables
+    /// (AWS_ENDPOINT, AWS_REGION, AWS_ACCESS_KEY_ID, AWS_SECRET_ACCESS_KEY;
+    /// AWS_ALLOW_HTTP=true for a plain-HTTP endpoint).
+    #[arg(long, env = "CLEAVE_RESULTS", default_value = "data-dir")]
+    results: String,
     /// Jobs running at once; the rest wait in the queue.
     #[arg(long, env = "CLEAVE_MAX_CONCURRENT_JOBS", default_value_t = 1)]
     max_concurrent_jobs: usize,
@@ -93,6 +102,7 @@ fn main() -> anyhow::Result<()> {
             max_memory: a.max_memory,
             max_queued: a.max_queued_jobs,
             store: StoreSpec::parse(&a.store, a.lease).map_err(anyhow::Error::msg)?,
+            results: ResultsSpec::parse(&a.results).map_err(anyhow::Error::msg)?,
             checkpoint_every: match cleave::checkpoint::CheckpointTimer::interval(
                 a.checkpoint_every,
             )

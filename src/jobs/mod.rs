@@ -14,14 +14,19 @@
 //! a checkpoint is not lost: the next server queues it first and resumes
 //! it from there, with the same results as a run that never stopped. A
 //! shut-down server checkpoints its running jobs before it stops them.
+//!
+//! The result files live in the data directory or, with
+//! [`ResultsSpec::Bucket`], in an S3-compatible bucket ([`results`]).
 
 mod bus;
 pub mod pg;
+pub mod results;
 pub mod snapfile;
 mod store;
 
 pub use bus::{JobBus, JobEvent};
 pub use pg::PgStore;
+pub use results::ResultsSpec;
 pub use store::Store;
 
 use crate::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
@@ -160,6 +165,8 @@ pub struct JobConfig {
     pub checkpoint_every: Option<std::time::Duration>,
     /// Where the job records live.
     pub store: StoreSpec,
+    /// Where the result files live.
+    pub results: ResultsSpec,
 }
 
 /// Where a server keeps its job records.
@@ -267,6 +274,8 @@ impl Backend {
 struct Inner {
     config: JobConfig,
     store: Backend,
+    /// The results' bucket (None: the data directory).
+    bucket: Option<results::Bucket>,
     queue: Mutex<Queue>,
     wake: Condvar,
     buses: Mutex<HashMap<String, Arc<JobBus>>>,
@@ -311,12 +320,27 @@ impl JobManager {
     /// died is claimed again when its lease lapses.
     pub fn start(config: JobConfig) -> Result<JobManager, JobError> {
         let mut waiting = VecDeque::new();
+        let bucket = match &config.results {
+            ResultsSpec::DataDir => None,
+            ResultsSpec::Bucket { url } => {
+                let b = results::Bucket::open(url, &config.data_dir)?;
+                tracing::info!(results = %url, "results in a bucket");
+                Some(b)
+            }
+        };
         let store = match &config.store {
             StoreSpec::Sqlite => {
                 let store = Store::open(&config.data_dir)?;
                 let queued = store.ids_in_state(JobState::Queued)?;
                 for id in store.ids_in_state(JobState::Running)? {
-                    if checkpoint_path(&store.job_dir(&id)).exists() {
+                    let checkpointed = match &bucket {
+                        None => checkpoint_path(&store.job_dir(&id)).exists(),
+                        Some(b) => b
+                            .objects(&id)?
+                            .iter()
+                            .any(|o| o.name == crate::output::CHECKPOINT_FILE),
+                    };
+                    if checkpointed {
                         store.set_state(&id, JobState::Queued)?;
                         tracing::warn!(job = %id, "the server stopped while it was running: queued to resume from its checkpoint");
                         waiting.push_back(id);
@@ -348,6 +372,7 @@ impl JobManager {
         };
         let inner = Arc::new(Inner {
             store,
+            bucket,
             queue: Mutex::new(Queue {
                 waiting,
                 running: HashMap::new(),
@@ -616,15 +641,46 @@ impl JobManager {
         Ok(self.bus(id))
     }
 
+    /// A local path of job `id`'s result file `name` for the API to read
+    /// (None: the job has no such file, or not yet). From a bucket, a copy
+    /// in the cache, fetched again if `fresh` (a file that grows).
+    fn result_file(&self, id: &str, name: &str, fresh: bool) -> Result<Option<PathBuf>, JobError> {
+        match &self.inner.bucket {
+            None => {
+                let path = self.inner.store.job_dir(id).join(name);
+                Ok(path.exists().then_some(path))
+            }
+            Some(b) => b.cached(id, name, fresh),
+        }
+    }
+
+    /// How many snapshots job `id` has so far (numbered from 0 on).
+    fn snapshot_count(&self, id: &str) -> Result<u32, JobError> {
+        let count = match &self.inner.bucket {
+            None => {
+                let dir = self.inner.store.job_dir(id);
+                (0u32..)
+                    .take_while(|&k| dir.join(snapshot_name(k)).exists())
+                    .count()
+            }
+            Some(b) => {
+                let objects = b.objects(id)?;
+                (0u32..)
+                    .take_while(|&k| objects.iter().any(|o| o.name == snapshot_name(k)))
+                    .count()
+            }
+        };
+        Ok(count as u32)
+    }
+
     /// Headers of a job's snapshots, in order.
     pub fn snapshots(&self, id: &str) -> Result<Vec<SnapshotHeader>, JobError> {
         self.inner.store.get(id)?;
         let mut out = Vec::new();
-        for k in 0.. {
-            let path = snapshot_path(&self.inner.store.job_dir(id), k);
-            if !path.exists() {
+        for k in 0..self.snapshot_count(id)? {
+            let Some(path) = self.result_file(id, &snapshot_name(k), false)? else {
                 break;
-            }
+            };
             out.push(
                 snapfile::SnapshotReader::open(&path)
                     .map_err(JobError::Store)?
@@ -637,11 +693,7 @@ impl JobManager {
     /// The index of a job's newest snapshot so far.
     pub fn latest_snapshot(&self, id: &str) -> Result<u32, JobError> {
         let record = self.inner.store.get(id)?;
-        let dir = self.inner.store.job_dir(id);
-        let count = (0u32..)
-            .take_while(|&k| snapshot_path(&dir, k).exists())
-            .count() as u32;
-        match count.checked_sub(1) {
+        match self.snapshot_count(id)?.checked_sub(1) {
             Some(last) => Ok(last),
             None if record.state == JobState::Queued => Err(JobError::Precondition(format!(
                 "{id} has not started: it has no snapshots yet"
@@ -657,39 +709,49 @@ impl JobManager {
         index: u32,
     ) -> Result<snapfile::SnapshotReader, JobError> {
         let record = self.inner.store.get(id)?;
-        let path = snapshot_path(&self.inner.store.job_dir(id), index);
-        if !path.exists() {
+        let Some(path) = self.result_file(id, &snapshot_name(index), false)? else {
             return Err(if record.state == JobState::Queued {
                 JobError::Precondition(format!("{id} has not started: it has no snapshots yet"))
             } else {
                 JobError::NotFound(format!("{id} has no snapshot {index}"))
             });
-        }
+        };
         snapfile::SnapshotReader::open(&path).map_err(JobError::Store)
     }
 
     /// A job's time series so far: the column names and the rows.
     pub fn series(&self, id: &str) -> Result<(Vec<String>, Vec<SeriesRow>), JobError> {
         let record = self.inner.store.get(id)?;
-        let path = self.inner.store.job_dir(id).join("series.csv");
+        let not_yet = !record.state.is_final() || record.state == JobState::Cancelled;
+        let no_series = || JobError::Precondition(format!("{id} has no time series yet"));
+        let Some(path) = self.result_file(id, SERIES_FILE, true)? else {
+            return Err(if not_yet {
+                no_series()
+            } else {
+                JobError::Store(format!("{id}: its time series is missing"))
+            });
+        };
         match crate::output::read_series(&path) {
             Ok(s) => Ok(s),
-            Err(e)
-                if e.error.kind() != std::io::ErrorKind::InvalidData
-                    && (!record.state.is_final() || record.state == JobState::Cancelled) =>
-            {
-                Err(JobError::Precondition(format!(
-                    "{id} has no time series yet"
-                )))
+            Err(e) if e.error.kind() != std::io::ErrorKind::InvalidData && not_yet => {
+                Err(no_series())
             }
             Err(e) => Err(JobError::Store(e.to_string())),
         }
     }
 }
 
-fn snapshot_path(dir: &Path, index: u32) -> PathBuf {
-    dir.join(format!("snapshot_{index:04}.bin"))
+/// A job's snapshot file name.
+fn snapshot_name(index: u32) -> String {
+    format!("snapshot_{index:04}.bin")
 }
+
+fn snapshot_path(dir: &Path, index: u32) -> PathBuf {
+    dir.join(snapshot_name(index))
+}
+
+/// A job's series file name.
+const SERIES_FILE: &str = "series.csv";
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
@@ -839,6 +901,7 @@ fn keeper_loop(inner: Arc<Inner>, pg: PgStore) {
                 if !f.reachable.swap(true, Ordering::SeqCst) {
                     tracing::info!("the database answers again");
                 }
+                let mut lost_now = Vec::new();
                 let map = lock(&f.held);
                 for ((id, _), l) in held.iter().zip(leases) {
                     let Some(h) = map.get(id) else { continue };
@@ -846,15 +909,20 @@ fn keeper_loop(inner: Arc<Inner>, pg: PgStore) {
                         pg::Lease::Held { cancel: true } => h.cancel.store(true, Ordering::SeqCst),
                         pg::Lease::Held { cancel: false } => {}
                         pg::Lease::Lost => {
-                            // a job that ended between the list and the
-                            // renewal is lost too, and harmlessly: its end
-                            // is recorded
-                            let ended = pg.get(id).is_ok_and(|r| r.state.is_final());
-                            if !h.lost.swap(true, Ordering::SeqCst) && !ended {
-                                tracing::warn!(job = %id, "another server claimed the job: stopping it");
+                            if !h.lost.swap(true, Ordering::SeqCst) {
+                                lost_now.push(id);
                             }
                             h.cancel.store(true, Ordering::SeqCst);
                         }
+                    }
+                }
+                // (the database is asked with the runners' map released)
+                drop(map);
+                for id in lost_now {
+                    // a job that ended between the list and the renewal is
+                    // lost too, and harmlessly: its end is recorded
+                    if !pg.get(id).is_ok_and(|r| r.state.is_final()) {
+                        tracing::warn!(job = %id, "another server claimed the job: stopping it");
                     }
                 }
             }
@@ -1050,6 +1118,14 @@ fn run_job(
     let dir = inner.store.job_dir(id);
     std::fs::create_dir_all(&dir)
         .map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
+    if let Some(b) = &inner.bucket {
+        // the job's files as the bucket has them: another server's
+        // checkpoint, series and snapshots if it ran the job before
+        if let Err(e) = b.pull(id, &dir) {
+            let msg = format!("cannot read its results from the bucket: {e}");
+            return ledger.end(id, JobState::Failed, Some(&msg), None);
+        }
+    }
     let cp_path = checkpoint_path(&dir);
     let resume = if cp_path.exists() {
         match resume_job(&dir) {
@@ -1068,7 +1144,7 @@ fn run_job(
             (series, saved, Some(cp))
         }
         None => {
-            let series = std::fs::File::create(dir.join("series.csv"))
+            let series = std::fs::File::create(dir.join(SERIES_FILE))
                 .map_err(|e| JobError::Store(format!("{}: {e}", dir.display())))?;
             (series, ObserverState::default(), None)
         }
@@ -1076,6 +1152,7 @@ fn run_job(
     let mut observer = JobObserver {
         id,
         dir: dir.clone(),
+        bucket: inner.bucket.as_ref(),
         series: std::io::BufWriter::new(series),
         ledger,
         cancel: cancel.clone(),
@@ -1145,7 +1222,7 @@ fn run_job(
         summary.external_work = r.external_work;
         summary.energy_error = r.energy_error;
     }
-    let (state, error) = match outcome {
+    let (mut state, mut error) = match outcome {
         Ok(Ok(s)) if s.cancelled => (
             JobState::Cancelled,
             Some("cancelled while running".to_string()),
@@ -1168,10 +1245,21 @@ fn run_job(
             )
         }
     };
+    if let Some(b) = &inner.bucket {
+        if let Err(e) = b.put_file(id, &dir.join(SERIES_FILE)) {
+            state = JobState::Failed;
+            error = Some(format!("cannot store its time series: {e}"));
+        }
+    }
     // the checkpoint goes once the end is recorded: a server that dies
     // between the two leaves a job that resumes, not one that restarts
     ledger.end(id, state, error.as_deref(), Some(&summary))?;
     let _ = std::fs::remove_file(&cp_path);
+    if let Some(b) = &inner.bucket {
+        if let Err(e) = b.delete(id, crate::output::CHECKPOINT_FILE) {
+            tracing::warn!(job = %id, error = %e, "the finished job's checkpoint stays in the bucket");
+        }
+    }
     tracing::info!(job = %id, state = state.as_str(), error = error.as_deref().unwrap_or(""), wall, "finished");
     Ok(())
 }
@@ -1210,7 +1298,7 @@ fn resume_job(
         crate::checkpoint::Checkpoint::load(&checkpoint_path(dir)).map_err(|e| e.to_string())?;
     let saved: ObserverState =
         postcard::from_bytes(&cp.observer).map_err(|e| format!("its observer state: {e}"))?;
-    let series = crate::output::reopen_series(&dir.join("series.csv"), saved.series_bytes)
+    let series = crate::output::reopen_series(&dir.join(SERIES_FILE), saved.series_bytes)
         .map_err(|e| e.to_string())?;
     Ok((series, saved, cp))
 }
@@ -1219,6 +1307,8 @@ fn resume_job(
 struct JobObserver<'a> {
     id: &'a str,
     dir: PathBuf,
+    /// The results' bucket, which each file is copied to once written.
+    bucket: Option<&'a results::Bucket>,
     series: std::io::BufWriter<std::fs::File>,
     ledger: &'a Ledger<'a>,
     cancel: Arc<AtomicBool>,
@@ -1249,7 +1339,7 @@ impl Observer for JobObserver<'_> {
             return Ok(());
         }
         let series_bytes =
-            crate::output::flushed_len(&mut self.series, &self.dir.join("series.csv"))
+            crate::output::flushed_len(&mut self.series, &self.dir.join(SERIES_FILE))
                 .map_err(|e| e.to_string())?;
         let state = ObserverState {
             series_bytes,
@@ -1259,13 +1349,22 @@ impl Observer for JobObserver<'_> {
             wall_seconds: self.wall_before + self.started.elapsed().as_secs_f64(),
         };
         cp.observer = postcard::to_stdvec(&state).map_err(|e| e.to_string())?;
-        crate::output::save_checkpoint(&checkpoint_path(&self.dir), &cp).map_err(|e| e.to_string())
+        let path = checkpoint_path(&self.dir);
+        crate::output::save_checkpoint(&path, &cp).map_err(|e| e.to_string())?;
+        if let Some(b) = self.bucket {
+            // the series first: the bucket's checkpoint never names series
+            // bytes the bucket lacks
+            b.put_file(self.id, &self.dir.join(SERIES_FILE))
+                .and_then(|_| b.put_file(self.id, &path))
+                .map_err(|e| format!("cannot store its checkpoint: {e}"))?;
+        }
+        Ok(())
     }
 
     fn series_columns(&mut self, columns: &[String]) -> Result<(), String> {
         use std::io::Write;
         writeln!(self.series, "{}", columns.join(","))
-            .map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))
+            .map_err(|e| format!("{}: {e}", self.dir.join(SERIES_FILE).display()))
     }
 
     fn series_row(&mut self, row: &SeriesRow) -> Result<(), String> {
@@ -1275,7 +1374,7 @@ impl Observer for JobObserver<'_> {
         }
         crate::output::write_series_line(&mut self.series, row)
             .and_then(|_| self.series.flush())
-            .map_err(|e| format!("{}: {e}", self.dir.join("series.csv").display()))?;
+            .map_err(|e| format!("{}: {e}", self.dir.join(SERIES_FILE).display()))?;
         self.rows += 1;
         self.last_row = Some(row.clone());
         Ok(())
@@ -1285,7 +1384,12 @@ impl Observer for JobObserver<'_> {
         if self.cancel.load(Ordering::SeqCst) || self.is_lost() {
             return Ok(()); // cancelled: write nothing more
         }
-        snapfile::write(&snapshot_path(&self.dir, snap.index), snap)?;
+        let path = snapshot_path(&self.dir, snap.index);
+        snapfile::write(&path, snap)?;
+        if let Some(b) = self.bucket {
+            b.put_file(self.id, &path)
+                .map_err(|e| format!("cannot store snapshot {}: {e}", snap.index))?;
+        }
         self.snapshots += 1;
         Ok(())
     }
