@@ -22,6 +22,7 @@ use object_store::aws::AmazonS3Builder;
 use object_store::path::Path as Key;
 use object_store::{ObjectStore, ObjectStoreExt};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use tokio::io::AsyncWriteExt;
 use tokio_stream::StreamExt;
@@ -208,11 +209,17 @@ impl Bucket {
     }
 
     /// Downloads job `id`'s object `name` to `to`, written beside it and
-    /// renamed; false if there is no such object.
+    /// renamed; false if there is no such object. (The file beside it has
+    /// a name of its own per call: two API calls may fetch one series.)
     fn get_to(&self, id: &str, name: &str, to: &Path) -> Result<bool, JobError> {
+        static CALLS: AtomicU64 = AtomicU64::new(0);
         let key = self.key(id, name);
         let mut tmp = to.as_os_str().to_owned();
-        tmp.push(".part");
+        tmp.push(format!(
+            ".{}-{}.part",
+            std::process::id(),
+            CALLS.fetch_add(1, Ordering::Relaxed)
+        ));
         let tmp = PathBuf::from(tmp);
         let local = |e: std::io::Error| JobError::Store(format!("{}: {e}", tmp.display()));
         let found = runtime()?.block_on(async {
