@@ -17,9 +17,15 @@ use std::time::Instant;
 /// particles each, in a grid with a 4-cell margin, stretching and spinning
 /// slowly so the particles move.
 fn scene(cells: usize, transfer: &str, kernel: &str) -> anyhow::Result<Scene> {
+    Scene::from_text(&scene_text(cells, transfer, kernel), None)
+        .map_err(|e| anyhow::anyhow!("benchmark scene: {e}"))
+}
+
+/// The text of [`scene`].
+fn scene_text(cells: usize, transfer: &str, kernel: &str) -> String {
     let h = 1.0 / cells as f64;
     let m = 4.0 * h;
-    let text = format!(
+    format!(
         r#"
 [grid]
 cell_size = {h:e}
@@ -45,8 +51,7 @@ snapshots = 0
 "#,
         neg = -m,
         pos = 1.0 + m,
-    );
-    Scene::from_text(&text, None).map_err(|e| anyhow::anyhow!("benchmark scene: {e}"))
+    )
 }
 
 /// One configuration's result.
@@ -179,7 +184,9 @@ pub fn run(
          has no atomics: tiles of 8 × 8 cells are coloured so that tiles of one colour never share a node, and \
          the particles are stored tile by tile, so each tile reads a contiguous range of every particle array. \
          Storing them in seeding order instead (rows across the whole body) cost 40 % at 1 M particles \
-         (P2G 58 ms instead of 29 ms on one thread; `cleave bench` at commit fe9ff49, before the sort).\n",
+         (P2G 58 ms instead of 29 ms on one thread; `cleave bench` at commit fe9ff49, before the sort).\n\n\
+         Against Taichi's CPU backend on the same machine in the same run (issue 37's peer problem: \
+         neo-Hookean, APIC): `docs/performance-taichi.md`, by `cleave bench --taichi PYTHON`.\n",
         std::thread::available_parallelism().map_or(0, |n| n.get()),
         threads_arg = threads_arg(thread_counts),
         thread_list = thread_list(thread_counts),
@@ -241,8 +248,18 @@ snapshots = 0
     Scene::from_text(&text, None).map_err(|e| anyhow::anyhow!("3D benchmark scene: {e}"))
 }
 
-/// The Taichi script, embedded so the bench runs it from any directory.
-const TAICHI_SCRIPT: &str = include_str!("../../docs/scripts/taichi_mpm3d.py");
+/// The 2D peer problem (issue 37's): the 3D block's material and transfer
+/// on the 2D bench's block, `cells`² cells of neo-Hookean material (plane
+/// strain) with 2 × 2 particles each, quadratic B-splines, APIC.
+fn scene_peer_2d(cells: usize) -> anyhow::Result<Scene> {
+    let text = scene_text(cells, "apic", "quadratic_bspline")
+        .replace("model = \"linear_elastic\"", "model = \"neo_hookean\"");
+    Scene::from_text(&text, None).map_err(|e| anyhow::anyhow!("2D peer scene: {e}"))
+}
+
+/// The Taichi scripts, embedded so the bench runs them from any directory.
+const TAICHI_SCRIPT_2D: &str = include_str!("../../docs/scripts/taichi_mpm2d.py");
+const TAICHI_SCRIPT_3D: &str = include_str!("../../docs/scripts/taichi_mpm3d.py");
 
 /// Runs the Taichi script on the same block (`cells`, `dt`) and returns its
 /// particle-steps per second and particle count.
@@ -342,7 +359,11 @@ fn threads_arg(counts: &[usize]) -> String {
 /// 262 k, 1 M particles) up to `largest` (a `largest` below 16 runs that one
 /// size, for tests), 1 and 2 threads, with bytes per particle and, given a
 /// Python with Taichi, Taichi's rate on the same block in the same run.
-pub fn run_3d(
+/// With `dim` 2 (`cleave bench --taichi`), the 2D peer problem
+/// ([`scene_peer_2d`]) at 128², 256² and 512² cells (65 k, 262 k, 1 M
+/// particles) against `docs/scripts/taichi_mpm2d.py`.
+pub fn run_peer(
+    dim: u8,
     out: &Path,
     steps: usize,
     largest: usize,
@@ -350,19 +371,19 @@ pub fn run_3d(
     thread_counts: &[usize],
 ) -> anyhow::Result<()> {
     anyhow::ensure!(largest >= 1, "--largest must be at least 1");
-    let mut sizes: Vec<usize> = [16usize, 32, 50]
-        .into_iter()
-        .filter(|&c| c <= largest)
-        .collect();
+    let (all_sizes, script_text) = match dim {
+        2 => ([128usize, 256, 512], TAICHI_SCRIPT_2D),
+        _ => ([16usize, 32, 50], TAICHI_SCRIPT_3D),
+    };
+    let mut sizes: Vec<usize> = all_sizes.into_iter().filter(|&c| c <= largest).collect();
     if sizes.is_empty() {
         sizes.push(largest);
     }
     let script = match python {
         Some(_) => {
-            let p =
-                std::env::temp_dir().join(format!("cleave-taichi-mpm3d-{}.py", std::process::id()));
-            std::fs::write(&p, TAICHI_SCRIPT)
-                .with_context(|| format!("writing {}", p.display()))?;
+            let p = std::env::temp_dir()
+                .join(format!("cleave-taichi-mpm{dim}d-{}.py", std::process::id()));
+            std::fs::write(&p, script_text).with_context(|| format!("writing {}", p.display()))?;
             Some(p)
         }
         None => None,
@@ -398,11 +419,17 @@ pub fn run_3d(
             "Taichi Mp/s"
         );
         for &cells in &sizes {
-            let sc = scene_3d(cells)?;
+            let sc = match dim {
+                2 => scene_peer_2d(cells)?,
+                _ => scene_3d(cells)?,
+            };
             let mut base = 0.0;
             let mut dt = None;
             for (i, &threads) in thread_counts.iter().enumerate() {
-                let r = measure::<3, 6>(&sc, threads, steps)?;
+                let r = match dim {
+                    2 => measure::<2, 3>(&sc, threads, steps)?,
+                    _ => measure::<3, 6>(&sc, threads, steps)?,
+                };
                 let n = r.particles;
                 if i == 0 {
                     base = r.rate;
@@ -457,26 +484,46 @@ pub fn run_3d(
     let table = result?;
     let load_after = load_average();
     let command = format!(
-        "cargo run --release -p cleave-client -- bench --dim 3 --steps {steps} --largest {largest}{}{}",
+        "cargo run --release -p cleave-client -- bench{} --steps {steps} --largest {largest}{}{}",
+        if dim == 3 { " --dim 3" } else { "" },
         threads_arg(thread_counts),
         python.map_or(String::new(), |p| format!(" --taichi {}", p.display()))
     );
     let taichi_text = if python.is_some() {
-        "The Taichi columns are `docs/scripts/taichi_mpm3d.py` (Taichi 1.7.4, `arch=ti.cpu`, f64, \
-         `cpu_max_num_threads` = the row's threads) on the same block: same particles, same velocity \
-         gradient, the Δt of cleave's one-thread run, MLS-MPM/APIC with quadratic B-splines and the same \
-         neo-Hookean law, a dense grid and atomic scatter; timed over the same number of steps after 3 \
-         warm-up steps between two `ti.sync()`s. Each Taichi row runs right after the cleave row above it, \
-         so both see the same machine load.\n\n"
+        format!(
+            "The Taichi columns are `docs/scripts/taichi_mpm{dim}d.py` (Taichi 1.7.4, `arch=ti.cpu`, f64, \
+             `cpu_max_num_threads` = the row's threads) on the same block: same particles, same velocity \
+             gradient, the Δt of cleave's one-thread run, MLS-MPM/APIC with quadratic B-splines and the same \
+             neo-Hookean law, a dense grid and atomic scatter; timed over the same number of steps after 3 \
+             warm-up steps between two `ti.sync()`s. Each Taichi row runs right after the cleave row above it, \
+             so both see the same machine load.\n\n"
+        )
     } else {
         "No Taichi columns: add `--taichi PYTHON` (a Python with Taichi 1.7.4) to run \
          `docs/scripts/taichi_mpm3d.py` on the same block in the same run.\n\n"
+            .to_string()
+    };
+    let (title, problem, target) = match dim {
+        2 => (
+            "# The explicit step against Taichi in 2D",
+            "A 2D neo-Hookean block in plane strain (issue 37's peer problem), quadratic B-splines, 2 × 2 \
+             particles per cell, APIC",
+            "Target (issue 37): one thread at least 1.2× Taichi's one thread on this problem in the same run, \
+             and 2 threads at least 1.9× one thread (the issue's measurement on a 16-core Xeon: Taichi 1.7.4 \
+             13.5 M particle-steps/s on one thread and 35.4 M on 16; cleave 9.4 M and 96.1 M).",
+        ),
+        _ => (
+            "# Performance of the explicit step in 3D",
+            "A 3D neo-Hookean block (issue 32's speed \
+             problem), quadratic B-splines, 2 × 2 × 2 particles per cell, APIC (fixed: `--transfer` does not apply \
+             in 3D)",
+            "Target (issue 32): at least Taichi's 3D CPU backend per thread on the same problem in the same run \
+             (Taichi 1.7.4 measured 2.1 M particle-steps/s on one thread of a 16-core Xeon, 7.4 M on 16 threads).",
+        ),
     };
     let doc = format!(
-        "# Performance of the explicit step in 3D\n\n\
-         Measured by `{command}` on {machine} ({cpus} logical CPUs). A 3D neo-Hookean block (issue 32's speed \
-         problem), quadratic B-splines, 2 × 2 × 2 particles per cell, APIC (fixed: `--transfer` does not apply \
-         in 3D), USL, CFL 0.5; the block spins and stretches so particles cross cells. Each row is the mean over \
+        "{title}\n\n\
+         Measured by `{command}` on {machine} ({cpus} logical CPUs). {problem}, USL, CFL 0.5; the block spins and stretches so particles cross cells. Each row is the mean over \
          {steps} steps after 3 warm-up steps; {thread_list} threads run back to back in the same process; the \
          speed-up is against the first. G2P includes \
          the particle update (F, stress, guards) and the tile re-binning.\n\n\
@@ -490,8 +537,7 @@ pub fn run_3d(
          Load average (1, 5, 15 min) before the run: {load_before}; after: {load_after}. A load above the \
          CPU count means other jobs shared the cores, and the 2-thread rows (of both codes) then measure \
          the machine as much as the code.\n\n\
-         Target (issue 32): at least Taichi's 3D CPU backend per thread on the same problem in the same run \
-         (Taichi 1.7.4 measured 2.1 M particle-steps/s on one thread of a 16-core Xeon, 7.4 M on 16 threads).\n",
+         {target}\n",
         machine = cpu_name(),
         cpus = std::thread::available_parallelism().map_or(0, |n| n.get()),
         thread_list = thread_list(thread_counts),

@@ -98,7 +98,8 @@ enum Command {
         #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
         dim: u8,
         /// Markdown file for the table [default: docs/performance.md in
-        /// 2D, docs/performance-3d.md in 3D].
+        /// 2D, docs/performance-taichi.md in 2D with --taichi,
+        /// docs/performance-3d.md in 3D].
         #[arg(long)]
         out: Option<PathBuf>,
         /// Steps timed per configuration.
@@ -118,8 +119,11 @@ enum Command {
         /// quadratic_bspline]. 2D only.
         #[arg(long)]
         kernel: Option<String>,
-        /// Python with Taichi 1.7 installed: run docs/scripts/taichi_mpm3d.py
-        /// on the same 3D problem, interleaved with cleave (3D only).
+        /// Python with Taichi 1.7 installed: run Taichi on the same problem,
+        /// interleaved with cleave: in 3D the 3D block
+        /// (docs/scripts/taichi_mpm3d.py); in 2D the peer problem, a
+        /// neo-Hookean APIC block (docs/scripts/taichi_mpm2d.py; written
+        /// to docs/performance-taichi.md).
         #[arg(long)]
         taichi: Option<PathBuf>,
         /// Thread counts to measure, comma-separated, each run back to
@@ -705,18 +709,30 @@ fn bench_dims(
             "--kernel compares the 2D problem; drop --dim 3"
         );
         let out = out.unwrap_or_else(|| PathBuf::from("docs/performance-3d.md"));
-        bench::run_3d(
+        bench::run_peer(
+            3,
             &out,
             steps,
             largest.unwrap_or(50),
             taichi.as_deref(),
             &threads,
         )
-    } else {
+    } else if let Some(python) = taichi.as_deref() {
+        // the peer problem is fixed, as in 3D
         anyhow::ensure!(
-            taichi.is_none(),
-            "--taichi compares the 3D problem; add --dim 3"
+            transfer.is_none() && kernel.is_none(),
+            "--taichi measures the peer problem (neo-Hookean, APIC, quadratic B-splines); drop --transfer and --kernel"
         );
+        let out = out.unwrap_or_else(|| PathBuf::from("docs/performance-taichi.md"));
+        bench::run_peer(
+            2,
+            &out,
+            steps,
+            largest.unwrap_or(512),
+            Some(python),
+            &threads,
+        )
+    } else {
         let out = out.unwrap_or_else(|| PathBuf::from("docs/performance.md"));
         let transfer = transfer.unwrap_or_else(|| "flip,apic".into());
         let kernel = kernel.unwrap_or_else(|| "quadratic_bspline".into());

@@ -1169,6 +1169,35 @@ fn bench_3d_writes_the_table_with_bytes_per_particle() {
         .unwrap();
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--threads"), "{}", stderr(&o));
+    // the 2D peer problem against Taichi is fixed: no --transfer beside it;
+    // a Python without Taichi is named, and nothing is written
+    let o = cleave()
+        .args([
+            "bench",
+            "--taichi",
+            "python3",
+            "--transfer",
+            "flip",
+            "--out",
+        ])
+        .arg(dir.path().join("no.md"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("drop --transfer"), "{}", stderr(&o));
+    let o = cleave()
+        .args(["bench", "--taichi", "/nonexistent/python", "--largest", "8"])
+        .args(["--steps", "1", "--out"])
+        .arg(dir.path().join("no.md"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("running /nonexistent/python"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path().join("no.md").exists());
 }
 
 /// `cleave bench --scene`: any scene's steps at each thread count, with a
