@@ -424,7 +424,33 @@ impl Command {
 const EXIT_FAILED: u8 = 1;
 const EXIT_INVALID: u8 = 2;
 
+/// The status a shell reports for a tool that SIGPIPE ended (128 + 13).
+const EXIT_CLOSED_STDOUT: i32 = 141;
+
+/// A reader that closed `cleave`'s standard output (`cleave list | head
+/// -1`) ends the process quietly with the status a shell gives a Unix tool
+/// that SIGPIPE killed. Rust ignores SIGPIPE, so `println!` would panic
+/// with a backtrace instead; every other panic goes to the default hook.
+fn quiet_on_closed_stdout() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let p = info.payload();
+        let msg = p
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| p.downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.starts_with("failed printing to stdout")
+            && (msg.contains("Broken pipe") || msg.contains("(os error 32)"))
+        {
+            std::process::exit(EXIT_CLOSED_STDOUT);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    quiet_on_closed_stdout();
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),

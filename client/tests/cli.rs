@@ -1200,6 +1200,29 @@ fn bench_3d_writes_the_table_with_bytes_per_particle() {
     assert!(!dir.path().join("no.md").exists());
 }
 
+/// A reader that closes `cleave`'s output first (`cleave validate … |
+/// head -1`) ends it quietly with 141, as SIGPIPE ends a Unix tool, not
+/// with a panic and a backtrace.
+#[test]
+fn a_closed_stdout_ends_the_command_quietly() {
+    // a pipe whose reader has gone before cleave starts: the write end of
+    // `true`'s standard input, once `true` has exited
+    let mut sink = Command::new("true")
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let write_end = sink.stdin.take().unwrap();
+    sink.wait().unwrap();
+    let o = cleave()
+        .arg("validate")
+        .arg(scenes().join("two_disks.toml"))
+        .stdout(std::process::Stdio::from(write_end))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(141), "{:?} {}", o.status, stderr(&o));
+    assert!(stderr(&o).is_empty(), "{}", stderr(&o));
+}
+
 /// `cleave bench --scene`: any scene's steps at each thread count, with a
 /// row for every stage of its plan (here a phase-field one, whose plan is
 /// not the explicit step's) and the parallel efficiency; the options of
