@@ -96,7 +96,8 @@ pub struct Object {
 
 impl Bucket {
     /// Opens `s3://BUCKET/PREFIX` with the `AWS_*` environment and checks
-    /// that it answers (a listing). `data_dir` holds the API's cache.
+    /// that it takes writes (a marker object, `PREFIX/cleave-results`).
+    /// `data_dir` holds the API's cache.
     pub fn open(url: &str, data_dir: &Path) -> Result<Bucket, JobError> {
         // reqwest's rustls takes the process's crypto provider; the
         // service's TLS already uses ring (an error: one is installed)
@@ -140,8 +141,8 @@ impl Bucket {
         JobError::Unavailable(format!("results bucket {}: {what}: {e}", self.url))
     }
 
-    /// The objects of job `id`.
-    fn list(&self, id: &str) -> Result<Vec<Object>, JobError> {
+    /// The files of job `id` in the bucket, by name.
+    pub fn objects(&self, id: &str) -> Result<Vec<Object>, JobError> {
         let dir = self.dir_key(id);
         runtime()?.block_on(async {
             let mut out = Vec::new();
@@ -162,11 +163,6 @@ impl Bucket {
         })
     }
 
-    /// The files of job `id` in the bucket, by name.
-    pub fn objects(&self, id: &str) -> Result<Vec<Object>, JobError> {
-        self.list(id)
-    }
-
     /// Copies the local file `file` up as job `id`'s object of the same
     /// name (a multipart upload beyond 10 MiB: it too appears whole).
     pub fn put_file(&self, id: &str, file: &Path) -> Result<(), JobError> {
@@ -180,20 +176,27 @@ impl Bucket {
         runtime()?.block_on(async {
             let mut w = object_store::buffered::BufWriter::new(self.store.clone(), key);
             let mut buf = vec![0u8; 1 << 20];
-            loop {
-                let n = std::io::Read::read(&mut src, &mut buf)
-                    .map_err(|e| JobError::Store(format!("{}: {e}", file.display())))?;
-                if n == 0 {
-                    break;
+            let copied = async {
+                loop {
+                    let n = std::io::Read::read(&mut src, &mut buf)
+                        .map_err(|e| JobError::Store(format!("{}: {e}", file.display())))?;
+                    if n == 0 {
+                        break;
+                    }
+                    w.write_all(&buf[..n])
+                        .await
+                        .map_err(|e| self.err(&format!("put {name}"), e))?;
                 }
-                if let Err(e) = w.write_all(&buf[..n]).await {
-                    let _ = w.abort().await;
-                    return Err(self.err(&format!("put {name}"), e));
-                }
+                w.shutdown()
+                    .await
+                    .map_err(|e| self.err(&format!("put {name}"), e))
             }
-            w.shutdown()
-                .await
-                .map_err(|e| self.err(&format!("put {name}"), e))
+            .await;
+            if copied.is_err() {
+                // a multipart upload begun is not left behind
+                let _ = w.abort().await;
+            }
+            copied
         })
     }
 
@@ -252,7 +255,7 @@ impl Bucket {
     /// about to run the job (perhaps another's, taken over) starts from
     /// them. Local result files the bucket lacks are removed.
     pub fn pull(&self, id: &str, dir: &Path) -> Result<(), JobError> {
-        let objects = self.list(id)?;
+        let objects = self.objects(id)?;
         if let Ok(entries) = std::fs::read_dir(dir) {
             for e in entries.flatten() {
                 let name = e.file_name();
