@@ -533,6 +533,48 @@ fn the_branching_plate_s_crack_runs_from_the_notch_and_splits() {
     );
 }
 
+/// The damage stage runs particle by particle in parallel: the coarse
+/// branching plate, cut at 30 µs (the crack running, the damage of many
+/// particles growing at once), with the normals from the averaged stress
+/// as well, gives every series value and the last snapshot's damage to the
+/// bit on one thread and on three (6 426 particles: several tasks).
+#[test]
+fn the_damage_stage_gives_the_same_bits_on_any_thread_count() {
+    for options in ["\ntol = 0.5\n", "\ntol = 0.5\nnormal_radius = 1.5\n"] {
+        let text = coarse_branching()
+            .replace("end = 8.0e-5", "end = 3.0e-5")
+            .replace("\ntol = 0.5\n", options);
+        let scene = Scene::from_text(&text, None).unwrap();
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    let mut sim = cleave::methods::build(&scene).unwrap();
+                    let mut rec = Recorder::default();
+                    sim.run(&mut rec).unwrap();
+                    let bits: Vec<Vec<u64>> = rec
+                        .rows
+                        .iter()
+                        .map(|r| r.values().iter().map(|v| v.to_bits()).collect())
+                        .collect();
+                    let damage: Vec<u64> = field(rec.snapshots.last().unwrap(), "damage")
+                        .iter()
+                        .map(|d| d.to_bits())
+                        .collect();
+                    let dissipated = *rec.column("fracture_energy").unwrap().last().unwrap();
+                    (bits, damage, dissipated)
+                })
+        };
+        let (one, three) = (run(1), run(3));
+        assert!(one.2 > 0.0, "{options}: nothing dissipated by 30 µs");
+        assert!(one.1.iter().filter(|&&d| f64::from_bits(d) > 0.0).count() > 20);
+        assert!(one.0 == three.0, "{options}: the series differ");
+        assert!(one.1 == three.1, "{options}: the damage differs");
+    }
+}
+
 #[test]
 fn with_track_at_one_damage_starts_only_beside_a_broken_particle() {
     // criterion 27 fed by broken particles only (`track_at = 1`): every

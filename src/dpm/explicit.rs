@@ -20,6 +20,10 @@ use crate::material::{Elastic, PlaneKind};
 use crate::tensor::{check_voigt, contract, resize, sym_eigen3};
 use rayon::prelude::*;
 
+/// Particles a task of the damage stage takes (fewer, and the fork costs
+/// more than the work).
+const PARTICLES_PER_TASK: usize = 1024;
+
 /// A material's damage (Wei & Chen, eqs. 2–6 and 33).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DamageParams {
@@ -66,6 +70,11 @@ pub struct DamageState<const D: usize> {
     x: Vec<[f64; D]>,
     lo: Vec<[f64; D]>,
     hi: Vec<[f64; D]>,
+    /// Scratch of [`Explicit::degrade`]: each particle's dissipation in
+    /// the step, J (0 between calls), and whether a chunk of
+    /// [`PARTICLES_PER_TASK`] particles has any.
+    dissipated: Vec<f64>,
+    live: Vec<bool>,
 }
 
 impl<const D: usize> DamageState<D> {
@@ -98,6 +107,8 @@ impl<const D: usize> DamageState<D> {
             x,
             lo,
             hi,
+            dissipated: vec![0.0; n],
+            live: Vec::new(),
         }
     }
 }
@@ -291,96 +302,141 @@ impl<const D: usize, const V: usize> Explicit<D, V> {
     /// then σ = (1 − D) C ε. Returns the energy the step's damage
     /// dissipated, Σ ½ ε:C:ε ΔD V (J): with D = 1 − (κ₀/κ)(κ_c − κ)/(κ_c − κ₀)
     /// this sums to ½ f_t κ_c V, the cell's G_F A_L under eq. 33.
+    ///
+    /// Particle by particle in parallel (each writes only its own state;
+    /// the normals read the others' stress and damage of the last step,
+    /// which this stage changes only after all normals are found); each
+    /// particle's share of the dissipation is summed afterwards in
+    /// particle order, so the result is the same for any thread count.
     pub(super) fn degrade(&mut self) -> f64 {
         let Some(st) = self.damage.as_mut() else {
             return 0.0;
         };
-        let mut dissipated = 0.0;
         let params = &self.damage_params;
-        let cell = &self.scni.cell;
-        if let Some((start, list)) = &st.averaging {
+        let (cell, material, materials) = (&self.scni.cell, &self.material, &self.materials);
+        let (strain, vol) = (&self.strain, &self.vol);
+        let DamageState {
+            kappa_0,
+            kappa,
+            kappa_c,
+            normal,
+            damage: dmg,
+            candidate,
+            started,
+            averaging,
+            x,
+            lo,
+            hi,
+            dissipated,
+            live,
+            ..
+        } = st;
+        if let Some((start, list)) = averaging {
             // the normals of the segments that start in this step, from the
             // stress about each at the last step's damage (before any of
             // this step's: the same for any order)
-            for l in 0..self.stress.len() {
-                let m = self.material[l] as usize;
-                if params[m].is_none()
-                    || st.kappa_c[l] != 0.0
-                    || !st.candidate[l]
-                    || equivalent_strain::<D, V>(&self.materials[m], &self.strain[l])
-                        < st.kappa_0[l]
-                {
-                    continue;
-                }
-                let mut sum = [0.0; V];
-                let around = &list[start[l] as usize..start[l + 1] as usize];
-                for i in std::iter::once(l).chain(around.iter().map(|&i| i as usize)) {
-                    let w = self.vol[i] * (1.0 - st.damage[i]);
-                    for (a, s) in sum.iter_mut().zip(&self.stress[i]) {
-                        *a += w * s;
+            let (stress, dmg) = (&self.stress, &*dmg);
+            normal
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(PARTICLES_PER_TASK)
+                .for_each(|(l, normal)| {
+                    let m = material[l] as usize;
+                    if params[m].is_none()
+                        || kappa_c[l] != 0.0
+                        || !candidate[l]
+                        || equivalent_strain::<D, V>(&materials[m], &strain[l]) < kappa_0[l]
+                    {
+                        return;
                     }
+                    let mut sum = [0.0; V];
+                    let around = &list[start[l] as usize..start[l + 1] as usize];
+                    for i in std::iter::once(l).chain(around.iter().map(|&i| i as usize)) {
+                        let w = vol[i] * (1.0 - dmg[i]);
+                        for (a, s) in sum.iter_mut().zip(&stress[i]) {
+                            *a += w * s;
+                        }
+                    }
+                    *normal = principal_direction::<D, V>(&sum);
+                });
+        }
+        let averaged = averaging.is_some();
+        let per = PARTICLES_PER_TASK;
+        live.resize(kappa_c.len().div_ceil(per), false);
+        (
+            kappa_c.par_chunks_mut(per),
+            normal.par_chunks_mut(per),
+            started.par_chunks_mut(per),
+            kappa.par_chunks_mut(per),
+            dmg.par_chunks_mut(per),
+            self.stress.par_chunks_mut(per),
+            dissipated.par_chunks_mut(per),
+            live.par_iter_mut(),
+        )
+            .into_par_iter()
+            .enumerate()
+            .for_each(
+                |(c, (kc, n, started, kappa, dmg, stress, dissipated, live))| {
+                    for j in 0..kc.len() {
+                        let l = c * per + j;
+                        let Some(p) = params[material[l] as usize] else {
+                            continue;
+                        };
+                        let m = &materials[material[l] as usize];
+                        let eq = equivalent_strain::<D, V>(m, &strain[l]);
+                        if kc[j] == 0.0 {
+                            if !candidate[l] || eq < kappa_0[l] {
+                                continue;
+                            }
+                            if !averaged {
+                                n[j] = principal_direction::<D, V>(&stress[j]);
+                            }
+                            let k = if p.regularised {
+                                let (x, n, lo, hi) = (x[l], n[j], lo[l], hi[l]);
+                                let area = if D == 2 {
+                                    chord_2d(resize(x), resize(n), resize(lo), resize(hi))
+                                } else {
+                                    section_3d(resize(x), resize(n), resize(lo), resize(hi))
+                                };
+                                regularised_kappa_c(p.g_f, p.f_t, area, cell[l])
+                            } else {
+                                p.kappa_c
+                            };
+                            // a cell too large for its fracture energy would
+                            // snap back (κ_c ≤ κ₀): it breaks at once instead
+                            kc[j] = k.max(kappa_0[l] * (1.0 + 1e-9));
+                            started[j] = p.track_at == 0.0;
+                        }
+                        kappa[j] = kappa[j].max(eq);
+                        let before = dmg[j];
+                        dmg[j] = before.max(damage(kappa[j], kappa_0[l], kc[j]));
+                        if p.track_at > 0.0 && before < p.track_at && dmg[j] >= p.track_at {
+                            started[j] = true;
+                        }
+                        dissipated[j] = 0.5
+                            * contract::<D, V>(&stress[j], &strain[l])
+                            * (dmg[j] - before)
+                            * vol[l];
+                        *live = true;
+                        let keep = 1.0 - dmg[j];
+                        for c in stress[j].iter_mut() {
+                            *c *= keep;
+                        }
+                    }
+                },
+            );
+        // in particle order, over the chunks where a particle damaged (the
+        // others' entries are 0, which would leave the sum's bits as they
+        // are), leaving every entry 0 again
+        let mut sum = 0.0;
+        for (chunk, live) in dissipated.chunks_mut(per).zip(live.iter_mut()) {
+            if std::mem::take(live) {
+                for d in chunk {
+                    sum += std::mem::take(d);
                 }
-                st.normal[l] = principal_direction::<D, V>(&sum);
             }
         }
-        let averaged = st.averaging.is_some();
-        for l in 0..self.stress.len() {
-            let Some(p) = params[self.material[l] as usize] else {
-                continue;
-            };
-            let m = &self.materials[self.material[l] as usize];
-            let eq = equivalent_strain::<D, V>(m, &self.strain[l]);
-            if st.kappa_c[l] == 0.0 {
-                if !st.candidate[l] || eq < st.kappa_0[l] {
-                    continue;
-                }
-                let n = if averaged {
-                    st.normal[l]
-                } else {
-                    principal_direction::<D, V>(&self.stress[l])
-                };
-                let kc = if p.regularised {
-                    let area = if D == 2 {
-                        chord_2d(
-                            resize(st.x[l]),
-                            resize(n),
-                            resize(st.lo[l]),
-                            resize(st.hi[l]),
-                        )
-                    } else {
-                        section_3d(
-                            resize(st.x[l]),
-                            resize(n),
-                            resize(st.lo[l]),
-                            resize(st.hi[l]),
-                        )
-                    };
-                    regularised_kappa_c(p.g_f, p.f_t, area, cell[l])
-                } else {
-                    p.kappa_c
-                };
-                // a cell too large for its fracture energy would snap back
-                // (κ_c ≤ κ₀): it breaks at once instead
-                st.kappa_c[l] = kc.max(st.kappa_0[l] * (1.0 + 1e-9));
-                st.normal[l] = n;
-                st.started[l] = p.track_at == 0.0;
-            }
-            st.kappa[l] = st.kappa[l].max(eq);
-            let before = st.damage[l];
-            st.damage[l] = before.max(damage(st.kappa[l], st.kappa_0[l], st.kappa_c[l]));
-            if p.track_at > 0.0 && before < p.track_at && st.damage[l] >= p.track_at {
-                st.started[l] = true;
-            }
-            dissipated += 0.5
-                * contract::<D, V>(&self.stress[l], &self.strain[l])
-                * (st.damage[l] - before)
-                * self.vol[l];
-            let keep = 1.0 - st.damage[l];
-            for c in self.stress[l].iter_mut() {
-                *c *= keep;
-            }
-        }
-        dissipated
+        sum
     }
 
     /// Criterion (27) after a step: the neighbours of each particle whose
