@@ -703,6 +703,17 @@ impl<'a, T> SyncPtr<'a, T> {
 mod tests {
     use super::*;
 
+    /// A fixed pseudo-random sequence of numbers in [0, 1) (a 64-bit LCG,
+    /// the top 53 bits) from `seed`: the particles of the grid's tests.
+    pub(in crate::grid) fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// A debug build stops an access past the end of the slice.
     #[test]
     #[cfg(debug_assertions)]
@@ -719,13 +730,7 @@ mod tests {
     /// even supports.
     #[test]
     fn bins_keep_a_tiles_particles_of_one_support_together() {
-        let mut seed = 12345u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = uniform(12345);
         let x: Vec<[f64; 2]> = (0..5000).map(|_| [30.0 * next(), 30.0 * next()]).collect();
         // (support width, first node of the support) of the kernels
         type FirstNode = fn(f64) -> isize;
@@ -782,13 +787,7 @@ mod tests {
     #[test]
     fn rebinning_is_the_stable_sort_on_any_thread_count() {
         fn check<const D: usize>(cells: [usize; D], count: usize, support: usize) {
-            let mut seed = 4242u64;
-            let mut next = || {
-                seed = seed
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (seed >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut next = uniform(4242);
             let geom = GridGeom::<D>::new([0.0; D], 1.0, cells);
             // a quarter of the particles in one corner, so tiles differ in
             // their counts and some are empty
@@ -835,13 +834,7 @@ mod tests {
     #[test]
     fn colours_keep_stencils_apart_and_active_runs_cover_them() {
         fn check<K: Kernel, const D: usize>(cells: [usize; D], count: usize) {
-            let mut seed = 777u64;
-            let mut next = || {
-                seed = seed
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (seed >> 11) as f64 / (1u64 << 53) as f64
-            };
+            let mut next = uniform(777);
             let geom = GridGeom::<D>::new([0.0; D], 1.0, cells);
             // particles anywhere in the domain, ghost nodes included in reach
             let x: Vec<[f64; D]> = (0..count)

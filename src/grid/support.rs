@@ -355,13 +355,7 @@ mod tests {
         let min: [f64; D] = std::array::from_fn(|d| [-0.3, 0.2, 0.05][d]);
         let cells: [usize; D] = std::array::from_fn(|d| [40, 30, 20][d]);
         let geom = GridGeom::<D>::new(min, 0.07, cells);
-        let mut seed = 99u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::grid::tests::uniform(99);
         for _ in 0..300 {
             let x: [f64; D] = std::array::from_fn(|d| {
                 geom.domain_min[d] + next() * (geom.domain_max[d] - geom.domain_min[d])
