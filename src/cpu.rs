@@ -16,7 +16,7 @@
 //! same IEEE operation, rounded the same way, in either copy. `f64::mul_add`
 //! is a fused operation in both (an instruction here, a correctly rounded
 //! libm call there). Results are bitwise the same with and without the wide
-//! copy, which `tests/verification3d.rs` checks on whole runs in 2D and
+//! copy, which `tests/engine/verification3d.rs` checks on whole runs in 2D and
 //! 3D ([`force`]).
 //!
 //! **How the compiler gets there.** `wide::<R>` calls an

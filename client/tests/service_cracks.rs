@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-/// The stacked blocks of `tests/crack_snapshots.rs`
+/// The stacked blocks of `tests/engine/crack_snapshots.rs`
 /// (`tests/data/stacked_cracks.toml`), the top one pulled away: with an
 /// interface crack through both edges and a crack inside the top block
 /// (whose ends are tips, so the series has a finite J), or without

@@ -264,7 +264,7 @@ pub trait FractureModel<const D: usize = 2, const V: usize = 3>: Send + AsAny {
 /// in that step; what it must do meanwhile reads it shared
 /// ([`FieldSplit::contact`]), and what changes it runs after the slots
 /// are released ([`FieldSplit::after_slots`]: moving crack surfaces).
-/// `tests/plan.rs` fails on a plan stage that did not run.
+/// `tests/engine/plan.rs` fails on a plan stage that did not run.
 pub trait FieldSplit<const D: usize = 2, const V: usize = 3> {
     /// Coulomb friction between a group's two sides where they touch.
     fn self_friction(&self) -> f64;

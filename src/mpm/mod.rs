@@ -1131,7 +1131,7 @@ where
     /// with the particles' own velocities is not: under FLIP and MUSL the
     /// particle velocity drifts from the rate the particle moves at, and a
     /// traction edge's work came out at two thirds of the strain energy it
-    /// stored (`tests/verification.rs`). Crack-face pressures count their
+    /// stored (`tests/engine/verification.rs`). Crack-face pressures count their
     /// own work by the surfaces' velocities: they are not forces on
     /// particles, and Σ F_i·v_i over their nodes over-counts where a share
     /// lands on a node of little field mass (docs/cracks-c3.md). Under

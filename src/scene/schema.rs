@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 // Types the base layer defines and the scene file names: the scene builds
-// base types, the base imports nothing from the scene (tests/layers.rs).
+// base types, the base imports nothing from the scene (tests/engine/layers.rs).
 pub use crate::geometry::{Matrix, ShapeSpec, Vector};
 pub use crate::grid::shape::ShapeFunctionKind;
 pub use crate::material::{MaterialModel, PlaneKind};

@@ -40,7 +40,7 @@
 //! Departures from the paper, both for self-contact (section 2.4) and only
 //! in scenes with it (without self-contact Algorithms 1 and 2 run as
 //! written: the paper's rules give the better crack dissipation, +7.4 %
-//! against +10 % on the notched bar of `tests/dfg.rs`), where
+//! against +10 % on the notched bar of `tests/engine/dfg.rs`), where
 //! d = max(s, D) is 1 in the surface bands of two faces that touch, D̄ is
 //! flat between them and their particles have no gradient: Algorithm 1's
 //! largest gradient follows a body's own free face where it meets another
@@ -49,7 +49,7 @@
 //! standing on a plane in one contact group shares a field with the plane
 //! at its corner nodes, and is welded there (it slid 0.01 mm where two
 //! contact groups slide 17.1 mm; with the changes the two agree to 0.01 %,
-//! `tests/dfg.rs`). At a straight crack the direction is still its normal;
+//! `tests/engine/dfg.rs`). At a straight crack the direction is still its normal;
 //! the band's own particles (no gradient) split at the band's centre
 //! instead of all going to side 0.
 //!

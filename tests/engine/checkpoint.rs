@@ -2,7 +2,7 @@
 //! after a checkpoint and is resumed from it writes what the uninterrupted
 //! run writes, bit for bit (with PCG, to the solver's tolerance).
 
-mod common;
+use crate::common;
 
 use cleave::checkpoint::{Checkpoint, CheckpointError};
 use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};

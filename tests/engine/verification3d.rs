@@ -2,7 +2,7 @@
 //! has three axes, run through `Simulation<3, 6>` as `cleave run` runs
 //! them. Each test compares with an analytic value.
 
-mod common;
+use crate::common;
 
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;

@@ -2,7 +2,7 @@
 //! the Rankine law's dissipation against G_f × the crack's area, and the
 //! thread count not changing a damaged run.
 
-mod common;
+use crate::common;
 
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;

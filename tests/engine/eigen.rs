@@ -1,7 +1,7 @@
 //! Eigenerosion and eigensoftening in runs (issue 34): what a scene may
 //! ask of them, and the strip in slow tension.
 
-mod common;
+use crate::common;
 
 use common::{refused, shipped};
 
@@ -158,7 +158,7 @@ fn check_strip(label: &str, (peak, dissipated, balance): (f64, f64, f64), area: 
 /// weaker, the mean axial stress peaks at the weak row's f_t (within 2 %)
 /// and the softening row dissipates G_F × the cross-section (within 5 %)
 /// at three cell sizes, with the energy balanced. (docs/eigen.md has the
-/// numbers: `cargo test --release --test eigen strip -- --nocapture`.)
+/// numbers: `cargo test --release --test engine strip -- --nocapture`.)
 #[test]
 fn an_eigensoftening_strip_peaks_at_its_strength_and_dissipates_gf() {
     for h in [0.01, 0.005, 0.0025] {

@@ -1,7 +1,5 @@
-//! Helpers shared by the integration tests (each test file that needs
-//! them declares `mod common;`). Each test file compiles this module
-//! and uses only some of it, hence the allowance.
-#![allow(dead_code)]
+//! Helpers shared by the integration tests (the modules of `tests/engine`;
+//! a module that needs them says `use crate::common;`).
 
 /// The least-squares slope of `(t, v)` samples taken after `after`: the
 /// acceleration of a body whose velocity was sampled over time.
@@ -109,7 +107,7 @@ where
 
 /// A small 3D impact: a stiff sphere at 60 m/s on a free beam, both with a
 /// 2nd-order phase field, solved directly (so that a resumed run repeats
-/// the straight one bit for bit, `tests/checkpoint.rs`); `tests/phase_field3d.rs`
+/// the straight one bit for bit, `tests/engine/checkpoint.rs`); `tests/engine/phase_field3d.rs`
 /// runs it on 1 and 2 threads.
 pub const PF_IMPACT_3D: &str = r#"
 [grid]
@@ -169,4 +167,42 @@ pub fn refused(text: &str, expect: &[&str]) {
     for x in expect {
         assert!(e.contains(x), "{x:?} not in: {e}");
     }
+}
+
+/// The name libtest knows test `test` by in this binary: its module's
+/// path without the crate's name, then the test's.
+pub fn test_name(module_path: &str, test: &str) -> String {
+    match module_path.split_once("::") {
+        Some((_, module)) => format!("{module}::{test}"),
+        None => test.to_string(),
+    }
+}
+
+/// Whether this process is the child [`run_in_child`] started.
+pub fn in_child() -> bool {
+    std::env::var_os("CLEAVE_TEST_CHILD").is_some()
+}
+
+/// Runs the test `name` (as [`test_name`] gives it) of this test binary
+/// again, alone, in a child process, for what a test must not do to the
+/// process the other tests share: a resource limit, an environment. The
+/// child runs under `sh -c "{shell}exec …"` (`shell` is empty or ends in
+/// `&& `) with `envs` and `CLEAVE_TEST_CHILD` set; panics with its output
+/// unless it ran that test and passed.
+pub fn run_in_child(name: &str, shell: &str, envs: &[(&str, &std::ffi::OsStr)]) {
+    let exe = std::env::current_exe().unwrap();
+    let out = std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            r#"{shell}exec "$0" --exact "$1" --test-threads=1 --nocapture"#
+        ))
+        .arg(exe)
+        .arg(name)
+        .env("CLEAVE_TEST_CHILD", "1")
+        .envs(envs.iter().map(|&(k, v)| (k, v)))
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && text.contains("1 passed"), "{text}");
 }

@@ -3,7 +3,7 @@
 //! faces from interpenetrating, the crack surfaces follow the material,
 //! and bad crack input is refused naming the field.
 
-mod common;
+use crate::common;
 
 use cleave::diagnostics::Recorder;
 use cleave::fracture::cracks::Cramp;
@@ -466,7 +466,7 @@ explicit_cracks = [{{ points = [[0.005, 0.01, 0.01], [0.015, 0.01, 0.01]] }}]
 /// δ = 4σa/E′ · V(2a/W) (Tada, Paris & Irwin's centre-cracked strip,
 /// V = −0.071 − 0.535α + 0.169α² + 0.02α³ − 1.071 ln(1 − α)/α: 1.024 at
 /// α = 0.2; 14.91 µm) within 5 %. About 80 s in release:
-/// `cargo test --release --test cracks -- --ignored --nocapture`.
+/// `cargo test --release --test engine cracks:: -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn the_centre_crack_gives_griffiths_opening_and_j() {
@@ -525,7 +525,7 @@ fn the_centre_crack_gives_griffiths_opening_and_j() {
 /// split is owed. Prints the crack's opening profile (δ_t/δ_n per crack
 /// point, which is tan β all along an inclined Griffith crack). About
 /// 80 s in release:
-/// `cargo test --release --test cracks -- --ignored --nocapture`.
+/// `cargo test --release --test engine cracks:: -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn an_inclined_crack_splits_j_into_both_modes() {
@@ -590,7 +590,7 @@ fn an_inclined_crack_splits_j_into_both_modes() {
 /// 1 MPa over 0.6 ms), with J_Ic = `j_ic` and `extra` after the crack in
 /// the body's list (a second crack).
 fn edge_cracked(j_ic: f64, extra: &str) -> String {
-    let text = include_str!("../scenes/cramp_edge_growth.toml");
+    let text = include_str!("../../scenes/cramp_edge_growth.toml");
     let crack = "[0.005, 0.0151]] }";
     let tough = "growth = { j_ic = 100.0 }";
     assert!(text.contains(crack) && text.contains(tough));
@@ -688,7 +688,7 @@ fn a_growing_crack_stops_at_the_crack_it_meets() {
 /// `_J8`, `_J12`, `_J16` over the last third of the ramp (0.4–0.6 ms, the
 /// load still rising: every contour sees the same instants).
 fn edge_plate_j(cracks: &str, method: &str) -> [f64; 5] {
-    let mut text = include_str!("../scenes/cramp_edge_growth.toml").to_string();
+    let mut text = include_str!("../../scenes/cramp_edge_growth.toml").to_string();
     for (from, to) in [
         (
             "min = [-0.004, -0.002]",
@@ -786,7 +786,7 @@ fn adaptive_fijc_leaves_out_the_other_tip() {
 /// `load`: a traction on its top and bottom, or a pressure on the crack's
 /// faces, each rising linearly to 1 MPa over 0.6 ms.
 fn centre_cracked(load: &str) -> String {
-    let mut text = include_str!("../scenes/cramp_edge_growth.toml").to_string();
+    let mut text = include_str!("../../scenes/cramp_edge_growth.toml").to_string();
     let line = text
         .lines()
         .find(|l| l.starts_with("explicit_cracks"))

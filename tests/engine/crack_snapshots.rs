@@ -15,7 +15,7 @@ use cleave::scene::Scene;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-/// The interface crack of `tests/cracks.rs` (two stacked blocks, the top
+/// The interface crack of `tests/engine/cracks.rs` (two stacked blocks, the top
 /// one pulled away at 1 m/s, the crack 2.9 mm past their edges), and a
 /// second crack inside the top block that rides along with it.
 const INTERFACE: [[f64; 2]; 4] = [
@@ -34,7 +34,7 @@ fn points(p: &[[f64; 2]]) -> String {
 /// The scene (`tests/data/stacked_cracks.toml`), with its two cracks or
 /// without; five snapshots over 0.1 ms.
 fn scene(cracks: bool) -> Scene {
-    let text = include_str!("data/stacked_cracks.toml");
+    let text = include_str!("../data/stacked_cracks.toml");
     // the expected points below are the file's
     for c in [&INTERFACE[..], &INSIDE[..]] {
         assert!(text.contains(&format!("points = {} }}", points(c))));

@@ -1,7 +1,7 @@
 //! Local maximum-entropy shape functions in runs (issue 34): what a scene
 //! may ask of them, and what they buy over the linear hat.
 
-mod common;
+use crate::common;
 
 use common::{refused, shipped};
 

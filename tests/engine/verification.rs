@@ -1,7 +1,7 @@
 //! Verification of the explicit MPM core against theory (issue 2).
 //! Each test compares with an analytic value, not with a stored output.
 
-mod common;
+use crate::common;
 
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;

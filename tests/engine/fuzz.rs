@@ -7,9 +7,9 @@
 //! diagnosis naming the step (exit 1) or a refusal naming the field
 //! (exit 2).
 //!
-//! `cargo test --release --test fuzz` runs a few hundred cases (seeded:
+//! `cargo test --release --test engine fuzz::` runs a few hundred cases (seeded:
 //! the same cases every time); the long version, ten thousand and more,
-//! is `CLEAVE_FUZZ_CASES=10000 cargo test --release --test fuzz -- --ignored --nocapture`
+//! is `CLEAVE_FUZZ_CASES=10000 cargo test --release --test engine fuzz:: -- --ignored --nocapture`
 //! (`docs/stability.md`). A failing case prints its seed and writes its
 //! scene to the temporary directory.
 

@@ -2,7 +2,7 @@
 //! seed 000). Each test compares two runs the paper compares, or a run
 //! with an analytic value.
 
-mod common;
+use crate::common;
 
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;

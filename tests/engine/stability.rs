@@ -4,10 +4,11 @@
 //! acts, and no NaN; or it stops with the designed diagnosis. Never a
 //! panic, a hang or a silent explosion.
 //!
-//! `CLEAVE_STABILITY_LONG=1 cargo test --release --test stability` runs
+//! `CLEAVE_STABILITY_LONG=1 cargo test --release --test engine stability::` runs
 //! the longer variants (finer, longer in time); the default ones are sized
 //! for CI.
 
+use crate::common;
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;
 use cleave::run::SimError;
@@ -925,28 +926,20 @@ fn a_scene_larger_than_the_memory_budget_is_refused() {
 #[cfg(target_os = "linux")]
 #[test]
 fn a_scene_beyond_the_address_space_limit_is_refused() {
-    const NAME: &str = "a_scene_beyond_the_address_space_limit_is_refused";
     let text = small_scene(&[
         ("cell_size = 0.02", "cell_size = 0.00025"),
         ("radius = 0.2", "radius = 0.45"),
     ]);
-    if std::env::var_os("CLEAVE_LIMITED_CHILD").is_some() {
+    if common::in_child() {
         let e = refusal(&text);
         assert!(e.contains("address-space limit"), "{e}");
         return;
     }
-    let exe = std::env::current_exe().unwrap();
-    let out = std::process::Command::new("sh")
-        .arg("-c")
-        .arg(r#"ulimit -v 2000000 && exec "$0" --exact "$1" --test-threads=1 --nocapture"#)
-        .arg(exe)
-        .arg(NAME)
-        .env("CLEAVE_LIMITED_CHILD", "1")
-        .output()
-        .unwrap();
-    let text =
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success() && text.contains("1 passed"), "{text}");
+    let name = common::test_name(
+        module_path!(),
+        "a_scene_beyond_the_address_space_limit_is_refused",
+    );
+    common::run_in_child(&name, "ulimit -v 2000000 && ", &[]);
 }
 
 /// A checkpoint of two_disks, as bytes, and its scene.

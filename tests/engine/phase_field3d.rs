@@ -5,7 +5,7 @@
 //! 3D γ's validation, and a coupled 3D run that repeats bit for bit on any
 //! thread count.
 
-mod common;
+use crate::common;
 
 use cleave::fracture::phase_field::anisotropy::{surface_energy_3d, Gamma, Gamma3};
 use cleave::fracture::phase_field::system::{

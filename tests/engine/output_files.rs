@@ -4,6 +4,7 @@
 //! symmetric tensors of 6 in VTK's order), every array as long as its
 //! points times its components.
 
+use crate::common;
 use cleave::mpm::Simulation;
 use cleave::output::{OutputPaths, OutputWriter};
 use cleave::scene::Scene;
@@ -19,21 +20,31 @@ fn scene_text(file: &str, edits: &[(&str, &str)]) -> String {
     text
 }
 
-/// A process environment without fonts, as in a bare container: an
-/// empty fontconfig configuration and homes with no font directories.
-/// Set once, before any run, for every test in this file.
-fn no_fonts() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        let dir = std::env::temp_dir().join(format!("cleave-no-fonts-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let conf = dir.join("fonts.conf");
-        std::fs::write(&conf, "<?xml version=\"1.0\"?>\n<fontconfig/>\n").unwrap();
-        std::env::set_var("FONTCONFIG_FILE", &conf);
-        std::env::set_var("FONTCONFIG_PATH", &dir);
-        std::env::set_var("XDG_DATA_HOME", &dir);
-        std::env::set_var("HOME", &dir);
-    });
+/// Runs the test `test` of this module again in a child process whose
+/// environment has no fonts, as in a bare container: an empty fontconfig
+/// configuration and homes with no font directories (a child, because
+/// the environment is the process's, which the other tests share).
+/// True in that child, where the test goes on; false here once the child
+/// passed.
+fn in_a_process_without_fonts(test: &str) -> bool {
+    if common::in_child() {
+        return true;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let conf = dir.path().join("fonts.conf");
+    std::fs::write(&conf, "<?xml version=\"1.0\"?>\n<fontconfig/>\n").unwrap();
+    let d = dir.path().as_os_str();
+    common::run_in_child(
+        &common::test_name(module_path!(), test),
+        "",
+        &[
+            ("FONTCONFIG_FILE", conf.as_os_str()),
+            ("FONTCONFIG_PATH", d),
+            ("XDG_DATA_HOME", d),
+            ("HOME", d),
+        ],
+    );
+    false
 }
 
 /// Runs `text` to its end with an [`OutputWriter`] in `dir`.
@@ -83,7 +94,9 @@ fn dark(p: [u8; 3]) -> bool {
 
 #[test]
 fn a_run_without_fonts_writes_pictures_with_their_text() {
-    no_fonts();
+    if !in_a_process_without_fonts("a_run_without_fonts_writes_pictures_with_their_text") {
+        return;
+    }
     let tmp = tempfile::tempdir().unwrap();
     // the coarse P1 plate, a few steps: a phase field, a crack tip
     let text = scene_text(
@@ -208,7 +221,6 @@ fn f64s(b: &[u8]) -> Vec<f64> {
 
 #[test]
 fn vtk_files_have_the_shapes_paraview_expects() {
-    no_fonts();
     let tmp = tempfile::tempdir().unwrap();
     // the two disks just after they meet: stress in both, shear too
     let text = scene_text(

@@ -1,8 +1,8 @@
 //! Damage-field-gradient partitioning in 3D (issue 32; Homel & Herbold
-//! 2017, section 2): the 3D versions of `tests/dfg.rs`'s failed band and
+//! 2017, section 2): the 3D versions of `tests/engine/dfg.rs`'s failed band and
 //! notched bar, and the thread count not changing a 3D DFG run.
 
-mod common;
+use crate::common;
 
 use cleave::diagnostics::Recorder;
 use cleave::mpm::Simulation;
@@ -123,7 +123,7 @@ fn notched_bar_dfg() -> String {
     std::fs::read_to_string(&path).expect("scenes/notched_bar_dfg_3d.toml")
 }
 
-/// The notched bar of `tests/damage3d.rs` with DFG partitioning
+/// The notched bar of `tests/engine/damage3d.rs` with DFG partitioning
 /// (`scenes/notched_bar_dfg_3d.toml`): Rankine softening scaled by l_ch
 /// (eq. 23) dissipates G_f × the 6 × 12 mm ligament = 7.2 mJ, within 10 %
 /// (docs/dfg.md, "In 3D", has the measured value); the two sides of the
@@ -200,13 +200,13 @@ fn a_3d_dfg_run_does_not_depend_on_the_thread_count() {
     }
 }
 
-/// Section 2.4 in 3D: the incline of `tests/verification3d.rs` (θ = 30°,
+/// Section 2.4 in 3D: the incline of `tests/engine/verification3d.rs` (θ = 30°,
 /// μ = 0.3) with block and plane in ONE contact group and `[dfg]
 /// self_contact`: the block should slide at a = g(sin θ − μ cos θ) as two
 /// contact groups do (within 3 %). It does not yet: since the 3D rules of
 /// docs/dfg.md ("Why it welds", items 6–10) the block slides, but a =
 /// 2.212 m/s² after 20 ms (−6.1 %; two groups −3.3 % by the series'
-/// momentum). Run with `cargo test --release --test dfg3d -- --ignored`
+/// momentum). Run with `cargo test --release --test engine dfg3d:: -- --ignored`
 /// (85 s on 2 cores).
 #[test]
 #[ignore = "3D self-contact: the block slides, 6 % slow: docs/dfg.md, Why it welds"]
