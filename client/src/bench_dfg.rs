@@ -11,7 +11,6 @@
 use anyhow::Context;
 use cleave::diagnostics::fragments::{from_snapshot, Fragment};
 use cleave::diagnostics::{Observer, Recorder, SeriesRow, Snapshot};
-use cleave::mpm::Simulation;
 use cleave::scene::{Scene, Stage};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -53,7 +52,7 @@ struct Case {
 
 fn run_case(file: &cleave::scene::SceneFile, instants: &[f64]) -> anyhow::Result<Case> {
     let scene = Scene::validate(file.clone()).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let mut sim = Simulation::new(&scene);
+    let mut sim = crate::bench::built(&scene)?;
     let mut keep = Keep {
         series: Recorder::series_only(),
         fragments: Vec::new(),

@@ -14,6 +14,7 @@ use cleave::checkpoint::Checkpoint;
 use cleave::fracture::phase_field::model::PhaseFields;
 use cleave::fracture::phase_field::system::FactorKind;
 use cleave::mpm::Simulation;
+use cleave::run::Method;
 use cleave::scene::{PhaseFieldMethod, Scene, Stage};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -49,12 +50,14 @@ struct FactorTimes {
 /// Times `repeats` factorizations of each kind a run makes on the
 /// simulation's current matrices (the seconds the run's stats count).
 /// The scene's phase fields (the model whose solver is timed here).
-fn phase_fields(sim: &mut Simulation) -> anyhow::Result<&mut PhaseFields> {
-    sim.model_mut::<PhaseFields>()
-        .context("the scene has no phase field")
+fn phase_fields(sim: &mut dyn Method) -> anyhow::Result<&mut PhaseFields> {
+    sim.as_any_mut()
+        .downcast_mut::<Simulation>()
+        .and_then(|s| s.model_mut::<PhaseFields>())
+        .context("the scene has no phase field (in a 2D grid run)")
 }
 
-fn time_factorizations(sim: &mut Simulation, repeats: usize) -> anyhow::Result<FactorTimes> {
+fn time_factorizations(sim: &mut dyn Method, repeats: usize) -> anyhow::Result<FactorTimes> {
     let mut seconds = [0.0; 2];
     for _ in 0..repeats {
         // the preconditioner last: the run goes on with the factor it would have
@@ -98,7 +101,7 @@ fn measure(
     let mut sim = match from {
         Some(path) => {
             let cp = Checkpoint::load(path).with_context(|| path.display().to_string())?;
-            let sim = Simulation::resume(&scene, cp)
+            let sim = cleave::methods::resume(&scene, cp)
                 .with_context(|| format!("cannot start from {}", path.display()))?;
             eprintln!(
                 "{method:?}: resumed at step {}, t = {:e} s",
@@ -107,23 +110,23 @@ fn measure(
             );
             sim
         }
-        None => Simulation::new(&scene),
+        None => crate::bench::built(&scene)?,
     };
     eprintln!(
         "{method:?}: {} particles set up in {:.1} s",
-        sim.particles().len(),
+        sim.particle_count(),
         t.elapsed().as_secs_f64()
     );
     for _ in 0..warmup {
         sim.step()?;
     }
-    let (t0, s0) = (sim.stage_times().clone(), phase_fields(&mut sim)?.stats());
+    let (t0, s0) = (sim.stage_times().clone(), phase_fields(&mut *sim)?.stats());
     let wall = Instant::now();
     for _ in 0..steps {
         sim.step()?;
     }
     let wall = wall.elapsed().as_secs_f64();
-    let s1 = phase_fields(&mut sim)?.stats();
+    let s1 = phase_fields(&mut *sim)?.stats();
     let t1 = sim.stage_times();
     let per = |a: f64, b: f64| (a - b) / steps as f64;
     let mpm = per(
@@ -139,13 +142,13 @@ fn measure(
     let pf = per(t1.sum(Stage::is_phase_field), t0.sum(Stage::is_phase_field));
     let solves = (s1.pcg_solves - s0.pcg_solves).max(1) as f64;
     if let Some((plan, out)) = factors {
-        out.push(time_factorizations(&mut sim, plan.repeats)?);
+        out.push(time_factorizations(&mut *sim, plan.repeats)?);
         if let Some(late) = plan.late {
             eprintln!("{method:?}: running on to t = {late:e} s for the late factorizations");
             while sim.time() < late * (1.0 - 1e-9) {
                 sim.step()?;
             }
-            out.push(time_factorizations(&mut sim, plan.repeats)?);
+            out.push(time_factorizations(&mut *sim, plan.repeats)?);
         }
     }
     Ok(Split {
