@@ -13,9 +13,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
-/// The benchmark block: `cells × cells` cells of material with 2 × 2
-/// particles each, in a grid with a 4-cell margin, stretching and spinning
-/// slowly so the particles move.
 /// The run of a validated scene by its method, as the library builds it:
 /// the benchmarks step it through the trait object, so that the step is
 /// compiled once, in the library, and not again in this binary (whose
@@ -24,6 +21,9 @@ pub(crate) fn built(scene: &Scene) -> anyhow::Result<Box<dyn cleave::run::Method
     cleave::methods::build(scene).map_err(|e| anyhow::anyhow!("{e}"))
 }
 
+/// The benchmark block: `cells × cells` cells of material with 2 × 2
+/// particles each, in a grid with a 4-cell margin, stretching and spinning
+/// slowly so the particles move.
 fn scene(cells: usize, transfer: &str, kernel: &str) -> anyhow::Result<Scene> {
     Scene::from_text(&scene_text(cells, transfer, kernel), None)
         .map_err(|e| anyhow::anyhow!("benchmark scene: {e}"))

@@ -47,8 +47,6 @@ struct FactorTimes {
     direct: f64,
 }
 
-/// Times `repeats` factorizations of each kind a run makes on the
-/// simulation's current matrices (the seconds the run's stats count).
 /// The scene's phase fields (the model whose solver is timed here).
 fn phase_fields(sim: &mut dyn Method) -> anyhow::Result<&mut PhaseFields> {
     sim.as_any_mut()
@@ -57,6 +55,8 @@ fn phase_fields(sim: &mut dyn Method) -> anyhow::Result<&mut PhaseFields> {
         .context("the scene has no phase field (in a 2D grid run)")
 }
 
+/// Times `repeats` factorizations of each kind a run makes on the
+/// simulation's current matrices (the seconds the run's stats count).
 fn time_factorizations(sim: &mut dyn Method, repeats: usize) -> anyhow::Result<FactorTimes> {
     let mut seconds = [0.0; 2];
     for _ in 0..repeats {
