@@ -3,9 +3,9 @@
 //! run writes, bit for bit (with PCG, to the solver's tolerance).
 
 use crate::common;
+use crate::common::Interrupted;
 
 use cleave::checkpoint::{Checkpoint, CheckpointError};
-use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
 use cleave::mpm::Simulation;
 use cleave::output::OutputWriter;
 use cleave::particles::Particles;
@@ -20,37 +20,6 @@ fn scene_text(file: &str, edits: &[(&str, &str)]) -> String {
         text = text.replace(from, to);
     }
     text
-}
-
-/// An output writer that asks for a checkpoint at the end of step `at`
-/// and then stops (the process "is lost") `lost` steps later, after it has
-/// written rows and snapshots past the checkpoint.
-struct Interrupted {
-    writer: OutputWriter,
-    at: u64,
-    lost: u64,
-}
-
-impl Observer for Interrupted {
-    fn series_columns(&mut self, c: &[String]) -> Result<(), String> {
-        self.writer.series_columns(c)
-    }
-    fn series_row(&mut self, r: &SeriesRow) -> Result<(), String> {
-        self.writer.series_row(r)
-    }
-    fn snapshot(&mut self, s: &Snapshot) -> Result<(), String> {
-        self.writer.snapshot(s)
-    }
-    fn progress(&mut self, p: &Progress) -> Control {
-        match p.step {
-            s if s == self.at => Control::Checkpoint,
-            s if s == self.at + self.lost => Control::Stop,
-            _ => Control::Continue,
-        }
-    }
-    fn checkpoint(&mut self, cp: Checkpoint<'_>) -> Result<(), String> {
-        self.writer.checkpoint(cp)
-    }
 }
 
 /// What a run in `dir` leaves: the series, the snapshot collection, the

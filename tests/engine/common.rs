@@ -1,6 +1,10 @@
 //! Helpers shared by the integration tests (the modules of `tests/engine`;
 //! a module that needs them says `use crate::common;`).
 
+use cleave::checkpoint::Checkpoint;
+use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
+use cleave::output::OutputWriter;
+
 /// The least-squares slope of `(t, v)` samples taken after `after`: the
 /// acceleration of a body whose velocity was sampled over time.
 pub fn slope_after(samples: &[(f64, f64)], after: f64) -> f64 {
@@ -205,4 +209,35 @@ pub fn run_in_child(name: &str, shell: &str, envs: &[(&str, &std::ffi::OsStr)]) 
     let text =
         String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success() && text.contains("1 passed"), "{text}");
+}
+
+/// An output writer that asks for a checkpoint at the end of step `at`
+/// and then stops (the process "is lost") `lost` steps later, after it has
+/// written rows and snapshots past the checkpoint.
+pub struct Interrupted {
+    pub writer: OutputWriter,
+    pub at: u64,
+    pub lost: u64,
+}
+
+impl Observer for Interrupted {
+    fn series_columns(&mut self, c: &[String]) -> Result<(), String> {
+        self.writer.series_columns(c)
+    }
+    fn series_row(&mut self, r: &SeriesRow) -> Result<(), String> {
+        self.writer.series_row(r)
+    }
+    fn snapshot(&mut self, s: &Snapshot) -> Result<(), String> {
+        self.writer.snapshot(s)
+    }
+    fn progress(&mut self, p: &Progress) -> Control {
+        match p.step {
+            s if s == self.at => Control::Checkpoint,
+            s if s == self.at + self.lost => Control::Stop,
+            _ => Control::Continue,
+        }
+    }
+    fn checkpoint(&mut self, cp: Checkpoint<'_>) -> Result<(), String> {
+        self.writer.checkpoint(cp)
+    }
 }

@@ -5,8 +5,7 @@
 //! without cracks, and a resumed run's collection still lists the files
 //! written before its checkpoint.
 
-use cleave::checkpoint::Checkpoint;
-use cleave::diagnostics::{Control, Observer, Progress, SeriesRow, Snapshot};
+use crate::common::Interrupted;
 use cleave::fracture::cracks::snapshot::{ABOVE, BELOW, PLANE};
 use cleave::fracture::cracks::Cramp;
 use cleave::mpm::Simulation;
@@ -273,36 +272,6 @@ fn a_scene_without_cracks_writes_no_crack_files() {
     assert_eq!(paths.cracks_pvd, None);
     let json = serde_json::to_string(&paths).unwrap();
     assert!(!json.contains("cracks"), "{json}");
-}
-
-/// Asks for a checkpoint at the end of step `at`, then stops `lost` steps
-/// later (the process "is lost"), after writing snapshots past it.
-struct Interrupted {
-    writer: OutputWriter,
-    at: u64,
-    lost: u64,
-}
-
-impl Observer for Interrupted {
-    fn series_columns(&mut self, c: &[String]) -> Result<(), String> {
-        self.writer.series_columns(c)
-    }
-    fn series_row(&mut self, r: &SeriesRow) -> Result<(), String> {
-        self.writer.series_row(r)
-    }
-    fn snapshot(&mut self, s: &Snapshot) -> Result<(), String> {
-        self.writer.snapshot(s)
-    }
-    fn progress(&mut self, p: &Progress) -> Control {
-        match p.step {
-            s if s == self.at => Control::Checkpoint,
-            s if s == self.at + self.lost => Control::Stop,
-            _ => Control::Continue,
-        }
-    }
-    fn checkpoint(&mut self, cp: Checkpoint<'_>) -> Result<(), String> {
-        self.writer.checkpoint(cp)
-    }
 }
 
 /// A run checkpointed halfway, lost a quarter later and resumed from the
