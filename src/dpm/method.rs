@@ -1,16 +1,18 @@
 //! The damage particle method as a [`Method`]: a scene with `method =
-//! "damage_particle"` set up as particles on the lattice's vertices
-//! ([`super::section`]), run by explicit central differences
-//! ([`Explicit`]) whose stages are the scene's plan (`dpm_advance →
-//! dpm_strain → [dpm_damage →] [dpm_traction →] dpm_force`), or
+//! "damage_particle"` set up as particles on the lattice's vertices (a
+//! box) or at its cells' centres (any other body; [`super::section`]),
+//! run by explicit central differences ([`Explicit`]) whose stages are
+//! the scene's plan (`dpm_advance → dpm_strain → [dpm_damage →]
+//! [dpm_traction →] dpm_force`), or
 //! statically (`integration = "static"`: `dpm_load → dpm_equilibrium`,
 //! [`Equilibrium`]), with the series, snapshots, progress and checkpoints
 //! of every method. A static step's reactions are the out-of-balance
 //! forces on the held components at equilibrium, R = f_int − f_ext − m g,
 //! their work summed by the trapezoid rule as the explicit run's.
 //!
-//! Walls hold the particles that lie on them: a `fixed` side every
-//! component, a `roller` side the normal one, a `velocity` side the
+//! Walls hold the particles that lie on them (at cells' centres: those
+//! whose cell touches the wall, half a spacing inside it): a `fixed` side
+//! every component, a `roller` side the normal one, a `velocity` side the
 //! components it gives; the held particles carry singular kernels, so
 //! that their coefficient is their displacement (Chen & Wang's singular
 //! kernel method, as Wei & Chen impose essential conditions). A particle
@@ -34,7 +36,7 @@ use super::crack::Cuts;
 use super::explicit::{DamageParams, DamageState, Explicit, Held};
 use super::implicit::Equilibrium;
 use super::scni::{Cells, Scni};
-use super::section::{box_corners, box_lattice, jitter_lattice};
+use super::section::{body_lattice, box_corners, jitter_lattice, seeding_of, Seeding};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::diagnostics::{measure, Field, FieldData, Observer, SeriesRow};
 use crate::material::Elastic;
@@ -193,13 +195,18 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             .unwrap_or_else(super::section::DpmSpec::defaults);
         let (mut x, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new());
         let (mut body, mut material, mut velocity) = (Vec::new(), Vec::new(), Vec::new());
+        let glo: [f64; D] = std::array::from_fn(|d| file.grid.min.components()[d]);
+        let ghi: [f64; D] = std::array::from_fn(|d| file.grid.max.components()[d]);
+        let counts = scene.cell_counts();
+        let cells: [usize; D] = std::array::from_fn(|d| counts.get(d).copied().unwrap_or(1));
+        let seeding: Vec<Seeding> = file
+            .bodies
+            .iter()
+            .map(|b| seeding_of(&b.shape, &b.holes))
+            .collect();
         for (b, spec_b) in file.bodies.iter().enumerate() {
-            let Some((a, z)) = box_corners(&spec_b.shape) else {
-                continue; // validation refuses it
-            };
-            let (a, z): ([f64; D], [f64; D]) =
-                (std::array::from_fn(|d| a[d]), std::array::from_fn(|d| z[d]));
-            let (mut px, plo, phi) = box_lattice::<D>(a, z, h);
+            let ((mut px, plo, phi), a, z) =
+                body_lattice::<D>(&spec_b.shape, &spec_b.holes, glo, cells, h);
             if let Some(j) = spec.jitter {
                 jitter_lattice(&mut px, a, z, h, j);
             }
@@ -214,8 +221,6 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             hi.extend(phi);
         }
         let n = x.len();
-        let glo: [f64; D] = std::array::from_fn(|d| file.grid.min.components()[d]);
-        let ghi: [f64; D] = std::array::from_fn(|d| file.grid.max.components()[d]);
         // the held components, side by side
         let bc = &file.grid.boundary;
         let named: [(&'static str, Option<&SideCondition>, usize, bool); 6] = [
@@ -256,7 +261,15 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
             let mut holds_any = false;
             for (p, q) in x.iter().enumerate() {
                 let on = match holding {
-                    Holding::Plane { axis, plane } => (q[axis] - plane).abs() <= 1e-9 * h,
+                    // a particle on the plane, or at a cell's centre, one
+                    // whose cell touches it
+                    Holding::Plane { axis, plane } => match seeding[body[p] as usize] {
+                        Seeding::Vertices => (q[axis] - plane).abs() <= 1e-9 * h,
+                        Seeding::Centres => {
+                            (lo[p][axis] - plane).abs() <= 1e-9 * h
+                                || (hi[p][axis] - plane).abs() <= 1e-9 * h
+                        }
+                    },
                     Holding::Region(_, shape) => inside(shape, *q),
                 };
                 if !on {
@@ -288,9 +301,30 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
         let mut cuts = Cuts::<D>::none();
         let mut crack_of = Vec::new();
         if D == 2 {
+            let tol = 1e-9 * h;
             for (b, spec_b) in file.bodies.iter().enumerate() {
-                let Some((a, z)) = box_corners(&spec_b.shape) else {
+                if spec_b.cracks.is_empty() {
                     continue;
+                }
+                // a crack's end strictly inside the body is a tip: inside
+                // the box, or every corner of a tiny square about it in a
+                // cell of the body's
+                let box_of = box_corners(&spec_b.shape);
+                let mine: std::collections::HashSet<[i64; D]> = (0..n)
+                    .filter(|&p| body[p] as usize == b && seeding[b] == Seeding::Centres)
+                    .map(|p| cell_index(lo[p], hi[p], glo, h))
+                    .collect();
+                let interior = |p: [f64; D]| match (seeding[b], &box_of) {
+                    (Seeding::Vertices, Some((a, z))) => {
+                        (0..D).all(|d| p[d] > a[d] + tol && p[d] < z[d] - tol)
+                    }
+                    _ => (0..1usize << D).all(|corner| {
+                        let c: [i64; D] = std::array::from_fn(|d| {
+                            let s = if corner >> d & 1 == 1 { tol } else { -tol };
+                            ((p[d] + s - glo[d]) / h).floor() as i64
+                        });
+                        mine.contains(&c)
+                    }),
                 };
                 for (k, crack) in spec_b.cracks.iter().enumerate() {
                     let pts: Vec<[f64; D]> = crack
@@ -298,10 +332,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                         .iter()
                         .map(|v| std::array::from_fn(|d| v.components()[d]))
                         .collect();
-                    let tol = 1e-9 * h;
-                    cuts.add(b as u16, &pts, |p| {
-                        (0..D).all(|d| p[d] > a[d] + tol && p[d] < z[d] - tol)
-                    });
+                    cuts.add(b as u16, &pts, interior);
                     crack_of.push((b, k));
                 }
             }
@@ -311,7 +342,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                     return Err(SceneError::single(
                         format!("bodies[{b}].cracks[{k}]"),
                         format!(
-                            "passes through the particle at {q:?} m: a particle on a crack belongs to neither face (move the crack off the lattice's vertices, by half a spacing for instance)"
+                            "passes through the particle at {q:?} m: a particle on a crack belongs to neither face (move the crack off the particles, by half a spacing for instance: they sit on the lattice's vertices in a box body, at its cells' centres in any other)"
                         ),
                     ));
                 }
@@ -321,7 +352,7 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                     return Err(SceneError::single(
                         format!("bodies[{b}].cracks[{k}]"),
                         format!(
-                            "passes between the particle at {q:?} m and the centre of its smoothing cell, {centre:?} m: the particle would belong to the other face (move the crack to half a spacing from the lattice's vertices, or lower damage_particle.jitter)"
+                            "passes between the particle at {q:?} m and the centre of its smoothing cell, {centre:?} m: the particle would belong to the other face (move the crack to half a spacing from the particles' lattice points, or lower damage_particle.jitter)"
                         ),
                     ));
                 }
@@ -361,23 +392,21 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                 continue;
             };
             let sign = if far { 1.0 } else { -1.0 };
-            let mut outer: std::collections::BTreeMap<[i64; 2], (usize, f64)> =
+            let mut outer: std::collections::BTreeMap<[i64; 3], (usize, f64)> =
                 std::collections::BTreeMap::new();
             for (l, q) in x.iter().enumerate() {
-                let Some((a, z)) = box_corners(&file.bodies[body[l] as usize].shape) else {
-                    continue;
-                };
-                let (at, edge) = if far {
-                    (hi[l][axis], z[axis])
-                } else {
-                    (lo[l][axis], a[axis])
-                };
-                if (at - edge).abs() > 1e-9 * h {
-                    continue;
-                }
-                let mut key = [0i64; 2];
+                let at = if far { hi[l][axis] } else { lo[l][axis] };
+                // the lattice line: of the vertex a particle belongs to, or
+                // of the cell a centred particle owns (a line of its own)
+                let centred = seeding[body[l] as usize] == Seeding::Centres;
+                let cell = cell_index(lo[l], hi[l], glo, h);
+                let mut key = [i64::from(centred), 0, 0];
                 for (slot, d) in (0..D).filter(|&d| d != axis).enumerate() {
-                    key[slot] = ((q[d] - glo[d]) / h).round() as i64;
+                    key[slot + 1] = if centred {
+                        cell[d]
+                    } else {
+                        ((q[d] - glo[d]) / h).round() as i64
+                    };
                 }
                 let e = outer.entry(key).or_insert((l, at));
                 if sign * at > sign * e.1 {
@@ -1095,6 +1124,12 @@ fn tracking_lists<const D: usize>(
         start.push(list.len() as u32);
     }
     (start, list)
+}
+
+/// The lattice index of the cell `lo..hi` (a centred particle's, whose
+/// corners lie on the lattice from `origin`): its centre's floor.
+fn cell_index<const D: usize>(lo: [f64; D], hi: [f64; D], origin: [f64; D], h: f64) -> [i64; D] {
+    std::array::from_fn(|d| ((0.5 * (lo[d] + hi[d]) - origin[d]) / h).floor() as i64)
 }
 
 /// Whether the point `q` lies in `shape` (of the scene's dimension).

@@ -3,13 +3,16 @@
 //! and their checks, which [`crate::scene::Scene::validate`] runs with the
 //! field paths.
 //!
-//! What a scene of this method is: box bodies whose corners lie on the
-//! lattice of the grid (`grid.min` + k `grid.cell_size`), one particle on
-//! each vertex of the lattice inside the box (its outline included: the
-//! support must cover the cells' faces, and held particles must lie on the
-//! walls they are held by; docs/dpm.md), linear elastic materials, walls
-//! (`fixed`, `roller`, `velocity`) that hold the particles lying on them,
-//! and the damage of [`DpmDamageSpec`]. The grid sets the spacing, the
+//! What a scene of this method is: bodies on the lattice of the grid
+//! (`grid.min` + k `grid.cell_size`): a box without holes (its corners on
+//! the lattice) has one particle on each vertex of the lattice inside it
+//! (its outline included: the paper's support must cover the cells'
+//! faces, and held particles lie on the walls they are held by); any
+//! other body has one at the centre of each lattice cell whose centre it
+//! holds, owning that cell, and is their union ([`Seeding`]; a support of
+//! at least [`CENTRED_SUPPORT`]; docs/dpm.md). Linear elastic materials,
+//! walls (`fixed`, `roller`, `velocity`) that hold the particles lying on
+//! them (or whose cell touches them), and the damage of [`DpmDamageSpec`]. The grid sets the spacing, the
 //! walls' planes and the domain (a particle more than one spacing outside
 //! it stops the run: a wall that pulls moves its particles out of the
 //! box); the method has no grid otherwise, so the grid MPM's options are
@@ -17,6 +20,7 @@
 
 use crate::scene::schema::{MaterialModel, SceneFile, ShapeSpec, TimeFunction};
 use crate::scene::Checker;
+use crate::tensor::resize;
 use serde::{Deserialize, Serialize};
 
 /// The method a scene runs (`method = ...`, a top-level key).
@@ -322,13 +326,116 @@ pub fn box_corners(shape: &ShapeSpec) -> Option<(Vec<f64>, Vec<f64>)> {
     }
 }
 
+/// Where a body's particles sit (docs/dpm.md, "Bodies other than boxes").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Seeding {
+    /// On the lattice's vertices, the outline included, each owning its
+    /// Voronoi cell clipped to the box: a box without holes.
+    Vertices,
+    /// At the centres of the lattice's cells whose centre lies in the
+    /// shape and outside its holes, each owning its whole cell: every
+    /// other body, which is then the union of those cells (a staircase,
+    /// as the grid MPM's seeding makes it).
+    Centres,
+}
+
+/// How a body with `shape` and `holes` is seeded.
+pub fn seeding_of(shape: &ShapeSpec, holes: &[ShapeSpec]) -> Seeding {
+    if holes.is_empty() && box_corners(shape).is_some() {
+        Seeding::Vertices
+    } else {
+        Seeding::Centres
+    }
+}
+
+/// The smallest support, in spacings, that covers every face point of a
+/// body seeded at cell centres: with 1.5 a face point on the outline lies
+/// half a spacing beyond the outermost row, which alone covers it, and the
+/// moment matrix is singular (`scni::tests::the_paper_support_fails_on_the_outline_of_a_centred_lattice`).
+pub const CENTRED_SUPPORT: f64 = 2.0;
+
+/// The particles of a body seeded at cell centres ([`Seeding::Centres`])
+/// on the lattice of spacing `h` from `origin` with `cells` cells along
+/// each axis: positions and their cells `lo..hi` (corners on the lattice,
+/// computed from the cell's index so that neighbours share their faces
+/// bit for bit), in the grid MPM's seeding order (x fastest).
+pub fn centred_lattice<const D: usize>(
+    shape: &ShapeSpec,
+    holes: &[ShapeSpec],
+    origin: [f64; D],
+    cells: [usize; D],
+    h: f64,
+) -> BoxLattice<D> {
+    let (mut x, mut clo, mut chi) = (Vec::new(), Vec::new(), Vec::new());
+    let mut emit = |c: [f64; D]| {
+        let mut a = [0.0; D];
+        let mut b = [0.0; D];
+        for d in 0..D {
+            let i = ((c[d] - origin[d]) / h).floor();
+            a[d] = origin[d] + i * h;
+            b[d] = origin[d] + (i + 1.0) * h;
+        }
+        x.push(c);
+        clo.push(a);
+        chi.push(b);
+    };
+    if D == 2 {
+        let lat = crate::geometry::Lattice {
+            origin: resize(origin),
+            h,
+            cells: [cells[0], cells[1]],
+            per_dir: 1,
+        };
+        crate::geometry::seed(shape, holes, &lat, |c| emit(resize(c)));
+    } else {
+        let lat = crate::geometry::Lattice::<3> {
+            origin: resize(origin),
+            h,
+            cells: std::array::from_fn(|d| cells.get(d).copied().unwrap_or(1)),
+            per_dir: 1,
+        };
+        crate::geometry::seed_3d(shape, holes, &lat, |c| emit(resize(c)));
+    }
+    (x, clo, chi)
+}
+
+/// The particles of a body by its [`Seeding`]: positions and smoothing
+/// cells, and the box that holds the cells (for [`jitter_lattice`]).
+pub fn body_lattice<const D: usize>(
+    shape: &ShapeSpec,
+    holes: &[ShapeSpec],
+    origin: [f64; D],
+    cells: [usize; D],
+    h: f64,
+) -> (BoxLattice<D>, [f64; D], [f64; D]) {
+    if let (Seeding::Vertices, Some((a, z))) = (seeding_of(shape, holes), box_corners(shape)) {
+        let (a, z): ([f64; D], [f64; D]) =
+            (std::array::from_fn(|d| a[d]), std::array::from_fn(|d| z[d]));
+        return (box_lattice::<D>(a, z, h), a, z);
+    }
+    let lattice = centred_lattice::<D>(shape, holes, origin, cells, h);
+    let mut a = [f64::INFINITY; D];
+    let mut z = [f64::NEG_INFINITY; D];
+    for (l, u) in lattice.1.iter().zip(&lattice.2) {
+        for d in 0..D {
+            a[d] = a[d].min(l[d]);
+            z[d] = z[d].max(u[d]);
+        }
+    }
+    (lattice, a, z)
+}
+
 /// Checks a scene that runs the damage particle method (`file.method` is
-/// `damage_particle`), with each material's model (`models[b]`: body b's);
-/// returns the particles of each body.
+/// `damage_particle`), with each material's model (`models[b]`: body b's),
+/// the grid's cells along each axis and the particles the grid MPM's
+/// seeding found in each body (0 where a body was refused or not seeded);
+/// returns the particles of each body as this method seeds them.
 pub(crate) fn check(
     c: &mut Checker,
     file: &SceneFile,
     models: &[Option<MaterialModel>],
+    cells: [usize; 3],
+    seeded: &[usize],
 ) -> Vec<usize> {
     let dim = file.dimension();
     let h = file.grid.cell_size;
@@ -491,6 +598,7 @@ pub(crate) fn check(
         );
     }
     let glo = file.grid.min.components();
+    let glo_a: [f64; 3] = std::array::from_fn(|d| glo.get(d).copied().unwrap_or(0.0));
     let mut counts = vec![0; file.bodies.len()];
     for (i, body) in file.bodies.iter().enumerate() {
         let path = format!("bodies[{i}]");
@@ -521,7 +629,6 @@ pub(crate) fn check(
             }
         }
         for (key, set) in [
-            ("holes", !body.holes.is_empty()),
             ("cracks", dim == 3 && !body.cracks.is_empty()),
             ("crack_origin", body.crack_origin.is_some()),
             ("explicit_cracks", !body.explicit_cracks.is_empty()),
@@ -539,7 +646,7 @@ pub(crate) fn check(
                     "particles_per_cell" => "the damage particle method puts one particle on each vertex of the grid's lattice: remove it",
                     "velocity_gradient" => "is not yet taken by the damage particle method (give a uniform velocity)",
                     "cracks" => "the damage particle method's pre-existing cracks (diffraction) are 2D",
-                    _ => "is not yet taken by the damage particle method (box bodies only, without holes)",
+                    _ => "is not yet taken by the damage particle method",
                 };
                 c.err(&format!("{path}.{key}"), why);
             }
@@ -552,14 +659,53 @@ pub(crate) fn check(
                 );
             }
         }
-        let Some((lo, hi)) = box_corners(&body.shape) else {
-            c.err(
-                &format!("{path}.shape"),
-                "the damage particle method takes box bodies (their particles on the lattice's vertices)",
-            );
+        if body.shape.dimension() != dim || glo.len() != dim {
+            continue; // the general checks name it
+        }
+        let (Seeding::Vertices, Some((lo, hi))) = (
+            seeding_of(&body.shape, &body.holes),
+            box_corners(&body.shape),
+        ) else {
+            // at the cells' centres: counted as they will be seeded, where
+            // the grid MPM's seeding (`seeded`, whose cost validation has
+            // bounded) found the body seedable
+            if seeded.get(i).copied().unwrap_or(0) == 0 {
+                continue;
+            }
+            let n = if dim == 2 {
+                centred_lattice::<2>(
+                    &body.shape,
+                    &body.holes,
+                    resize(glo_a),
+                    [cells[0], cells[1]],
+                    h,
+                )
+                .0
+                .len()
+            } else {
+                centred_lattice::<3>(&body.shape, &body.holes, resize(glo_a), cells, h)
+                    .0
+                    .len()
+            };
+            if n == 0 {
+                c.err(
+                    &format!("{path}.shape"),
+                    format!("holds no centre of a grid cell (spacing {h} m): a body that is not a box without holes has a particle at the centre of each cell whose centre lies in it"),
+                );
+            }
+            if spec.support < CENTRED_SUPPORT {
+                c.err(
+                    "damage_particle.support",
+                    format!(
+                        "must be at least {CENTRED_SUPPORT} particle spacings for {path}, got {}: a body that is not a box without holes has its particles at the cells' centres, half a spacing inside its outline, and a smaller support covers the outline's faces with one row of particles (docs/dpm.md)",
+                        spec.support
+                    ),
+                );
+            }
+            counts[i] = n;
             continue;
         };
-        if lo.len() != dim || hi.len() != dim || glo.len() != dim {
+        if lo.len() != dim || hi.len() != dim {
             continue; // the general checks name it
         }
         let mut n = 1usize;
@@ -593,6 +739,62 @@ pub(crate) fn check(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_body_that_is_not_a_box_is_the_union_of_the_cells_whose_centre_it_holds() {
+        use crate::geometry::Vector;
+        let disk = ShapeSpec::Disk {
+            center: Vector::from([0.0, 0.0]),
+            radius: 2.2,
+        };
+        let hole = ShapeSpec::Disk {
+            center: Vector::from([0.0, 0.0]),
+            radius: 0.9,
+        };
+        let square = ShapeSpec::Box {
+            min: Vector::from([-2.0, -2.0]),
+            max: Vector::from([2.0, 2.0]),
+        };
+        assert_eq!(seeding_of(&square, &[]), Seeding::Vertices);
+        assert_eq!(
+            seeding_of(&square, std::slice::from_ref(&hole)),
+            Seeding::Centres
+        );
+        assert_eq!(seeding_of(&disk, &[]), Seeding::Centres);
+        // a lattice of spacing 0.5 from −2.75: centres at k/2
+        let (h, origin) = (0.5, [-2.75, -2.75]);
+        let ((x, lo, hi), a, z) =
+            body_lattice::<2>(&disk, std::slice::from_ref(&hole), origin, [11, 11], h);
+        let want: Vec<[f64; 2]> = (0..11 * 11)
+            .map(|k| [-2.5 + 0.5 * (k % 11) as f64, -2.5 + 0.5 * (k / 11) as f64])
+            .filter(|c| {
+                let r2 = c[0] * c[0] + c[1] * c[1];
+                r2 <= 2.2 * 2.2 && r2 > 0.9 * 0.9
+            })
+            .collect();
+        assert_eq!(x.len(), want.len());
+        for (l, c) in x.iter().enumerate() {
+            assert!((c[0] - want[l][0]).abs() < 1e-12 && (c[1] - want[l][1]).abs() < 1e-12);
+            // each particle owns its whole cell, whose corners lie on the
+            // lattice as multiples of the spacing from the origin
+            for d in 0..2 {
+                assert!(lo[l][d] < c[d] && c[d] < hi[l][d]);
+                let k = (lo[l][d] - origin[d]) / h;
+                assert_eq!(lo[l][d], origin[d] + k.round() * h);
+                assert_eq!(hi[l][d], origin[d] + (k.round() + 1.0) * h);
+            }
+        }
+        // neighbours share their faces bit for bit
+        let shared = x
+            .iter()
+            .enumerate()
+            .flat_map(|(l, _)| (0..x.len()).map(move |m| (l, m)))
+            .filter(|&(l, m)| hi[l][0] == lo[m][0] && lo[l][1] == lo[m][1])
+            .count();
+        assert!(shared > x.len() / 2, "{shared} shared faces");
+        assert_eq!(a, [-2.25, -2.25]);
+        assert_eq!(z, [2.25, 2.25]);
+    }
 
     #[test]
     fn a_box_lattice_has_its_outline_and_clipped_cells() {

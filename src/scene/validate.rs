@@ -465,7 +465,8 @@ impl Scene {
                 .iter()
                 .map(|&k| materials.get(k).map(|m: &ResolvedMaterial| m.model))
                 .collect();
-            particle_counts = crate::dpm::section::check(&mut c, &file, &models);
+            particle_counts =
+                crate::dpm::section::check(&mut c, &file, &models, cells3, &particle_counts);
         } else if file.damage_particle.is_some() {
             c.err(
                 "damage_particle",
