@@ -310,10 +310,13 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                 // the box, or every corner of a tiny square about it in a
                 // cell of the body's
                 let box_of = box_corners(&spec_b.shape);
-                let mine: std::collections::HashSet<[i64; D]> = (0..n)
-                    .filter(|&p| body[p] as usize == b && seeding[b] == Seeding::Centres)
-                    .map(|p| cell_index(lo[p], hi[p], glo, h))
-                    .collect();
+                let mine: std::collections::HashSet<[i64; D]> = match seeding[b] {
+                    Seeding::Vertices => Default::default(),
+                    Seeding::Centres => (0..n)
+                        .filter(|&p| body[p] as usize == b)
+                        .map(|p| cell_index(lo[p], hi[p], glo, h))
+                        .collect(),
+                };
                 let interior = |p: [f64; D]| match (seeding[b], &box_of) {
                     (Seeding::Vertices, Some((a, z))) => {
                         (0..D).all(|d| p[d] > a[d] + tol && p[d] < z[d] - tol)
@@ -399,14 +402,14 @@ impl<const D: usize, const V: usize> Dpm<D, V> {
                 // the lattice line: of the vertex a particle belongs to, or
                 // of the cell a centred particle owns (a line of its own)
                 let centred = seeding[body[l] as usize] == Seeding::Centres;
-                let cell = cell_index(lo[l], hi[l], glo, h);
+                let line: [i64; D] = if centred {
+                    cell_index(lo[l], hi[l], glo, h)
+                } else {
+                    std::array::from_fn(|d| ((q[d] - glo[d]) / h).round() as i64)
+                };
                 let mut key = [i64::from(centred), 0, 0];
                 for (slot, d) in (0..D).filter(|&d| d != axis).enumerate() {
-                    key[slot + 1] = if centred {
-                        cell[d]
-                    } else {
-                        ((q[d] - glo[d]) / h).round() as i64
-                    };
+                    key[slot + 1] = line[d];
                 }
                 let e = outer.entry(key).or_insert((l, at));
                 if sign * at > sign * e.1 {

@@ -12,8 +12,8 @@
 //! holds, owning that cell, and is their union ([`Seeding`]; a support of
 //! at least [`CENTRED_SUPPORT`]; docs/dpm.md). Linear elastic materials,
 //! walls (`fixed`, `roller`, `velocity`) that hold the particles lying on
-//! them (or whose cell touches them), and the damage of [`DpmDamageSpec`]. The grid sets the spacing, the
-//! walls' planes and the domain (a particle more than one spacing outside
+//! them (or whose cell touches them), and the damage of [`DpmDamageSpec`].
+//! The grid sets the spacing, the walls' planes and the domain (a particle more than one spacing outside
 //! it stops the run: a wall that pulls moves its particles out of the
 //! box); the method has no grid otherwise, so the grid MPM's options are
 //! refused.
@@ -367,7 +367,7 @@ pub fn centred_lattice<const D: usize>(
     h: f64,
 ) -> BoxLattice<D> {
     let (mut x, mut clo, mut chi) = (Vec::new(), Vec::new(), Vec::new());
-    let mut emit = |c: [f64; D]| {
+    each_centre::<D>(shape, holes, origin, cells, h, |c| {
         let mut a = [0.0; D];
         let mut b = [0.0; D];
         for d in 0..D {
@@ -378,7 +378,21 @@ pub fn centred_lattice<const D: usize>(
         x.push(c);
         clo.push(a);
         chi.push(b);
-    };
+    });
+    (x, clo, chi)
+}
+
+/// Calls `emit` with the centre of every lattice cell whose centre lies
+/// in `shape` and outside `holes` (the grid MPM's seeding at one particle
+/// per cell), in that seeding's order.
+fn each_centre<const D: usize>(
+    shape: &ShapeSpec,
+    holes: &[ShapeSpec],
+    origin: [f64; D],
+    cells: [usize; D],
+    h: f64,
+    mut emit: impl FnMut([f64; D]),
+) {
     if D == 2 {
         let lat = crate::geometry::Lattice {
             origin: resize(origin),
@@ -396,7 +410,6 @@ pub fn centred_lattice<const D: usize>(
         };
         crate::geometry::seed_3d(shape, holes, &lat, |c| emit(resize(c)));
     }
-    (x, clo, chi)
 }
 
 /// The particles of a body by its [`Seeding`]: positions and smoothing
@@ -643,7 +656,7 @@ pub(crate) fn check(
         ] {
             if set {
                 let why = match key {
-                    "particles_per_cell" => "the damage particle method puts one particle on each vertex of the grid's lattice: remove it",
+                    "particles_per_cell" => "the damage particle method puts one particle on each vertex of the grid's lattice (at the centre of each cell in a body that is not a box): remove it",
                     "velocity_gradient" => "is not yet taken by the damage particle method (give a uniform velocity)",
                     "cracks" => "the damage particle method's pre-existing cracks (diffraction) are 2D",
                     _ => "is not yet taken by the damage particle method",
@@ -672,21 +685,15 @@ pub(crate) fn check(
             if seeded.get(i).copied().unwrap_or(0) == 0 {
                 continue;
             }
-            let n = if dim == 2 {
-                centred_lattice::<2>(
-                    &body.shape,
-                    &body.holes,
-                    resize(glo_a),
-                    [cells[0], cells[1]],
-                    h,
-                )
-                .0
-                .len()
+            let mut n = 0usize;
+            if dim == 2 {
+                let o = resize(glo_a);
+                each_centre::<2>(&body.shape, &body.holes, o, [cells[0], cells[1]], h, |_| {
+                    n += 1
+                });
             } else {
-                centred_lattice::<3>(&body.shape, &body.holes, resize(glo_a), cells, h)
-                    .0
-                    .len()
-            };
+                each_centre::<3>(&body.shape, &body.holes, glo_a, cells, h, |_| n += 1);
+            }
             if n == 0 {
                 c.err(
                     &format!("{path}.shape"),

@@ -239,14 +239,19 @@ fn field<'a>(snap: &'a cleave::diagnostics::Snapshot, name: &str) -> &'a [f64] {
     }
 }
 
+/// A validated scene run to its end, with its snapshots.
+fn solved(scene: &Scene) -> Recorder {
+    let mut sim = cleave::methods::build(scene).unwrap();
+    let mut rec = Recorder::default();
+    sim.run(&mut rec).unwrap();
+    rec
+}
+
 /// Runs a scene with snapshots and checks that the energy balance with
 /// the dissipation (`energy_balance`) closes at the end to `share` of the
 /// work done.
 fn run_balanced(text: &str, share: f64) -> Recorder {
-    let scene = Scene::from_text(text, None).unwrap();
-    let mut sim = cleave::methods::build(&scene).unwrap();
-    let mut rec = Recorder::default();
-    sim.run(&mut rec).unwrap();
+    let rec = solved(&Scene::from_text(text, None).unwrap());
     let col = |name: &str| rec.column(name).unwrap_or_else(|| panic!("no {name}"));
     let work = *col("external_work").last().unwrap();
     let balance = col("energy_balance").last().unwrap().abs();
@@ -935,9 +940,7 @@ fn a_static_plate_under_a_ramped_traction_is_nearly_the_patch_test() {
         .replace("end = 8.0e-5\ncfl = 0.4", "end = 1.0\ndt = 0.25");
     let scene = Scene::from_text(&text, None).unwrap();
     assert_eq!(scene.plan.names(), ["dpm_load", "dpm_equilibrium"]);
-    let mut sim = cleave::methods::build(&scene).unwrap();
-    let mut rec = Recorder::default();
-    sim.run(&mut rec).unwrap();
+    let rec = solved(&scene);
     let col = |name: &str| rec.column(name).unwrap_or_else(|| panic!("no {name}"));
     let (s, e, nu) = (1.0e6, 3.2e10, 0.2);
     let (l, hgt) = (0.1, 0.04);
@@ -984,31 +987,18 @@ fn kirsch(a: f64, r: f64) -> (f64, f64) {
     (1.0 + 0.5 * q + 1.5 * q * q, 0.5 * q - 1.5 * q * q)
 }
 
-/// A validated scene run to its end, with its snapshots.
-fn solved(scene: &Scene) -> Recorder {
-    let mut sim = cleave::methods::build(scene).unwrap();
-    let mut rec = Recorder::default();
-    sim.run(&mut rec).unwrap();
-    rec
-}
-
 /// (r, σ_xx/σ) on x = 0 above the hole, (r, σ_yy/σ) on y = 0 right of
 /// it, and the work over the strain energy.
 type KirschLines = (Vec<(f64, f64)>, Vec<(f64, f64)>, f64);
 
-/// `dpm_plate_hole.toml` at spacing `h` (the plate's half-width 160 mm
-/// plus half a spacing, so that the symmetry lines are rows of
-/// particles) and `support`, solved: (r, σ_xx/σ) along x = 0 above the
-/// hole and (r, σ_yy/σ) along y = 0 right of it, by r; and the two
-/// tractions' work over the strain energy.
-fn kirsch_plate(h: f64, support: f64) -> KirschLines {
-    kirsch_variant(h, support, 0.16, true)
-}
-
-/// [`kirsch_plate`] with the plate's half-width `w` (before the half
-/// spacing), and without the hole when `hole` is false (then a polygon,
-/// so that its particles still sit at the cells' centres).
-fn kirsch_variant(h: f64, support: f64, w: f64, hole: bool) -> KirschLines {
+/// `dpm_plate_hole.toml` (half-width 0.16 m, spacing 1.25 mm, support 2)
+/// at spacing `h`, `support` and half-width `w` (plus half a spacing, so
+/// that the symmetry lines are rows of particles), without the hole when
+/// `hole` is false (then a polygon, so that its particles still sit at
+/// the cells' centres), solved: (r, σ_xx/σ) along x = 0 above the hole
+/// and (r, σ_yy/σ) along y = 0 right of it, by r; and the two tractions'
+/// work over the strain energy.
+fn kirsch_plate(h: f64, support: f64, w: f64, hole: bool) -> KirschLines {
     let half = w + 0.5 * h;
     let mut text = scene_text("dpm_plate_hole.toml")
         .replace("cell_size = 1.25e-3", &format!("cell_size = {h:e}"))
@@ -1064,7 +1054,7 @@ fn a_plate_with_a_hole_carries_kirsch_s_stress() {
         .filter(|&(i, j)| ((i * i + j * j) as f64).sqrt() * h > a)
         .count();
     assert_eq!(scene.total_particles(), outside);
-    let (on_y, on_x, books) = kirsch_plate(h, 2.0);
+    let (on_y, on_x, books) = kirsch_plate(h, 2.0, 0.16, true);
     assert_eq!((on_y.len(), on_x.len()), (128 - 8, 128 - 8));
     let mut csv = String::from("r_over_a,sxx_over_sigma,kirsch_xx,syy_over_sigma,kirsch_yy\n");
     for (&(r, sxx), &(rx, syy)) in on_y.iter().zip(&on_x) {
@@ -1142,7 +1132,7 @@ fn kirsch_study() {
         // no hole
         (1.25e-3, 2.0, 0.16, false),
     ] {
-        let (on_y, on_x, books) = kirsch_variant(h, support, w, hole);
+        let (on_y, on_x, books) = kirsch_plate(h, support, w, hole);
         let kirsch = |a: f64, r: f64| if hole { kirsch(a, r) } else { (1.0, 0.0) };
         assert!((books - 1.0).abs() < 1e-9);
         let far_xx = on_y
