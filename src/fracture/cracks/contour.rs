@@ -19,8 +19,10 @@
 //! its side (PIJC's path), and the integrals along both faces of every
 //! other crack inside the contour (step 5, [`faces_term`]).
 
-use super::j_integral::{along, contour_term, decompose, ContourPoint};
-use super::section::JMethod;
+use super::j_integral::{
+    along, contour_term, decompose, interaction_term, Auxiliary, ContourPoint,
+};
+use super::section::{JMethod, KSplit};
 use super::traction::traction_j;
 use super::{crossing, Crack};
 use crate::diagnostics::measure::strain_energy_density;
@@ -98,6 +100,8 @@ impl super::Cramp {
 pub struct JOptions<'a> {
     pub before: Option<&'a BeforeRow>,
     pub method: JMethod,
+    /// How J is split into K_I and K_II.
+    pub split: KSplit,
     /// Every crack's face pressure now, Pa (empty: none has one).
     pub pressure: &'a [f64],
 }
@@ -215,6 +219,18 @@ pub fn e_star(mat: &Elastic) -> f64 {
         PlaneKind::PlaneStress => e,
         PlaneKind::PlaneStrain => e / (1.0 - nu * nu),
     }
+}
+
+/// The shear modulus μ and Kolosov's κ of a material (3 − 4ν in plane
+/// strain, (3 − ν)/(1 + ν) in plane stress): what Williams' fields of the
+/// interaction integral take.
+pub fn mu_kappa(mat: &Elastic) -> (f64, f64) {
+    let nu = mat.poissons_ratio;
+    let kappa = match mat.plane {
+        PlaneKind::PlaneStress => (3.0 - nu) / (1.0 + nu),
+        PlaneKind::PlaneStrain => 3.0 - 4.0 * nu,
+    };
+    (mat.mu, kappa)
 }
 
 /// The tip at `end` of crack `c`: its position and the unit direction in
@@ -444,8 +460,9 @@ pub fn tip_j<K: Kernel, const V: usize>(
     let Some(&first) = body else {
         return sides.iter().map(|_| Err(NoJ::NotATip)).collect();
     };
-    let e_star = e_star(&mats[parts.material[first as usize] as usize]);
-    let (cod_n, cod_t) = tip_opening(crack, end, (h, 3.0 * h));
+    let mat = &mats[parts.material[first as usize] as usize];
+    let e_star = e_star(mat);
+    let cod = (how.split == KSplit::Cod).then(|| tip_opening(crack, end, (h, 3.0 * h)));
     // the other cracks' ends, grid index units (tips a contour must leave
     // out under adaptive FIJC; an edge crack's mouth too, harmlessly)
     let others: Vec<[f64; 2]> = cracks
@@ -476,24 +493,62 @@ pub fn tip_j<K: Kernel, const V: usize>(
                 }
             }
             let nodes = rect_ring(geom, rect).ok_or(NoJ::OffGrid)?;
-            let mut j12 = contour_j::<K, V>(&around, &nodes)?;
+            let path = contour_path::<K, V>(&around, &nodes)?;
+            let mut j12 = contour_term(&path);
             let square = ring_box(geom, &nodes);
+            // the interaction integral on the same path, faces and
+            // particles (the ratio that splits J), the path's first point
+            // on the crack's faces
+            let aux = (how.split == KSplit::Interaction)
+                .then(|| Auxiliary::new(tip, dir, mu_kappa(mat), path[0].x));
+            let mut m = aux.as_ref().map(|a| interaction_term(&path, a));
             if how.method != JMethod::Pijc {
-                let f = faces_term(&around, square);
+                let f = faces_term(&around, square, |_, f, out, t| {
+                    std::array::from_fn(|k| {
+                        (f.w + f.k) * out[k] - (t[0] * f.g[0][k] + t[1] * f.g[1][k])
+                    })
+                });
                 j12 = [j12[0] + f[0], j12[1] + f[1]];
+                if let (Some(a), Some(m)) = (&aux, &mut m) {
+                    let f = faces_term(&around, square, |x, f, out, t| {
+                        a.integrand(x, a.theta(x), (f.g, t), out)
+                    });
+                    *m = [m[0] + f[0], m[1] + f[1]];
+                }
             }
             if let Some(b) = how.before {
-                let v = volume_term(parts, b, &near, square);
+                let v = volume_term(parts, b, &near, square, |p| {
+                    std::array::from_fn(|k| {
+                        let mut t = 0.0;
+                        for i in 0..2 {
+                            t += p.a[i] * p.g[i][k] - p.v[i] * p.l[i][k];
+                        }
+                        t
+                    })
+                });
                 j12 = [j12[0] + v[0], j12[1] + v[1]];
+                if let (Some(a), Some(m)) = (&aux, &mut m) {
+                    let v = volume_term(parts, b, &near, square, |p| a.inertia(p.x, p.a));
+                    *m = [m[0] + v[0], m[1] + v[1]];
+                }
             }
             // step 9: the target crack's own face pressure (eqs. 11–12),
-            // along the crack
+            // along the crack; in M the unit mode I field's opening where
+            // the crack leaves the contour (mode II opens none)
             let mut j = along(j12, dir[1].atan2(dir[0]));
             let p = how.pressure.get(target).copied().unwrap_or(0.0);
             if p != 0.0 {
                 j += traction_j(cracks, (target, end), p, square);
+                if let (Some(a), Some(m)) = (&aux, &mut m) {
+                    m[0] += p * a.opening_i(length_inside(crack, end, square));
+                }
             }
-            let (k1, k2) = decompose(j, e_star, cod_n, cod_t);
+            let (ratio_n, ratio_t) = match (m, cod) {
+                (Some(m), _) => (m[0], m[1]),
+                (None, Some(c)) => c,
+                (None, None) => (1.0, 0.0),
+            };
+            let (k1, k2) = decompose(j, e_star, ratio_n, ratio_t);
             Ok(TipJ {
                 j12,
                 j,
@@ -505,12 +560,14 @@ pub fn tip_j<K: Kernel, const V: usize>(
         .collect()
 }
 
-/// The contour term of eq. 9 on the ring `nodes` (counter-clockwise) about
-/// crack `target`'s tip, from the particles `near`.
-fn contour_j<K: Kernel, const V: usize>(
+/// The path of eq. 9's contour term on the ring `nodes`
+/// (counter-clockwise) about crack `target`'s tip, from the particles
+/// `near`: the fields at its points, from a virtual node on the target
+/// crack's lower face round to one on its upper face.
+fn contour_path<K: Kernel, const V: usize>(
     at: &Around<'_, V>,
     nodes: &[usize],
-) -> Result<[f64; 2], NoJ> {
+) -> Result<Vec<ContourPoint>, NoJ> {
     let Around {
         geom,
         parts,
@@ -617,7 +674,30 @@ fn contour_j<K: Kernel, const V: usize>(
         }
     }
     path.push(end_point);
-    Ok(contour_term(&path))
+    Ok(path)
+}
+
+/// The length of crack `crack` from its tip at `end` to where it leaves
+/// the box `(lo, hi)`, m (the whole crack if it does not).
+fn length_inside(crack: &Crack, end: End, (lo, hi): ([f64; 2], [f64; 2])) -> f64 {
+    let n = crack.plane.len();
+    let segs: Vec<(usize, bool)> = match end {
+        End::End => (0..n - 1).rev().map(|s| (s, true)).collect(),
+        End::Start => (0..n - 1).map(|s| (s, false)).collect(),
+    };
+    let mut len = 0.0;
+    for (s, tip_at_one) in segs {
+        let (a, b) = (crack.plane[s], crack.plane[s + 1]);
+        let l = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+        let Some((t0, t1)) = clip(a, b, lo, hi) else {
+            break;
+        };
+        len += (t1 - t0) * l;
+        if (tip_at_one && t0 > 0.0) || (!tip_at_one && t1 < 1.0) {
+            break;
+        }
+    }
+    len
 }
 
 /// Step 5 of §2.2.2 (FIJC): the first term of eq. 9 along both faces of
@@ -634,8 +714,15 @@ fn contour_j<K: Kernel, const V: usize>(
 /// mass- and quadratic-B-spline-weighted means of the particles on that
 /// face's side within 1.5 cells (the paper extrapolates the face's
 /// velocity field from the grid to the crack points; this takes the
-/// particles directly, as the contour's nodes do).
-fn faces_term<const V: usize>(at: &Around<'_, V>, (lo, hi): ([f64; 2], [f64; 2])) -> [f64; 2] {
+/// particles directly, as the contour's nodes do). `integrand` gives a
+/// face point's contribution from its position, its fields, the
+/// material's outward normal and the traction on the material; J's is
+/// (W + K) n_k − T_i ∂u_i/∂x_k, the interaction integral's its own.
+fn faces_term<const V: usize>(
+    at: &Around<'_, V>,
+    (lo, hi): ([f64; 2], [f64; 2]),
+    integrand: impl Fn([f64; 2], &Fields, [f64; 2], [f64; 2]) -> [f64; 2],
+) -> [f64; 2] {
     let Around {
         geom,
         parts,
@@ -659,7 +746,7 @@ fn faces_term<const V: usize>(at: &Around<'_, V>, (lo, hi): ([f64; 2], [f64; 2])
             let nrm = crack.normal(k);
             let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
             let (open_a, open_b) = (crack.opening_at(k, nrm), crack.opening_at(k + 1, nrm));
-            let integrand = |t: f64| {
+            let along_face = |t: f64| {
                 let x = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
                 let closed = (1.0 - t) * open_a + t * open_b <= 0.0;
                 let mut v = [0.0; 2];
@@ -683,8 +770,9 @@ fn faces_term<const V: usize>(at: &Around<'_, V>, (lo, hi): ([f64; 2], [f64; 2])
                     } else {
                         [0.0; 2]
                     };
+                    let c = integrand(at, &f, out, t);
                     for k in 0..2 {
-                        v[k] += (f.w + f.k) * out[k] - (t[0] * f.g[0][k] + t[1] * f.g[1][k]);
+                        v[k] += c[k];
                     }
                 }
                 v
@@ -694,9 +782,9 @@ fn faces_term<const V: usize>(at: &Around<'_, V>, (lo, hi): ([f64; 2], [f64; 2])
             // own points are)
             let m = (((t1 - t0) * len / (0.5 * geom.h)).ceil() as usize).max(1);
             let dt = (t1 - t0) / m as f64;
-            let mut prev = integrand(t0);
+            let mut prev = along_face(t0);
             for q in 1..=m {
-                let next = integrand(t0 + q as f64 * dt);
+                let next = along_face(t0 + q as f64 * dt);
                 for i in 0..2 {
                     j[i] += 0.5 * (prev[i] + next[i]) * dt * len;
                 }
@@ -775,16 +863,28 @@ fn ring_box(geom: &GridGeom<2>, nodes: &[usize]) -> ([f64; 2], [f64; 2]) {
     (lo, hi)
 }
 
-/// The volume term of eq. 9 over the particles of `near` inside the
-/// contour's square, per unit thickness like the contour term:
-/// Σ m_p/t (ü_i ∂u_i/∂x_k − u̇_i ∂u̇_i/∂x_k) (ρ dA being the particle's
-/// mass over the thickness t), with the particle's acceleration and velocity
-/// gradient over the step before the row ([`BeforeRow`]).
+/// A particle's position, acceleration, velocity, ∇u and velocity
+/// gradient ∂u̇_i/∂x_k (row i) over the step before a row, what a volume
+/// term integrates.
+struct Motion {
+    x: [f64; 2],
+    a: [f64; 2],
+    v: [f64; 2],
+    g: [[f64; 2]; 2],
+    l: [[f64; 2]; 2],
+}
+
+/// A volume term over the particles of `near` inside the contour's
+/// square, per unit thickness like the contour term: Σ m_p/t f_p (ρ dA
+/// being the particle's mass over the thickness t), f_p = `integrand` of
+/// the particle's [`Motion`] over the step before the row
+/// ([`BeforeRow`]). Eq. 9's is ü_i ∂u_i/∂x_k − u̇_i ∂u̇_i/∂x_k.
 fn volume_term<const V: usize>(
     parts: &Particles<2, V>,
     before: &BeforeRow,
     near: &[u32],
     (lo, hi): ([f64; 2], [f64; 2]),
+    integrand: impl Fn(&Motion) -> [f64; 2],
 ) -> [f64; 2] {
     let mut j = [0.0; 2];
     if !(before.dt > 0.0 && before.thickness > 0.0)
@@ -803,13 +903,12 @@ fn volume_term<const V: usize>(
         }
         let (v, g, m) = (parts.v[p], parts.grad_u[p], parts.mass[p]);
         let a = [0, 1].map(|i| (v[i] - before.v[p][i]) * inv);
+        let l = std::array::from_fn(|i| {
+            std::array::from_fn(|k| (g[i][k] - before.grad_u[p][i][k]) * inv)
+        });
+        let t = integrand(&Motion { x, a, v, g, l });
         for k in 0..2 {
-            let mut t = 0.0;
-            for i in 0..2 {
-                let l = (g[i][k] - before.grad_u[p][i][k]) * inv;
-                t += a[i] * g[i][k] - v[i] * l;
-            }
-            j[k] += m * per_area * t;
+            j[k] += m * per_area * t[k];
         }
     }
     j
@@ -915,37 +1014,40 @@ mod tests {
                 crack.below[k] = disp(crack.plane[k], -1e-12);
             }
             let cracks = [crack];
-            let js = tip_j::<QuadraticBspline, 3>(
-                &geom,
-                &parts,
-                &mats,
-                &cracks,
-                JOptions {
-                    before: None,
-                    method: JMethod::Fijc,
-                    pressure: &[],
-                },
-                (0, End::End),
-                &[4, 8, 12],
-            );
-            let want = (k1 * k1 + k2 * k2) / e_s;
-            for (side, r) in [4, 8, 12].iter().zip(&js) {
-                let t = r.expect("a J");
-                assert!(
-                    (t.j / want - 1.0).abs() < 0.02,
-                    "K {k1:e} {k2:e}, {side} cells: J {} against {want}",
-                    t.j
+            for split in [KSplit::Interaction, KSplit::Cod] {
+                let js = tip_j::<QuadraticBspline, 3>(
+                    &geom,
+                    &parts,
+                    &mats,
+                    &cracks,
+                    JOptions {
+                        before: None,
+                        method: JMethod::Fijc,
+                        split,
+                        pressure: &[],
+                    },
+                    (0, End::End),
+                    &[4, 8, 12],
                 );
-                assert!(
-                    (t.k1 / k1 - 1.0).abs() < 0.02,
-                    "{side}: K_I {} against {k1}",
-                    t.k1
-                );
-                assert!(
-                    (t.k2 - k2).abs() < 0.02 * k1.abs().max(k2.abs()),
-                    "{side}: K_II {} against {k2}",
-                    t.k2
-                );
+                let want = (k1 * k1 + k2 * k2) / e_s;
+                for (side, r) in [4, 8, 12].iter().zip(&js) {
+                    let t = r.expect("a J");
+                    assert!(
+                        (t.j / want - 1.0).abs() < 0.02,
+                        "K {k1:e} {k2:e}, {side} cells: J {} against {want}",
+                        t.j
+                    );
+                    assert!(
+                        (t.k1 / k1 - 1.0).abs() < 0.02,
+                        "{side}: K_I {} against {k1}",
+                        t.k1
+                    );
+                    assert!(
+                        (t.k2 - k2).abs() < 0.02 * k1.abs().max(k2.abs()),
+                        "{split:?}, {side}: K_II {} against {k2}",
+                        t.k2
+                    );
+                }
             }
             // the crack's mouth, outside the material, is no tip
             let start = tip_j::<QuadraticBspline, 3>(
@@ -956,6 +1058,7 @@ mod tests {
                 JOptions {
                     before: None,
                     method: JMethod::Fijc,
+                    split: KSplit::Interaction,
                     pressure: &[],
                 },
                 (0, End::Start),

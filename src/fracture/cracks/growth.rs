@@ -71,6 +71,7 @@ impl Cramp {
                 let how = JOptions {
                     before: self.before_row.as_ref(),
                     method: self.j_method,
+                    split: self.k_split,
                     pressure: &pressures,
                 };
                 let tip = (c, end);

@@ -60,6 +60,233 @@ pub fn contour_term(points: &[ContourPoint]) -> [f64; 2] {
     j
 }
 
+/// The fields of a unit-factor Williams near-tip field (K = 1 Pa·√m of
+/// one mode) about a crack tip, the auxiliary fields of the interaction
+/// integral (Yau, Wang & Corten, "A mixed-mode crack analysis of
+/// isotropic solids using conservation laws of elasticity", J. Appl.
+/// Mech. 47 (1980) 335–341): for the actual field (σ, ∇u) and the
+/// auxiliary one (σᵃ, uᵃ), both in the tip's axes (x₁ along the growth
+/// direction, x₂ to its left),
+///
+/// M = ∫ (σ_ij ∂₍ⱼ uᵃ_i₎ δ_1k − σ_ik ∂uᵃ_i/∂x₁ − σᵃ_ik ∂u_i/∂x₁) n_k ds
+///     + ∫ ρ ü_i ∂uᵃ_i/∂x₁ dA,
+///
+/// the cross term of J of the summed field (the kinetic energy has no
+/// cross term: the auxiliary field is static), equals 2 K_I/E* for the
+/// mode I field and 2 K_II/E* for the mode II field. The auxiliary fields
+/// are traction-free on straight crack faces, so where the actual faces
+/// are too, a contour from face to face needs no integral along them,
+/// where J_2 does: the ratio M_II/M_I = K_II/K_I is what splits J.
+#[derive(Debug, Clone, Copy)]
+pub struct Auxiliary {
+    tip: [f64; 2],
+    /// The growth direction (the tip's x₁ axis), a unit vector.
+    dir: [f64; 2],
+    mu: f64,
+    kappa: f64,
+    /// The polar angle of the crack's faces where the path meets them,
+    /// radians in (0, 2π]: angles are taken in (cut − 2π, cut], so that the
+    /// branch cut lies along the crack (π for a straight crack).
+    cut: f64,
+}
+
+/// Williams' stress (x₁x₁, x₂x₂, x₁x₂) and displacement derivative
+/// ∂u_i/∂x₁ at polar (r, θ) about a tip whose crack runs along −x₁, for a
+/// unit K_I (`mode` 0) or K_II (`mode` 1), shear modulus μ and Kolosov's
+/// κ (3 − 4ν in plane strain, (3 − ν)/(1 + ν) in plane stress). The
+/// stresses and displacements are Anderson's (Fracture Mechanics, tables
+/// 2.1–2.2); u = √r F(θ)/(2μ√(2π)), so ∂u/∂x₁ = (cos θ F/2 − sin θ F′)/
+/// (2μ√(2πr)).
+pub fn williams_unit(mode: usize, r: f64, theta: f64, mu: f64, kappa: f64) -> ([f64; 3], [f64; 2]) {
+    let (s2, c2) = (0.5 * theta).sin_cos();
+    let (s32, c32) = (1.5 * theta).sin_cos();
+    let (s, c) = theta.sin_cos();
+    let f = 1.0 / (2.0 * std::f64::consts::PI * r).sqrt();
+    let g = f / (2.0 * mu);
+    if mode == 0 {
+        let sig = [
+            f * c2 * (1.0 - s2 * s32),
+            f * c2 * (1.0 + s2 * s32),
+            f * c2 * s2 * c32,
+        ];
+        let f1 = c2 * (kappa - 1.0 + 2.0 * s2 * s2);
+        let f2 = s2 * (kappa + 1.0 - 2.0 * c2 * c2);
+        let d1 = -0.5 * s2 * (kappa - 1.0 + 2.0 * s2 * s2) + 2.0 * s2 * c2 * c2;
+        let d2 = 0.5 * c2 * (kappa + 1.0 - 2.0 * c2 * c2) + 2.0 * s2 * s2 * c2;
+        (
+            sig,
+            [g * (0.5 * c * f1 - s * d1), g * (0.5 * c * f2 - s * d2)],
+        )
+    } else {
+        let sig = [
+            -f * s2 * (2.0 + c2 * c32),
+            f * s2 * c2 * c32,
+            f * c2 * (1.0 - s2 * s32),
+        ];
+        let f1 = s2 * (kappa + 1.0 + 2.0 * c2 * c2);
+        let f2 = -c2 * (kappa - 1.0 - 2.0 * s2 * s2);
+        let d1 = 0.5 * c2 * (kappa + 1.0 + 2.0 * c2 * c2) - 2.0 * s2 * s2 * c2;
+        let d2 = 0.5 * s2 * (kappa - 1.0 - 2.0 * s2 * s2) + 2.0 * s2 * c2 * c2;
+        (
+            sig,
+            [g * (0.5 * c * f1 - s * d1), g * (0.5 * c * f2 - s * d2)],
+        )
+    }
+}
+
+impl Auxiliary {
+    /// The auxiliary fields of the tip at `tip` growing along the unit
+    /// vector `dir`, in a material of shear modulus `mu` and Kolosov's
+    /// `kappa`, for a path that meets the crack's faces at `faces` (m).
+    pub fn new(
+        tip: [f64; 2],
+        dir: [f64; 2],
+        (mu, kappa): (f64, f64),
+        faces: [f64; 2],
+    ) -> Auxiliary {
+        let mut a = Auxiliary {
+            tip,
+            dir,
+            mu,
+            kappa,
+            cut: std::f64::consts::PI,
+        };
+        let (_, raw) = a.polar(faces);
+        a.cut = if raw > 0.0 {
+            raw
+        } else {
+            raw + 2.0 * std::f64::consts::PI
+        };
+        a
+    }
+
+    /// A global vector in the tip's axes.
+    fn in_tip_axes(&self, v: [f64; 2]) -> [f64; 2] {
+        let t = self.dir;
+        [t[0] * v[0] + t[1] * v[1], -t[1] * v[0] + t[0] * v[1]]
+    }
+
+    /// Polar coordinates about the tip in its axes, θ by atan2.
+    fn polar(&self, x: [f64; 2]) -> (f64, f64) {
+        let l = self.in_tip_axes([x[0] - self.tip[0], x[1] - self.tip[1]]);
+        ((l[0] * l[0] + l[1] * l[1]).sqrt(), l[1].atan2(l[0]))
+    }
+
+    /// θ of `x` in (cut − 2π, cut].
+    pub fn theta(&self, x: [f64; 2]) -> f64 {
+        let (_, raw) = self.polar(x);
+        if raw > self.cut {
+            raw - 2.0 * std::f64::consts::PI
+        } else {
+            raw
+        }
+    }
+
+    /// The integrand of M for both modes at a point with the actual
+    /// displacement gradient `g` (∂u_i/∂x_k, row i) and traction `t` = σ·n
+    /// on the material, the outward normal `n`,
+    /// all in the grid's axes, at polar angle `theta` (which side of the
+    /// crack a point on it stands for is the caller's to say).
+    pub fn integrand(
+        &self,
+        x: [f64; 2],
+        theta: f64,
+        (g, t): ([[f64; 2]; 2], [f64; 2]),
+        n: [f64; 2],
+    ) -> [f64; 2] {
+        let (r, _) = self.polar(x);
+        if !(r > 0.0) {
+            return [0.0; 2];
+        }
+        let d = self.dir;
+        // σ' = Q σ Qᵀ and ∇u' = Q ∇u Qᵀ, Q's rows the tip's axes
+        let q = [[d[0], d[1]], [-d[1], d[0]]];
+        let rot = |m: [[f64; 2]; 2]| -> [[f64; 2]; 2] {
+            std::array::from_fn(|i| {
+                std::array::from_fn(|k| {
+                    let mut v = 0.0;
+                    for a in 0..2 {
+                        for b in 0..2 {
+                            v += q[i][a] * m[a][b] * q[k][b];
+                        }
+                    }
+                    v
+                })
+            })
+        };
+        let gl = rot(g);
+        let nl = self.in_tip_axes(n);
+        let tl = self.in_tip_axes(t);
+        std::array::from_fn(|mode| {
+            let (sa, du) = williams_unit(mode, r, theta, self.mu, self.kappa);
+            // σᵃ : ε (the actual strain, the symmetric part of ∇u')
+            let w = sa[0] * gl[0][0] + sa[1] * gl[1][1] + sa[2] * (gl[0][1] + gl[1][0]);
+            let ta = [sa[0] * nl[0] + sa[2] * nl[1], sa[2] * nl[0] + sa[1] * nl[1]];
+            w * nl[0] - (tl[0] * du[0] + tl[1] * du[1]) - (ta[0] * gl[0][0] + ta[1] * gl[1][0])
+        })
+    }
+
+    /// The volume integrand ρ ü_i ∂uᵃ_i/∂x₁ per unit ρ dA, for both modes,
+    /// at a point with acceleration `a` (grid axes).
+    pub fn inertia(&self, x: [f64; 2], a: [f64; 2]) -> [f64; 2] {
+        let (r, _) = self.polar(x);
+        if !(r > 0.0) {
+            return [0.0; 2];
+        }
+        let theta = self.theta(x);
+        let al = self.in_tip_axes(a);
+        std::array::from_fn(|mode| {
+            let (_, du) = williams_unit(mode, r, theta, self.mu, self.kappa);
+            al[0] * du[0] + al[1] * du[1]
+        })
+    }
+
+    /// The opening of the unit mode I field at distance `r` behind the tip
+    /// (mode II opens none): (κ + 1)/μ · √(r/2π), m per Pa·√m.
+    pub fn opening_i(&self, r: f64) -> f64 {
+        (self.kappa + 1.0) / self.mu * (r / (2.0 * std::f64::consts::PI)).sqrt()
+    }
+}
+
+/// The interaction integral's contour part (see [`Auxiliary`]), M_I and
+/// M_II, on the path of [`contour_term`] (counter-clockwise from the
+/// crack's lower face to its upper face, the trapezoid rule per interval):
+/// the first point stands for the lower face, the last for the upper.
+pub fn interaction_term(points: &[ContourPoint], aux: &Auxiliary) -> [f64; 2] {
+    let last = points.len().saturating_sub(1);
+    let theta = |k: usize| {
+        if k == 0 {
+            aux.cut - 2.0 * std::f64::consts::PI
+        } else if k == last {
+            aux.cut
+        } else {
+            aux.theta(points[k].x)
+        }
+    };
+    let mut m = [0.0; 2];
+    for k in 0..last {
+        let (a, b) = (&points[k], &points[k + 1]);
+        let d = [b.x[0] - a.x[0], b.x[1] - a.x[1]];
+        let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        if len == 0.0 {
+            continue;
+        }
+        let n = [d[1] / len, -d[0] / len];
+        let f = |p: &ContourPoint, th: f64| {
+            let t = [
+                p.stress[0] * n[0] + p.stress[2] * n[1],
+                p.stress[2] * n[0] + p.stress[1] * n[1],
+            ];
+            aux.integrand(p.x, th, (p.grad_u, t), n)
+        };
+        let (fa, fb) = (f(a, theta(k)), f(b, theta(k + 1)));
+        for i in 0..2 {
+            m[i] += 0.5 * (fa[i] + fb[i]) * len;
+        }
+    }
+    m
+}
+
 /// The energy release rate for growth along the direction at angle θ
 /// (radians, from the grid's x axis): J = J_1 cos θ + J_2 sin θ
 /// (Nairn & Aimene eq. 10).
@@ -238,6 +465,111 @@ pub(crate) mod tests {
             );
         }
         assert_eq!(decompose(-1.0, 1e9, 1e-6, 0.0), (0.0, 0.0));
+    }
+
+    /// The unit Williams fields of the interaction integral are Anderson's
+    /// (the stress) and the x₁ derivative of its displacement (against
+    /// central differences), for both modes, on both sides of the crack.
+    #[test]
+    fn the_auxiliary_fields_are_williams_fields() {
+        let (e, nu) = (1.0e9, 0.3);
+        let mu = e / (2.0 * (1.0 + nu));
+        let kappa = 3.0 - 4.0 * nu;
+        for x in [
+            [1e-3f64, 2e-4],
+            [-7e-4, 5e-4],
+            [-7e-4, -5e-4],
+            [2e-4, -9e-4],
+        ] {
+            let r = (x[0] * x[0] + x[1] * x[1]).sqrt();
+            let theta = x[1].atan2(x[0]);
+            for mode in 0..2 {
+                let k = if mode == 0 { (1.0, 0.0) } else { (0.0, 1.0) };
+                let (s, _) = williams(k.0, k.1, e, nu, x);
+                let (sa, du) = williams_unit(mode, r, theta, mu, kappa);
+                let h = 1e-9;
+                let (_, up) = williams(k.0, k.1, e, nu, [x[0] + h, x[1]]);
+                let (_, um) = williams(k.0, k.1, e, nu, [x[0] - h, x[1]]);
+                for i in 0..3 {
+                    assert!((sa[i] - s[i]).abs() < 1e-12 * s.map(f64::abs).iter().sum::<f64>());
+                }
+                for i in 0..2 {
+                    let fd = (up[i] - um[i]) / (2.0 * h);
+                    assert!(
+                        (du[i] - fd).abs() < 1e-6 * (du[0].abs() + du[1].abs()),
+                        "mode {mode} at {x:?}: ∂u_{i}/∂x₁ {} against {fd}",
+                        du[i]
+                    );
+                }
+            }
+        }
+    }
+
+    /// On Williams' field of any mix, in the grid's axes and turned (the
+    /// crack along −x₁ of a tip whose axes are rotated by φ), the
+    /// interaction integral on square paths gives 2K_I/E* and 2K_II/E*
+    /// within 1 %, so M_II/M_I = K_II/K_I.
+    #[test]
+    fn the_interaction_integral_gives_k1_and_k2() {
+        let (e, nu) = (1.0e9, 0.3);
+        let mu = e / (2.0 * (1.0 + nu));
+        let e_star = e / (1.0 - nu * nu);
+        for phi in [0.0f64, 0.6, -2.4] {
+            let (sp, cp) = phi.sin_cos();
+            // grid = R(φ) local
+            let to_grid = |v: [f64; 2]| [cp * v[0] - sp * v[1], sp * v[0] + cp * v[1]];
+            let tip = [0.3, -0.2];
+            for (k1, k2) in [(1.0e6, 0.0), (1.0e6, 0.5e6), (0.3e6, -1.0e6)] {
+                for (l, n) in [(0.002, 8), (0.008, 16)] {
+                    let pts: Vec<ContourPoint> = square(l, n)
+                        .into_iter()
+                        .map(|x| {
+                            let p = point(k1, k2, e, nu, x);
+                            // the field turned into the grid's axes
+                            let s = [[p.stress[0], p.stress[2]], [p.stress[2], p.stress[1]]];
+                            let turn = |m: [[f64; 2]; 2]| -> [[f64; 2]; 2] {
+                                let r = [[cp, -sp], [sp, cp]];
+                                std::array::from_fn(|i| {
+                                    std::array::from_fn(|k| {
+                                        let mut v = 0.0;
+                                        for a in 0..2 {
+                                            for b in 0..2 {
+                                                v += r[i][a] * m[a][b] * r[k][b];
+                                            }
+                                        }
+                                        v
+                                    })
+                                })
+                            };
+                            let sg = turn(s);
+                            let xg = to_grid(x);
+                            ContourPoint {
+                                x: [tip[0] + xg[0], tip[1] + xg[1]],
+                                stress: [sg[0][0], sg[1][1], sg[0][1]],
+                                grad_u: turn(p.grad_u),
+                                ..p
+                            }
+                        })
+                        .collect();
+                    let faces = to_grid([-l, 0.0]);
+                    let aux = Auxiliary::new(
+                        tip,
+                        [cp, sp],
+                        (mu, 3.0 - 4.0 * nu),
+                        [tip[0] + faces[0], tip[1] + faces[1]],
+                    );
+                    let m = interaction_term(&pts, &aux);
+                    let scale = k1.abs().max(k2.abs());
+                    for (got, want) in [(m[0], k1), (m[1], k2)] {
+                        let k = 0.5 * e_star * got;
+                        assert!(
+                            (k - want).abs() < 0.01 * scale,
+                            "φ {phi}, K ({k1}, {k2}), L {l}: {k} against {want}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// Mode I grows straight ahead, mode II at ∓70.53° (cos θ = 1/3), and

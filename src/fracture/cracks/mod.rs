@@ -388,6 +388,8 @@ pub struct Cramp {
     pub thickness: f64,
     /// How J treats other cracks at its contour (`[cramp] j_method`).
     pub j_method: section::JMethod,
+    /// How J is split into K_I and K_II (`[cramp] k_split`).
+    pub k_split: section::KSplit,
     /// Crack growth (`[cramp] growth`), if the scene asks for it.
     pub growth: Option<section::GrowthSpec>,
     /// Per crack, its face pressure (`explicit_cracks[k].pressure`), Pa.

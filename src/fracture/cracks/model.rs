@@ -40,6 +40,7 @@ pub(crate) fn build(at: &mut SetupContext<'_>) -> Option<Box<dyn FractureModel>>
     cramp.thickness = file.analysis.thickness;
     cramp.growth = spec.growth;
     cramp.j_method = spec.j_method;
+    cramp.k_split = spec.k_split;
     cramp.pressure = pressure;
     cramp.outside = outside;
     Some(Box::new(cramp))
@@ -173,6 +174,7 @@ impl FractureModel for Cramp {
                     let how = JOptions {
                         before: self.before_row.as_ref(),
                         method: self.j_method,
+                        split: self.k_split,
                         pressure: &pressures,
                     };
                     by_kernel!(at.kernel, K => tip_j::<K, 3>(geom, parts, mats, &self.cracks, how, tip, sides))

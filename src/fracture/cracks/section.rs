@@ -75,6 +75,9 @@ pub struct CrampSpec {
     /// How J treats other cracks that meet its contour.
     #[serde(default)]
     pub j_method: JMethod,
+    /// How J is split into K_I and K_II.
+    #[serde(default)]
+    pub k_split: KSplit,
     /// Crack contact passes per step: 1 (default) after the grid update;
     /// 2 also corrects the fields' momenta right after the scatter, as
     /// Nairn & Aimene (§2.1.3) prescribe. Not the default: on their C3
@@ -107,6 +110,23 @@ pub enum JMethod {
     /// The partially integrated contour: virtual nodes where other cracks
     /// cross it and nothing more (invalid where they do; for comparison).
     Pijc,
+}
+
+/// How J is split into K_I and K_II (J = (K_I² + K_II²)/E* either way;
+/// the split sets the ratio K_II/K_I, so the series' `_KI`, `_KII` and
+/// the direction a crack grows in).
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum KSplit {
+    /// The interaction integral with Williams' fields on J's own contour
+    /// (Yau, Wang & Corten 1980): K_II/K_I = M_II/M_I.
+    #[default]
+    Interaction,
+    /// The crack-opening displacement of the tracked surfaces one to three
+    /// cells behind the tip (Guo & Nairn): K_II/K_I = δ_t/δ_n. The first
+    /// split built; 8 % and 25 % off tan β at the two tips of the
+    /// inclined crack (docs/cracks.md).
+    Cod,
 }
 
 /// Crack growth (Nairn & Aimene, section 3.5): after every step each
@@ -152,6 +172,7 @@ impl Default for CrampSpec {
             surface_update: SurfaceUpdate::default(),
             j_contours: default_j_contours(),
             j_method: JMethod::default(),
+            k_split: KSplit::default(),
             contact_passes: default_contact_passes(),
             growth: None,
         }
