@@ -503,17 +503,19 @@ pub fn tip_j<K: Kernel, const V: usize>(
                 .then(|| Auxiliary::new(tip, dir, mu_kappa(mat), path[0].x));
             let mut m = aux.as_ref().map(|a| interaction_term(&path, a));
             if how.method != JMethod::Pijc {
-                let f = faces_term(&around, square, |_, f, out, t| {
-                    std::array::from_fn(|k| {
+                // J's and M's integrands in one walk along the faces
+                let f = faces_term(&around, square, |x, f, out, t| {
+                    let j: [f64; 2] = std::array::from_fn(|k| {
                         (f.w + f.k) * out[k] - (t[0] * f.g[0][k] + t[1] * f.g[1][k])
-                    })
+                    });
+                    let m = aux
+                        .as_ref()
+                        .map_or([0.0; 2], |a| a.integrand(x, a.theta(x), (f.g, t), out));
+                    [j[0], j[1], m[0], m[1]]
                 });
                 j12 = [j12[0] + f[0], j12[1] + f[1]];
-                if let (Some(a), Some(m)) = (&aux, &mut m) {
-                    let f = faces_term(&around, square, |x, f, out, t| {
-                        a.integrand(x, a.theta(x), (f.g, t), out)
-                    });
-                    *m = [m[0] + f[0], m[1] + f[1]];
+                if let Some(m) = &mut m {
+                    *m = [m[0] + f[2], m[1] + f[3]];
                 }
             }
             if let Some(b) = how.before {
@@ -718,11 +720,11 @@ fn length_inside(crack: &Crack, end: End, (lo, hi): ([f64; 2], [f64; 2])) -> f64
 /// face point's contribution from its position, its fields, the
 /// material's outward normal and the traction on the material; J's is
 /// (W + K) n_k − T_i ∂u_i/∂x_k, the interaction integral's its own.
-fn faces_term<const V: usize>(
+fn faces_term<const V: usize, const N: usize>(
     at: &Around<'_, V>,
     (lo, hi): ([f64; 2], [f64; 2]),
-    integrand: impl Fn([f64; 2], &Fields, [f64; 2], [f64; 2]) -> [f64; 2],
-) -> [f64; 2] {
+    integrand: impl Fn([f64; 2], &Fields, [f64; 2], [f64; 2]) -> [f64; N],
+) -> [f64; N] {
     let Around {
         geom,
         parts,
@@ -732,7 +734,7 @@ fn faces_term<const V: usize>(
         near,
         pressure,
     } = *at;
-    let mut j = [0.0; 2];
+    let mut j = [0.0; N];
     for (c, crack) in cracks.iter().enumerate() {
         if c == target {
             continue;
@@ -749,7 +751,7 @@ fn faces_term<const V: usize>(
             let along_face = |t: f64| {
                 let x = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
                 let closed = (1.0 - t) * open_a + t * open_b <= 0.0;
-                let mut v = [0.0; 2];
+                let mut v = [0.0; N];
                 // above: the material's outward normal is −n̂; below, n̂
                 for sign in [-1.0, 1.0] {
                     let out = [sign * nrm[0], sign * nrm[1]];
@@ -771,7 +773,7 @@ fn faces_term<const V: usize>(
                         [0.0; 2]
                     };
                     let c = integrand(at, &f, out, t);
-                    for k in 0..2 {
+                    for k in 0..N {
                         v[k] += c[k];
                     }
                 }
@@ -785,7 +787,7 @@ fn faces_term<const V: usize>(
             let mut prev = along_face(t0);
             for q in 1..=m {
                 let next = along_face(t0 + q as f64 * dt);
-                for i in 0..2 {
+                for i in 0..N {
                     j[i] += 0.5 * (prev[i] + next[i]) * dt * len;
                 }
                 prev = next;
