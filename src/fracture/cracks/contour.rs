@@ -679,16 +679,20 @@ fn contour_path<K: Kernel, const V: usize>(
     Ok(path)
 }
 
+/// A crack's segments from its tip at `end` outward, for a crack of `n`
+/// points: each with whether the tip's side is its end `t = 1`.
+pub(crate) fn segments_from_tip(n: usize, end: End) -> Vec<(usize, bool)> {
+    match end {
+        End::End => (0..n - 1).rev().map(|s| (s, true)).collect(),
+        End::Start => (0..n - 1).map(|s| (s, false)).collect(),
+    }
+}
+
 /// The length of crack `crack` from its tip at `end` to where it leaves
 /// the box `(lo, hi)`, m (the whole crack if it does not).
 fn length_inside(crack: &Crack, end: End, (lo, hi): ([f64; 2], [f64; 2])) -> f64 {
-    let n = crack.plane.len();
-    let segs: Vec<(usize, bool)> = match end {
-        End::End => (0..n - 1).rev().map(|s| (s, true)).collect(),
-        End::Start => (0..n - 1).map(|s| (s, false)).collect(),
-    };
     let mut len = 0.0;
-    for (s, tip_at_one) in segs {
+    for (s, tip_at_one) in segments_from_tip(crack.plane.len(), end) {
         let (a, b) = (crack.plane[s], crack.plane[s + 1]);
         let l = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
         let Some((t0, t1)) = clip(a, b, lo, hi) else {
@@ -1016,21 +1020,17 @@ mod tests {
                 crack.below[k] = disp(crack.plane[k], -1e-12);
             }
             let cracks = [crack];
+            let j_at = |end: End, split: KSplit, sides: &[u32]| {
+                let how = JOptions {
+                    before: None,
+                    method: JMethod::Fijc,
+                    split,
+                    pressure: &[],
+                };
+                tip_j::<QuadraticBspline, 3>(&geom, &parts, &mats, &cracks, how, (0, end), sides)
+            };
             for split in [KSplit::Interaction, KSplit::Cod] {
-                let js = tip_j::<QuadraticBspline, 3>(
-                    &geom,
-                    &parts,
-                    &mats,
-                    &cracks,
-                    JOptions {
-                        before: None,
-                        method: JMethod::Fijc,
-                        split,
-                        pressure: &[],
-                    },
-                    (0, End::End),
-                    &[4, 8, 12],
-                );
+                let js = j_at(End::End, split, &[4, 8, 12]);
                 let want = (k1 * k1 + k2 * k2) / e_s;
                 for (side, r) in [4, 8, 12].iter().zip(&js) {
                     let t = r.expect("a J");
@@ -1052,20 +1052,7 @@ mod tests {
                 }
             }
             // the crack's mouth, outside the material, is no tip
-            let start = tip_j::<QuadraticBspline, 3>(
-                &geom,
-                &parts,
-                &mats,
-                &cracks,
-                JOptions {
-                    before: None,
-                    method: JMethod::Fijc,
-                    split: KSplit::Interaction,
-                    pressure: &[],
-                },
-                (0, End::Start),
-                &[4],
-            );
+            let start = j_at(End::Start, KSplit::Interaction, &[4]);
             assert_eq!(start[0], Err(NoJ::NotATip));
         }
     }

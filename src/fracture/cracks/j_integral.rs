@@ -174,7 +174,11 @@ impl Auxiliary {
 
     /// θ of `x` in (cut − 2π, cut].
     pub fn theta(&self, x: [f64; 2]) -> f64 {
-        let (_, raw) = self.polar(x);
+        self.wrap(self.polar(x).1)
+    }
+
+    /// An angle from atan2 taken into (cut − 2π, cut].
+    fn wrap(&self, raw: f64) -> f64 {
         if raw > self.cut {
             raw - 2.0 * std::f64::consts::PI
         } else {
@@ -199,22 +203,8 @@ impl Auxiliary {
             return [0.0; 2];
         }
         let d = self.dir;
-        // σ' = Q σ Qᵀ and ∇u' = Q ∇u Qᵀ, Q's rows the tip's axes
-        let q = [[d[0], d[1]], [-d[1], d[0]]];
-        let rot = |m: [[f64; 2]; 2]| -> [[f64; 2]; 2] {
-            std::array::from_fn(|i| {
-                std::array::from_fn(|k| {
-                    let mut v = 0.0;
-                    for a in 0..2 {
-                        for b in 0..2 {
-                            v += q[i][a] * m[a][b] * q[k][b];
-                        }
-                    }
-                    v
-                })
-            })
-        };
-        let gl = rot(g);
+        // ∇u' = Q ∇u Qᵀ, Q's rows the tip's axes
+        let gl = conjugate([[d[0], d[1]], [-d[1], d[0]]], g);
         let nl = self.in_tip_axes(n);
         let tl = self.in_tip_axes(t);
         std::array::from_fn(|mode| {
@@ -229,11 +219,11 @@ impl Auxiliary {
     /// The volume integrand ρ ü_i ∂uᵃ_i/∂x₁ per unit ρ dA, for both modes,
     /// at a point with acceleration `a` (grid axes).
     pub fn inertia(&self, x: [f64; 2], a: [f64; 2]) -> [f64; 2] {
-        let (r, _) = self.polar(x);
+        let (r, raw) = self.polar(x);
         if !(r > 0.0) {
             return [0.0; 2];
         }
-        let theta = self.theta(x);
+        let theta = self.wrap(raw);
         let al = self.in_tip_axes(a);
         std::array::from_fn(|mode| {
             let (_, du) = williams_unit(mode, r, theta, self.mu, self.kappa);
@@ -246,6 +236,22 @@ impl Auxiliary {
     pub fn opening_i(&self, r: f64) -> f64 {
         (self.kappa + 1.0) / self.mu * (r / (2.0 * std::f64::consts::PI)).sqrt()
     }
+}
+
+/// Q M Qᵀ for 2 × 2 matrices: a tensor's components turned into the axes
+/// that are Q's rows.
+pub(crate) fn conjugate(q: [[f64; 2]; 2], m: [[f64; 2]; 2]) -> [[f64; 2]; 2] {
+    std::array::from_fn(|i| {
+        std::array::from_fn(|k| {
+            let mut v = 0.0;
+            for a in 0..2 {
+                for b in 0..2 {
+                    v += q[i][a] * m[a][b] * q[k][b];
+                }
+            }
+            v
+        })
+    })
 }
 
 /// The interaction integral's contour part (see [`Auxiliary`]), M_I and
@@ -527,20 +533,7 @@ pub(crate) mod tests {
                             let p = point(k1, k2, e, nu, x);
                             // the field turned into the grid's axes
                             let s = [[p.stress[0], p.stress[2]], [p.stress[2], p.stress[1]]];
-                            let turn = |m: [[f64; 2]; 2]| -> [[f64; 2]; 2] {
-                                let r = [[cp, -sp], [sp, cp]];
-                                std::array::from_fn(|i| {
-                                    std::array::from_fn(|k| {
-                                        let mut v = 0.0;
-                                        for a in 0..2 {
-                                            for b in 0..2 {
-                                                v += r[i][a] * m[a][b] * r[k][b];
-                                            }
-                                        }
-                                        v
-                                    })
-                                })
-                            };
+                            let turn = |m| conjugate([[cp, -sp], [sp, cp]], m);
                             let sg = turn(s);
                             let xg = to_grid(x);
                             ContourPoint {

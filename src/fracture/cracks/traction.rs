@@ -157,10 +157,7 @@ pub(crate) fn traction_j(
     let n = crack.plane.len();
     // the segments from the tip outward, as (segment, the tip's side is
     // its end `t = 1`)
-    let segs: Vec<(usize, bool)> = match end {
-        End::End => (0..n - 1).rev().map(|s| (s, true)).collect(),
-        End::Start => (0..n - 1).map(|s| (s, false)).collect(),
-    };
+    let segs = super::contour::segments_from_tip(n, end);
     // the faces meet at the tip (eq. 11's W_Z(x_root) = ∫₀^δ(x_root) T·dδ):
     // the tracked surfaces there, which take their velocities from the
     // material a kernel's reach about them, do not (they open by about
