@@ -76,6 +76,10 @@ pub struct Particles<const D: usize = 2, const V: usize = 3> {
     /// next step's predictor by the Newmark predictor–corrector (Molinos
     /// et al., Algorithm 1); empty unless `stress_update = "newmark"`.
     pub accel: Vec<[f64; D]>,
+    /// The step's kept supports (LME only; the `supports` stage fills
+    /// them): scratch, not saved in a checkpoint and not compared.
+    #[serde(skip)]
+    pub supports: crate::grid::SupportCache<D>,
 }
 
 impl<const D: usize, const V: usize> Particles<D, V> {
@@ -114,6 +118,7 @@ impl<const D: usize, const V: usize> Particles<D, V> {
             + b(&self.grad_u)
             + b(&self.softening)
             + b(&self.accel)
+            + self.supports.heap_bytes()
     }
 }
 

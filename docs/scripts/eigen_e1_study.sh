@@ -5,7 +5,7 @@
 # crack starts (the first point eroded beyond the initial 40), against the
 # time the explicit crack's J reaches G_c (27.84 s: flank displacement
 # 6.835e-3 at 2.5e-4 per second after the half-second ramp; eigen_e1.sh).
-# About 6 minutes on two cores.
+# About a minute on two cores.
 # Usage, from the repository root:
 #   cargo build --release -p cleave-client
 #   [CLEAVE=target/release/cleave] [OUT=/tmp/eigen_e1_study] bash docs/scripts/eigen_e1_study.sh

@@ -18,7 +18,7 @@ pub mod support;
 use crate::particles::Particles;
 use rayon::prelude::*;
 use shape::Kernel;
-pub use support::{Support, SupportNode};
+pub use support::{Support, SupportCache, SupportNode};
 
 use std::marker::PhantomData;
 use std::ops::Range;
@@ -604,7 +604,8 @@ impl Bins {
     }
 }
 
-/// The support of particle `p` (GIMP uses the particle's half-width).
+/// The support of particle `p` (GIMP uses the particle's half-width), the
+/// kept one where the step keeps supports ([`Support::kept`]).
 #[inline(always)]
 pub fn particle_support<K: Kernel, const D: usize, const V: usize>(
     geom: &GridGeom<D>,
@@ -612,7 +613,7 @@ pub fn particle_support<K: Kernel, const D: usize, const V: usize>(
     p: usize,
 ) -> Support<K, D> {
     let lp = parts.half_size.get(p).copied().unwrap_or(0.0);
-    Support::new(geom, parts.x[p], lp)
+    Support::kept(geom, parts.x[p], lp, &parts.supports, p)
 }
 
 /// Runs `scatter(p, support)` for every particle: colour by colour, the

@@ -117,6 +117,12 @@ pub trait Kernel: Copy + Send + Sync + 'static {
     /// to Splines*, the knot-insertion relation); the hat and GIMP take linear
     /// interpolation. The phase field's multigrid prolongs with it.
     const REFINE: &'static [f64];
+    /// Evaluating the kernel costs enough that a step evaluates each
+    /// particle's support once and keeps it for the step's transfers
+    /// ([`crate::grid::SupportCache`]): LME's two Newton solves, not a
+    /// B-spline's few products (reading a kept support back would cost
+    /// them more than it saves).
+    const KEPT: bool = false;
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -378,6 +384,7 @@ impl Kernel for Lme {
     // not refinable: the multigrid prolongs with linear interpolation, as
     // for the hat and GIMP
     const REFINE: &'static [f64] = &[0.5, 1.0, 0.5];
+    const KEPT: bool = true;
     #[inline(always)]
     fn eval(xi: f64, _lp: f64, gamma: f64) -> Weights1 {
         lme_1d(xi, gamma)

@@ -48,6 +48,7 @@
 
 use super::shape::{Kernel, Weights1, MAX_SUPPORT};
 use super::GridGeom;
+use rayon::prelude::*;
 use std::marker::PhantomData;
 
 /// One node of a particle's support, as [`Support::for_each`] hands it out.
@@ -171,6 +172,39 @@ impl<K: Kernel, const D: usize, const HESS: bool> Support<K, D, HESS> {
         }
     }
 
+    /// The support of particle `p` at `x` with half-width `lp`: read back
+    /// from `kept` where the kernel keeps its supports
+    /// ([`Kernel::KEPT`]) and `kept` holds particle `p`'s evaluation at
+    /// this very `xi`, `lp` and γ; evaluated otherwise. Either way the
+    /// same bits as [`Support::eval`] (the 1D evaluations are a function
+    /// of `xi`, `lp` and γ alone), so a stale or missing entry costs time,
+    /// never a result.
+    #[inline(always)]
+    pub fn kept(
+        geom: &GridGeom<D>,
+        x: [f64; D],
+        lp: f64,
+        kept: &SupportCache<D>,
+        p: usize,
+    ) -> Self {
+        if K::KEPT && !HESS {
+            let xi = geom.xi(x);
+            if let Some(e) = kept.entries.get(p) {
+                if e.xi == xi && e.lp == lp && e.gamma == geom.lme_gamma {
+                    return Support {
+                        xi,
+                        w: e.w,
+                        d2: [[0.0; MAX_SUPPORT]; D],
+                        inv_h: geom.inv_h,
+                        stride: geom.strides(),
+                        kernel: PhantomData,
+                    };
+                }
+            }
+        }
+        Self::eval(geom, x, lp)
+    }
+
     /// The particle's position in node units ([`GridGeom::xi`]).
     #[inline(always)]
     pub fn xi(&self) -> [f64; D] {
@@ -278,6 +312,96 @@ impl<K: Kernel, const D: usize, const HESS: bool> Support<K, D, HESS> {
                 }
             }
         }
+    }
+}
+
+/// One particle's kept support: its 1D evaluations and what they are a
+/// function of.
+#[derive(Debug, Clone, Copy)]
+struct KeptSupport<const D: usize> {
+    xi: [f64; D],
+    lp: f64,
+    gamma: f64,
+    w: [Weights1; D],
+}
+
+/// The supports of a step's particles, evaluated once by the `supports`
+/// stage and read back by every transfer of the step until the particle
+/// moves ([`Support::kept`]). Only for kernels whose evaluation is dear
+/// ([`Kernel::KEPT`]: LME, two Newton solves per support): a MUSL or
+/// Newmark step of LME builds each particle's support four times at the
+/// same position (scatter, gather, remap or force, gather), a USL step
+/// twice.
+///
+/// Scratch, not state: a checkpoint does not hold it, two particle sets
+/// compare equal whatever their caches hold, and a clone starts empty (an
+/// entry is only ever a shortcut to the same bits).
+#[derive(Default)]
+pub struct SupportCache<const D: usize> {
+    entries: Vec<KeptSupport<D>>,
+}
+
+impl<const D: usize> SupportCache<D> {
+    /// Evaluates the support of every particle at `x` (GIMP half-widths
+    /// `half_size`, empty for a point kernel) and keeps it; for a kernel
+    /// that does not keep supports, frees what an earlier kernel kept.
+    /// Each entry depends on its particle alone, so any number of threads
+    /// gives the same entries.
+    pub fn fill<K: Kernel>(&mut self, geom: &GridGeom<D>, x: &[[f64; D]], half_size: &[f64]) {
+        if !K::KEPT {
+            self.entries = Vec::new();
+            return;
+        }
+        let gamma = geom.lme_gamma;
+        // into the same allocation, step after step
+        (0..x.len())
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|p| {
+                let lp = half_size.get(p).copied().unwrap_or(0.0);
+                let xi = geom.xi(x[p]);
+                KeptSupport {
+                    xi,
+                    lp,
+                    gamma,
+                    w: std::array::from_fn(|d| K::eval(xi[d], lp, gamma)),
+                }
+            })
+            .collect_into_vec(&mut self.entries);
+    }
+
+    /// Particles with a kept support.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.entries.capacity() * std::mem::size_of::<KeptSupport<D>>()
+    }
+}
+
+impl<const D: usize> Clone for SupportCache<D> {
+    /// Empty: the copy's particles refill it at their next step.
+    fn clone(&self) -> Self {
+        SupportCache::default()
+    }
+}
+
+impl<const D: usize> PartialEq for SupportCache<D> {
+    /// Always: what is kept never changes a result.
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl<const D: usize> std::fmt::Debug for SupportCache<D> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "SupportCache({} kept)", self.entries.len())
     }
 }
 
@@ -471,5 +595,69 @@ mod tests {
         for gamma in [shape::LME_GAMMA_MIN, shape::LME_GAMMA_DEFAULT, 30.0] {
             linear::<Lme>(0.0, gamma);
         }
+    }
+
+    /// Every node a support visits, as bits.
+    fn visits<K: Kernel, const D: usize>(s: &Support<K, D>) -> Vec<(usize, u64, Vec<u64>)> {
+        let mut out = Vec::new();
+        s.for_each(|n| out.push((n.node, n.w.to_bits(), n.grad.map(f64::to_bits).to_vec())));
+        out
+    }
+
+    /// A kept LME support is the evaluated one to the bit; a particle that
+    /// moved, a changed locality or a particle the cache does not hold
+    /// gets a fresh evaluation (the same bits again), and a kernel that
+    /// keeps nothing frees the cache.
+    #[test]
+    fn a_kept_support_is_the_evaluated_one() {
+        fn check<const D: usize>(origin: [f64; D], n: [usize; D]) {
+            let mut geom = GridGeom::<D>::new(origin, 0.05, n);
+            let mut next = super::super::tests::uniform(7);
+            let x: Vec<[f64; D]> = (0..500)
+                .map(|_| std::array::from_fn(|d| origin[d] + 0.1 + 0.3 * next()))
+                .collect();
+            let mut cache = SupportCache::<D>::default();
+            cache.fill::<Lme>(&geom, &x, &[]);
+            assert_eq!(cache.len(), x.len());
+            for (p, &xp) in x.iter().enumerate() {
+                let fresh = visits(&Support::<Lme, D>::new(&geom, xp, 0.0));
+                assert_eq!(
+                    visits(&Support::<Lme, D>::kept(&geom, xp, 0.0, &cache, p)),
+                    fresh
+                );
+                // the entry is a shortcut only where it was made
+                let moved: [f64; D] = std::array::from_fn(|d| xp[d] + 1e-3);
+                assert_eq!(
+                    visits(&Support::<Lme, D>::kept(&geom, moved, 0.0, &cache, p)),
+                    visits(&Support::<Lme, D>::new(&geom, moved, 0.0))
+                );
+                let other = (p + 1) % x.len();
+                assert_eq!(
+                    visits(&Support::<Lme, D>::kept(&geom, xp, 0.0, &cache, other)),
+                    fresh
+                );
+            }
+            let beyond = x.len() + 3;
+            assert_eq!(
+                visits(&Support::<Lme, D>::kept(&geom, x[0], 0.0, &cache, beyond)),
+                visits(&Support::<Lme, D>::new(&geom, x[0], 0.0))
+            );
+            geom.lme_gamma *= 1.5;
+            assert_eq!(
+                visits(&Support::<Lme, D>::kept(&geom, x[0], 0.0, &cache, 0)),
+                visits(&Support::<Lme, D>::new(&geom, x[0], 0.0))
+            );
+            // a B-spline reads nothing back, and a kernel change frees the cache
+            assert_eq!(
+                visits(&Support::<QuadraticBspline, D>::kept(
+                    &geom, x[0], 0.0, &cache, 0
+                )),
+                visits(&Support::<QuadraticBspline, D>::new(&geom, x[0], 0.0))
+            );
+            cache.fill::<QuadraticBspline>(&geom, &x, &[]);
+            assert!(cache.is_empty());
+        }
+        check::<2>([0.0, -0.1], [12, 12]);
+        check::<3>([0.1, -0.2, 0.3], [12, 10, 8]);
     }
 }

@@ -17,7 +17,7 @@
 //! order-independent, so results do not depend on the thread count.
 
 use crate::grid::shape::Kernel;
-use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, Support, SyncPtr};
+use crate::grid::{Bins, FieldSlots, GridFields, GridGeom, Support, SupportCache, SyncPtr};
 use crate::material::Elastic;
 use crate::particles::Particles;
 use crate::scene::MaterialModel;
@@ -273,6 +273,7 @@ fn gather<
         vel: &grid.vel,
         vel_old: &grid.vel_old,
         half_size: &parts.half_size,
+        kept: &parts.supports,
         x: SyncPtr::new(&mut parts.x),
         v: SyncPtr::new(&mut parts.v),
         affine: SyncPtr::new(&mut parts.affine),
@@ -315,6 +316,7 @@ pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
         slots,
         vel: &grid.vel,
         half_size: &parts.half_size,
+        kept: &parts.supports,
         v: &parts.v,
         x: SyncPtr::new(&mut parts.x),
         x_next,
@@ -360,6 +362,7 @@ pub fn newmark<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
         vel: &grid.vel,
         vel_old: &grid.vel_old,
         half_size: &parts.half_size,
+        kept: &parts.supports,
         material: &parts.material,
         stress: &parts.stress,
         vol: &parts.vol,
@@ -393,6 +396,7 @@ struct NewmarkPass<'a, S, const D: usize, const V: usize> {
     vel_old: &'a [[f64; D]],
     /// GIMP half-widths (empty: a point kernel).
     half_size: &'a [f64],
+    kept: &'a SupportCache<D>,
     material: &'a [u16],
     stress: &'a [[f64; V]],
     vol: &'a [f64],
@@ -426,7 +430,7 @@ unsafe fn newmark_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize
         let lp = if gimp { s.half_size[p] } else { 0.0 };
         let mut vbar = [0.0; D];
         let mut vpre = [0.0; D];
-        Support::<K, D>::new(geom, *xp, lp).for_each(
+        Support::<K, D>::kept(geom, *xp, lp, s.kept, p).for_each(
             #[inline(always)]
             |n| {
                 let k = s.slots.slot(n.node, p);
@@ -548,6 +552,7 @@ struct Gather<'a, S, const D: usize, const V: usize> {
     vel_old: &'a [[f64; D]],
     /// GIMP half-widths (empty: a point kernel).
     half_size: &'a [f64],
+    kept: &'a SupportCache<D>,
     x: SyncPtr<'a, [f64; D]>,
     v: SyncPtr<'a, [f64; D]>,
     affine: SyncPtr<'a, [[f64; D]; D]>,
@@ -581,6 +586,7 @@ unsafe fn gather_chunk<
         vel,
         vel_old,
         half_size,
+        kept,
         x,
         v,
         affine,
@@ -595,7 +601,7 @@ unsafe fn gather_chunk<
         // SAFETY: particle p belongs to this chunk only.
         let (xp, vp) = unsafe { (x.at(p), v.at(p)) };
         let lp = if gimp { half_size[p] } else { 0.0 };
-        let sup = Support::<K, D>::new(geom, *xp, lp);
+        let sup = Support::<K, D>::kept(geom, *xp, lp, kept, p);
         let xi = sup.xi();
         let mut vpic = [0.0; D];
         let mut dflip = [0.0; D];
@@ -698,6 +704,7 @@ struct Stress<'a, S, const D: usize, const V: usize> {
     vel: &'a [[f64; D]],
     /// GIMP half-widths (empty: a point kernel).
     half_size: &'a [f64],
+    kept: &'a SupportCache<D>,
     v: &'a [[f64; D]],
     x: SyncPtr<'a, [f64; D]>,
     /// Where the particles move (MUSL); None: they stay (Newmark's stress
@@ -719,6 +726,7 @@ unsafe fn stress_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize>
         slots,
         vel,
         half_size,
+        kept,
         v,
         x,
         x_next,
@@ -730,7 +738,7 @@ unsafe fn stress_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize>
         let xp = unsafe { x.at(p) };
         let lp = if gimp { half_size[p] } else { 0.0 };
         let mut l = [[0.0; D]; D];
-        Support::<K, D>::new(up.geom, *xp, lp).for_each(
+        Support::<K, D>::kept(up.geom, *xp, lp, kept, p).for_each(
             #[inline(always)]
             |n| {
                 let vi = vel[slots.slot(n.node, p)];

@@ -492,6 +492,20 @@ where
         rest: &mut [StageTime],
         post: &mut [StageTime],
     ) -> Result<(), SimError> {
+        // the supports the rest of the step reads back (LME), first of all
+        let pre = match pre.split_first_mut() {
+            Some((t, after)) if t.stage == Stage::Supports => {
+                let t0 = Instant::now();
+                let parts = &mut self.parts;
+                parts
+                    .supports
+                    .fill::<K>(&self.geom, &parts.x, &parts.half_size);
+                t.seconds += t0.elapsed().as_secs_f64();
+                t.runs += 1;
+                after
+            }
+            _ => pre,
+        };
         let nodes = self.geom.node_count();
         let Some(mut multi) = self.multi.take() else {
             debug_assert!(
@@ -894,7 +908,8 @@ where
                         true
                     }
                     // these run before the scatter and after the slots (`execute`)
-                    Stage::DamageField
+                    Stage::Supports
+                    | Stage::DamageField
                     | Stage::FieldPartition
                     | Stage::CrackSurfaces
                     | Stage::CrackGrowth => false,

@@ -6,6 +6,7 @@
 
 use super::schema::{MethodKind, SceneFile, SideCondition, StressUpdate};
 use crate::dpm::section::Integration;
+use crate::grid::shape::ShapeFunctionKind;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -15,6 +16,12 @@ use std::fmt;
 /// change when a stage is added).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Stage {
+    /// Every particle's support evaluated once, at the step's start
+    /// positions, and kept for the step's transfers, which read it back
+    /// until the particle moves (the same bits as evaluating it again).
+    /// Only with `shape_function = "lme"`, whose evaluation is two Newton
+    /// solves.
+    Supports,
     /// The kernel damage field and its gradient at the particles, and the
     /// nodal gradient (Homel & Herbold 2017, eqs. 17–19, Algorithm 1); only
     /// with `[dfg]`.
@@ -142,7 +149,8 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 32] = [
+    pub const ALL: [Stage; 33] = [
+        Stage::Supports,
         Stage::DamageField,
         Stage::FieldPartition,
         Stage::P2g,
@@ -184,6 +192,7 @@ impl Stage {
 
     pub fn name(self) -> &'static str {
         match self {
+            Stage::Supports => "supports",
             Stage::DamageField => "damage_field",
             Stage::FieldPartition => "field_partition",
             Stage::P2g => "p2g",
@@ -230,7 +239,10 @@ impl Stage {
     /// Stages that decide the velocity fields and so run before the
     /// scatter's field slots exist.
     pub fn before_scatter(self) -> bool {
-        matches!(self, Stage::DamageField | Stage::FieldPartition)
+        matches!(
+            self,
+            Stage::Supports | Stage::DamageField | Stage::FieldPartition
+        )
     }
 
     /// Stages of a model that splits the velocity fields which run after
@@ -321,6 +333,7 @@ impl Plan {
         let stages = Stage::ALL
             .into_iter()
             .filter(|s| match s {
+                Stage::Supports => file.grid.shape_function == ShapeFunctionKind::Lme,
                 Stage::DamageField => dfg,
                 Stage::FieldPartition | Stage::Contact => contact,
                 Stage::P2g | Stage::Rebin => true,

@@ -149,3 +149,48 @@ material = "steel"
     sim.step().unwrap();
     assert!(sim.stage_times().stages.iter().all(|t| t.runs == 1));
 }
+
+/// LME shape functions add one stage before all others: every particle's
+/// support, kept for the step's transfers (and only they: a B-spline scene
+/// keeps nothing).
+#[test]
+fn lme_keeps_the_step_s_supports() {
+    let text = |kernel: &str, update: &str| {
+        format!(
+            r#"
+[grid]
+cell_size = 0.01
+min = [0.0, 0.0]
+max = [0.1, 0.1]
+shape_function = "{kernel}"
+[time]
+end = 1e-6
+[transfer]
+stress_update = "{update}"
+[materials.steel]
+model = "linear_elastic"
+density = 8000.0
+youngs_modulus = 2.0e11
+poissons_ratio = 0.3
+[[bodies]]
+shape = {{ type = "box", min = [0.02, 0.02], max = [0.08, 0.08] }}
+material = "steel"
+velocity = [3.0, -1.0]
+"#
+        )
+    };
+    for update in ["usl", "musl", "newmark"] {
+        let lme = Scene::from_text(&text("lme", update), None).unwrap();
+        assert_eq!(lme.plan.names()[0], "supports", "{update}");
+        let plain = Scene::from_text(&text("quadratic_bspline", update), None).unwrap();
+        assert_eq!(&lme.plan.names()[1..], plain.plan.names(), "{update}");
+        for (scene, kept) in [(&lme, true), (&plain, false)] {
+            let mut sim = Simulation::new(scene);
+            sim.step().unwrap();
+            sim.step().unwrap();
+            assert!(sim.stage_times().stages.iter().all(|t| t.runs == 2));
+            let parts = sim.particles();
+            assert_eq!(parts.supports.len(), if kept { parts.len() } else { 0 });
+        }
+    }
+}
