@@ -266,9 +266,8 @@ fn a_resumed_run_whose_crack_grows_repeats_the_straight_one_bit_for_bit() {
 fn a_resumed_run_whose_growing_crack_carries_a_pressure_repeats_the_straight_one() {
     // the growing edge crack with a pressure on its faces too (the forces
     // at the grown points, which carry it, and J's pressure term), resumed
-    // after it has grown; to 0.3 ms: from about 0.33 ms a particle under
-    // the pressed face near the mouth collapses (docs/cracks.md,
-    // pressure-loaded cracks)
+    // after it has grown; to 0.3 ms, by which it has grown 6 mm
+    // (cracks::a_growing_crack_with_pressed_faces_runs_on goes to 0.4 ms)
     let text = scene_text(
         "cramp_edge_growth.toml",
         &[

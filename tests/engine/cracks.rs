@@ -801,6 +801,45 @@ fn adaptive_fijc_leaves_out_the_other_tip() {
     );
 }
 
+/// The growing edge crack of `scenes/cramp_edge_growth.toml` with a
+/// pressure on its faces rising to 0.3 MPa over 0.4 ms runs to 0.4 ms,
+/// the crack growing across most of the plate. With the face forces
+/// spread by N alone over the nodes with mass (eq. 4's S*) a particle
+/// under the pressed face near the mouth collapsed at step 413
+/// (0.334 ms): the nodes in the opened gap, nearly empty, took a full
+/// share of the force (docs/cracks.md). Before the crack grows, the
+/// pressure's work as counted is the energy the plate holds to 1 % of
+/// the work (measured 0.08 %; with S*, 1.2 % and rising).
+#[test]
+fn a_growing_crack_with_pressed_faces_runs_on() {
+    let text = include_str!("../../scenes/cramp_edge_growth.toml")
+        .replace("end = 6.0e-4", "end = 4.0e-4")
+        .replace(
+            "[0.005, 0.0151]] }]",
+            "[0.005, 0.0151]], pressure = { table = [[0.0, 0.0], [4.0e-4, 3.0e5]] } }]",
+        );
+    assert!(text.contains("pressure = { table"));
+    let (sim, rec) = run(&parse(&text));
+    assert!(sim.time() >= 4.0e-4 * (1.0 - 1e-9), "{}", sim.time());
+    let col =
+        |r: &cleave::diagnostics::SeriesRow, name: &str| r.get(&rec.columns, name).expect(name);
+    let first = col(&rec.rows[0], "crack0_length");
+    let last = col(rec.rows.last().expect("rows"), "crack0_length");
+    println!("the crack grew from {first:.4e} m to {last:.4e} m");
+    assert!(last > first + 0.01, "{first} → {last}");
+    // the last row before the first growth (the tip only moves with the
+    // material until then: its length changes by less than a µm)
+    let before = rec
+        .rows
+        .iter()
+        .take_while(|r| col(r, "crack0_length") < first + 1e-6)
+        .last()
+        .expect("rows before growth");
+    let (work, err) = (col(before, "external_work"), col(before, "energy_error"));
+    println!("before growth: work {work:.4e} J, energy error {err:.3e} J");
+    assert!(work > 0.1 && err.abs() < 0.01 * work, "{err} of {work}");
+}
+
 /// The small plate of [`edge_cracked`] with a centre crack 2a = 10 mm
 /// (x = 5–15 mm, 2a/W = 0.5) and J on 4- and 8-cell contours, loaded by
 /// `load`: a traction on its top and bottom, or a pressure on the crack's
@@ -838,10 +877,15 @@ fn centre_cracked(load: &str) -> String {
 /// contours only with the pressure's own term (step 9, eq. 11; without
 /// it J4 and J8 came out 21 and −5 J/m² where the ends give 161). Means
 /// over the last third of the ramp, both tips: the pressure-loaded J on
-/// both contours within 5 % of the end-loaded J4 (measured −3.6 %, −3.2
-/// %), the middle's opening at the end within 5 % (+1.6 %). The plan
-/// gains `crack_traction` only with a pressure, and the pressure's
-/// forces cancel: the plate's momentum stays zero.
+/// both contours within 3 % of the end-loaded J4 (measured +1.2 %,
+/// +0.4 %), the middle's opening at the end within 7 % (+5.4 %). The
+/// pressure's work as the step counts it (F·v_s Δt) is the energy the
+/// plate holds, to 1 % of it (measured 0.3 %). With the forces spread by
+/// N alone over the nodes with mass (eq. 4's S*, this code's first
+/// spreading) J was −3.6 %, −3.2 %, the opening +1.6 % and the work
+/// 6.6 % short of the energy: docs/cracks.md. The plan gains
+/// `crack_traction` only with a pressure, and the pressure's forces
+/// cancel: the plate's momentum stays zero.
 #[test]
 fn a_pressure_on_the_faces_loads_the_crack_as_the_ends_traction_does() {
     let ends = parse(&centre_cracked("ends"));
@@ -857,7 +901,7 @@ fn a_pressure_on_the_faces_loads_the_crack_as_the_ends_traction_does() {
     };
     let (d_e, d_p) = (middle(&sim_e), middle(&sim));
     println!("opening at the middle: end traction {d_e:.4e} m, face pressure {d_p:.4e} m");
-    assert!((d_p / d_e - 1.0).abs() < 0.05, "{d_p} against {d_e}");
+    assert!((d_p / d_e - 1.0).abs() < 0.07, "{d_p} against {d_e}");
     let (_, mean_e) = hold_means(&rec_e, 4.0e-4);
     let (n, mean_p) = hold_means(&rec_p, 4.0e-4);
     assert!(n >= 20, "{n} rows");
@@ -873,11 +917,19 @@ fn a_pressure_on_the_faces_loads_the_crack_as_the_ends_traction_does() {
         );
         for j in [j4, j8] {
             assert!(
-                (j / reference - 1.0).abs() < 0.05,
+                (j / reference - 1.0).abs() < 0.03,
                 "{end}: {j} against {reference}"
             );
         }
     }
+    let last = rec_p.rows.last().expect("rows");
+    let col = |name: &str| last.get(&rec_p.columns, name).expect(name);
+    let (work, held) = (
+        col("external_work"),
+        col("kinetic_energy") + col("strain_energy"),
+    );
+    println!("pressure's work {work:.5} J, kinetic + strain {held:.5} J");
+    assert!((work - held).abs() < 0.01 * work, "{work} against {held}");
     let p = sim.particles();
     let mut momentum = [0.0; 2];
     let mut scale = 0.0;

@@ -86,8 +86,16 @@ impl Cramp {
     /// surface below (A_k: the point's share of the crack's length times
     /// the thickness), each spread over the nodes of its own side's
     /// velocity field (the appendix's v(s, i), as the surfaces' velocities
-    /// take them) by the shape function renormalised over the nodes where
-    /// that field has mass (eq. 4's S*). Returns the forces' work over the
+    /// take them) in proportion to N_I m_I, the weights of the surface's
+    /// own velocity (eq. 5): f_I = F N_I m_I / Σ N m. Every such node then
+    /// accelerates by F N_I / Σ N m, so a node that holds a sliver of its
+    /// field's mass (the gap of an opened face) is not flung, and the
+    /// forces' power Σ f_I·v_I is F·v_s with v_s the velocity eq. 5 gives
+    /// the surface from those nodes, the work the step counts. (The
+    /// shape function renormalised over the nodes with mass, eq. 4's S*,
+    /// which this code used first, put a node's full share of F on a
+    /// node of any mass: a growing pressed crack crushed a particle at
+    /// its mouth, docs/cracks.md.) Returns the forces' work over the
     /// step, F·v_s Δt with the surfaces' last velocities, J.
     pub fn face_forces<K: Kernel>(
         &self,
@@ -117,9 +125,10 @@ impl Cramp {
                     let (mut n, mut sum) = (0, 0.0);
                     self.own_side::<K>(geom, multi, (c, k, side), x, |slot, w| {
                         if n < MAX_LEN && grid.mass[slot] > 0.0 {
-                            to[n] = (slot, w);
+                            let wm = w * grid.mass[slot];
+                            to[n] = (slot, wm);
                             n += 1;
-                            sum += w;
+                            sum += wm;
                         }
                     });
                     if sum <= 0.0 {
