@@ -87,22 +87,21 @@ fn runs_its_plan(mut sim: Box<dyn Method>, scene: &Scene, path: &std::path::Path
     );
 }
 
-/// A scene without fracture or contact runs the three core stages and the
-/// re-binning, nothing else; with MUSL the gather is split around the
-/// remap; Newmark's predictor–corrector has its own five.
-#[test]
-fn a_plain_scene_runs_only_the_core_stages() {
-    let text = |update: &str| {
-        format!(
-            r#"
+/// A steel block at rest in a 0.1 m grid, with the grid's shape function
+/// `kernel` and the stress update `update`: a scene with no fracture and
+/// no contact.
+fn steel_block(kernel: &str, update: &str) -> String {
+    format!(
+        r#"
 [grid]
 cell_size = 0.01
 min = [0.0, 0.0]
 max = [0.1, 0.1]
+shape_function = "{kernel}"
 [time]
 end = 1e-6
 [transfer]
-stress_update = "{}"
+stress_update = "{update}"
 [materials.steel]
 model = "linear_elastic"
 density = 8000.0
@@ -111,10 +110,16 @@ poissons_ratio = 0.3
 [[bodies]]
 shape = {{ type = "box", min = [0.02, 0.02], max = [0.08, 0.08] }}
 material = "steel"
-"#,
-            update
-        )
-    };
+"#
+    )
+}
+
+/// A scene without fracture or contact runs the three core stages and the
+/// re-binning, nothing else; with MUSL the gather is split around the
+/// remap; Newmark's predictor–corrector has its own five.
+#[test]
+fn a_plain_scene_runs_only_the_core_stages() {
+    let text = |update: &str| steel_block("quadratic_bspline", update);
     let usl = Scene::from_text(&text("usl"), None).unwrap();
     assert_eq!(usl.plan.names(), ["p2g", "grid_update", "g2p", "rebin"]);
     let musl = Scene::from_text(&text("musl"), None).unwrap();
@@ -155,34 +160,10 @@ material = "steel"
 /// keeps nothing).
 #[test]
 fn lme_keeps_the_step_s_supports() {
-    let text = |kernel: &str, update: &str| {
-        format!(
-            r#"
-[grid]
-cell_size = 0.01
-min = [0.0, 0.0]
-max = [0.1, 0.1]
-shape_function = "{kernel}"
-[time]
-end = 1e-6
-[transfer]
-stress_update = "{update}"
-[materials.steel]
-model = "linear_elastic"
-density = 8000.0
-youngs_modulus = 2.0e11
-poissons_ratio = 0.3
-[[bodies]]
-shape = {{ type = "box", min = [0.02, 0.02], max = [0.08, 0.08] }}
-material = "steel"
-velocity = [3.0, -1.0]
-"#
-        )
-    };
     for update in ["usl", "musl", "newmark"] {
-        let lme = Scene::from_text(&text("lme", update), None).unwrap();
+        let lme = Scene::from_text(&steel_block("lme", update), None).unwrap();
         assert_eq!(lme.plan.names()[0], "supports", "{update}");
-        let plain = Scene::from_text(&text("quadratic_bspline", update), None).unwrap();
+        let plain = Scene::from_text(&steel_block("quadratic_bspline", update), None).unwrap();
         assert_eq!(&lme.plan.names()[1..], plain.plan.names(), "{update}");
         for (scene, kept) in [(&lme, true), (&plain, false)] {
             let mut sim = Simulation::new(scene);
