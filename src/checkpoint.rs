@@ -7,7 +7,7 @@
 //! [`crate::diagnostics::Observer::checkpoint`] hands to whoever writes
 //! the run's results.
 //!
-//! On disk: `b"CLEAVECKPT7\n"`, the header (version, observer state,
+//! On disk: `b"CLEAVECKPT8\n"`, the header (version, observer state,
 //! scene, method, step, time) in postcard (serde's compact binary
 //! format), the method's state in postcard, then a trailer: the length of
 //! what precedes it (u64, little-endian) and the CRC-32 (IEEE) of
@@ -20,14 +20,15 @@
 //! saved types, which `mpm/checkpoint_layout.json` holds (a test fails
 //! when a saved type changes without it); format 2 added the trailer,
 //! format 4 the method's name and its state after the header, format 5
-//! the particles' displacement gradient (explicit cracks' J integral).
+//! the particles' displacement gradient (explicit cracks' J integral),
+//! format 8 the explicit cracks' released energy.
 
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
 use std::sync::Arc;
 
-pub(crate) const MAGIC: &[u8; 12] = b"CLEAVECKPT7\n";
+pub(crate) const MAGIC: &[u8; 12] = b"CLEAVECKPT8\n";
 /// The headers of formats this build no longer reads.
 const OLDER: &[&[u8; 12]] = &[
     b"CLEAVECKPT1\n",
@@ -36,6 +37,7 @@ const OLDER: &[&[u8; 12]] = &[
     b"CLEAVECKPT4\n",
     b"CLEAVECKPT5\n",
     b"CLEAVECKPT6\n",
+    b"CLEAVECKPT7\n",
 ];
 /// The trailer: the length before it (u64) and the CRC-32 (u32).
 const TRAILER: usize = 8 + 4;
@@ -45,9 +47,9 @@ const TRAILER: usize = 8 + 4;
 pub enum CheckpointError {
     #[error("{0}")]
     Io(#[from] std::io::Error),
-    #[error("not a cleave checkpoint (no CLEAVECKPT7 header)")]
+    #[error("not a cleave checkpoint (no CLEAVECKPT8 header)")]
     NotACheckpoint,
-    #[error("the checkpoint was written in an older format ({0}); this build reads CLEAVECKPT7: rerun from the start")]
+    #[error("the checkpoint was written in an older format ({0}); this build reads CLEAVECKPT8: rerun from the start")]
     OlderFormat(String),
     #[error("{file} is damaged ({reason}): refused, and the results written so far are kept")]
     Damaged { file: String, reason: String },
@@ -457,6 +459,8 @@ mod tests {
         let r = Checkpoint::read_from(&mut &b"CLEAVECKPT6\n\x01\x02"[..]);
         assert!(matches!(r, Err(CheckpointError::OlderFormat(_))), "{r:?}");
         let r = Checkpoint::read_from(&mut &b"CLEAVECKPT7\n\x01\x02"[..]);
+        assert!(matches!(r, Err(CheckpointError::OlderFormat(_))), "{r:?}");
+        let r = Checkpoint::read_from(&mut &b"CLEAVECKPT8\n\x01\x02"[..]);
         assert!(matches!(r, Err(CheckpointError::Damaged { .. })), "{r:?}");
     }
 

@@ -240,7 +240,7 @@ mod tests {
 
     /// postcard writes no field names nor types: a file read with another
     /// layout fails to decode, or worse decodes into other values. The
-    /// header's number (`CLEAVECKPT7`) names the layout, so that older files
+    /// header's number (`CLEAVECKPT8`) names the layout, so that older files
     /// are refused as another format; this test holds the layout that
     /// number stands for (the checkpoint's types and the observers' states
     /// it carries) and fails when a saved type changes.
@@ -289,7 +289,7 @@ mod tests {
             std::fs::write(&fresh, &layout).expect("write the new layout");
             panic!(
                 "the checkpoint's saved types changed (new layout in {}): raise the number in MAGIC \
-                 (CLEAVECKPT7 -> CLEAVECKPT8, with the old header in OLDER, so that files in the old layout are refused) and replace {} with it",
+                 (CLEAVECKPT8 -> CLEAVECKPT9, with the old header in OLDER, so that files in the old layout are refused) and replace {} with it",
                 fresh.display(),
                 path.display()
             );

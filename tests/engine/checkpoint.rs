@@ -236,10 +236,10 @@ fn a_resumed_run_with_explicit_cracks_repeats_the_straight_one_bit_for_bit() {
     assert_same(&a, &b);
 }
 
-/// The first and last rows' `crack0_length` of a series, m.
-fn crack0_lengths(series: &str) -> (f64, f64) {
+/// The first and last rows' values of a series' column `name`.
+fn first_and_last(series: &str, name: &str) -> (f64, f64) {
     let lines: Vec<&str> = series.lines().collect();
-    let at = lines[0].split(',').position(|c| c == "crack0_length");
+    let at = lines[0].split(',').position(|c| c == name);
     let length = |row: &str| -> f64 { row.split(',').nth(at.unwrap()).unwrap().parse().unwrap() };
     (length(lines[1]), length(lines[lines.len() - 1]))
 }
@@ -247,18 +247,21 @@ fn crack0_lengths(series: &str) -> (f64, f64) {
 #[test]
 fn a_resumed_run_whose_crack_grows_repeats_the_straight_one_bit_for_bit() {
     // the growing edge crack, resumed at step 420 (the crack has grown
-    // since step ~340): the grown points and their surfaces travel in the
+    // since step ~340): the grown points, their surfaces and the energy
+    // released so far (the series' fracture_energy) travel in the
     // checkpoint, and growth goes on as in the straight run
     let text = scene_text(
         "cramp_edge_growth.toml",
         &[("end = 6.0e-4", "end = 4.0e-4")],
     );
     let (a, b) = straight_and_resumed(&text, 420, 40);
-    let (first, last) = crack0_lengths(&a.series);
+    let (first, last) = first_and_last(&a.series, "crack0_length");
     assert!(
         last > first + 5e-3,
         "the crack grew from {first} m to {last} m"
     );
+    let (_, released) = first_and_last(&a.series, "fracture_energy");
+    assert!(released > 0.0, "nothing released");
     assert_same(&a, &b);
 }
 
@@ -279,7 +282,7 @@ fn a_resumed_run_whose_growing_crack_carries_a_pressure_repeats_the_straight_one
         ],
     );
     let (a, b) = straight_and_resumed(&text, 280, 40);
-    let (first, last) = crack0_lengths(&a.series);
+    let (first, last) = first_and_last(&a.series, "crack0_length");
     assert!(
         last > first + 5e-3,
         "the crack grew from {first} m to {last} m"

@@ -675,6 +675,44 @@ fn an_edge_crack_grows_straight_once_j_reaches_the_toughness() {
         top < 1.02 * j_ic && top > 0.8 * j_ic,
         "J up to {top} before growth"
     );
+    // the released energy Σ J Δa t: nothing before growth; at the end at
+    // least J_Ic times the grown length (each event's J is at least
+    // J_Ic) and not far above it; and, on the row where the tip has
+    // crossed the plate, the mechanical energy the load's work did not
+    // leave in the plate (W − K − U) within a tenth of it (the plate's
+    // energy lags a new segment by a few steps, and it takes no account of
+    // the numerical dissipation that follows)
+    let last = rec.rows.last().unwrap();
+    let thickness = 1.0;
+    let grown_length = get(last, "crack0_length") - len0;
+    let released = last.fracture_energy;
+    let floor = j_ic * grown_length * thickness;
+    println!("released {released:.4} J, J_Ic Δa t = {floor:.4} J");
+    assert!(
+        released > 0.97 * floor && released < 1.15 * floor,
+        "released {released} J against J_Ic Δa t = {floor} J"
+    );
+    for r in &rec.rows {
+        if get(r, "crack0_length") < len0 + 0.25e-3 {
+            assert_eq!(r.fracture_energy, 0.0, "released before growth");
+        }
+    }
+    let across = rec
+        .rows
+        .iter()
+        .find(|r| get(r, "crack0_end_x") > 0.0195)
+        .expect("a row with the tip across");
+    let lost = across.external_work - across.kinetic_energy - across.strain_energy;
+    println!(
+        "at {:.3} ms: W − K − U = {lost:.4} J, released {:.4} J",
+        across.time * 1e3,
+        across.fracture_energy
+    );
+    assert!(
+        (lost / across.fracture_energy - 1.0).abs() < 0.1,
+        "W − K − U = {lost} J against {} J released",
+        across.fracture_energy
+    );
     // a tough plate keeps its crack
     let (sim, _) = run(&parse(&edge_cracked(1e6, "")));
     assert_eq!(

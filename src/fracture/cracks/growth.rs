@@ -13,6 +13,12 @@
 //! to grow into, stays there (the paper's cracks "stopped propagating" where
 //! they met another). A tip that leaves its body (an edge reached) is no
 //! longer a tip and grows no more.
+//!
+//! The energy a growth event releases is the tip's J (the energy flux
+//! into the tip per unit crack advance and thickness, eq. 9) times the
+//! segment's length and the thickness; the sum over events is the
+//! model's fracture energy (J), the crack-growth counterpart of the
+//! dissipation the other models report.
 
 use super::contour::{tip_j, tip_of, End, JOptions};
 use super::j_integral::{hoop_direction, hoop_k};
@@ -48,11 +54,14 @@ struct Event {
     crack: usize,
     end: End,
     angle: f64,
+    /// The tip's J on the first contour, J/m².
+    j: f64,
 }
 
 impl Cramp {
-    /// The `crack_growth` stage: judges every tip and adds the segments;
-    /// returns how many it added.
+    /// The `crack_growth` stage: judges every tip and adds the segments,
+    /// adding each one's released energy (J × length × thickness) to
+    /// `released`; returns how many it added.
     pub fn grow<K: Kernel, const V: usize>(
         &mut self,
         geom: &GridGeom<2>,
@@ -87,6 +96,7 @@ impl Cramp {
                         crack: c,
                         end,
                         angle: dir[1].atan2(dir[0]) + theta,
+                        j: t.j,
                     });
                 }
             }
@@ -124,6 +134,7 @@ impl Cramp {
                 continue;
             }
             self.cracks[e.crack].extend(e.end, q);
+            self.released += e.j * len * self.thickness;
             added += 1;
         }
         added

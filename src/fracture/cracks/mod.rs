@@ -400,6 +400,9 @@ pub struct Cramp {
     pub outside: Vec<(usize, usize)>,
     /// The scene's crack points (those beyond them were grown).
     initial_points: usize,
+    /// The energy released by growth so far, J: Σ J Δa t over the
+    /// segments added (`Cramp::grow`).
+    pub released: f64,
 
     /// The surfaces have moved at least once (their velocities are set).
     pub started: bool,

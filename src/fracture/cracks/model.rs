@@ -120,13 +120,14 @@ impl FieldSplit for Cramp {
 }
 
 /// What a checkpoint keeps of the explicit cracks: every crack's points,
-/// surfaces and surface velocities, whether the surfaces have moved, and
-/// the counters.
+/// surfaces and surface velocities, whether the surfaces have moved, the
+/// counters and the energy growth has released.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub(crate) struct CrampSaved {
     pub cracks: Vec<Crack>,
     pub started: bool,
     pub warnings: Warnings,
+    pub released: f64,
 }
 
 impl FractureModel for Cramp {
@@ -150,8 +151,13 @@ impl FractureModel for Cramp {
     /// `_KII`, and J on each further contour of N cells,
     /// `crack{c}_{end}_J{N}`. An end outside the material (an edge
     /// crack's mouth), or one whose contour leaves the grid or meets more
-    /// than PIJC handles, has NaN there.
+    /// than PIJC handles, has NaN there. The core `fracture_energy` is
+    /// the energy growth has released, Σ J Δa t ([`Cramp::grow`]); 0
+    /// where nothing grows.
     fn series(&mut self, at: &RowContext<'_>, out: &mut SeriesOut) {
+        if !out.declaring() {
+            out.set_fracture_energy(self.released);
+        }
         for (c, crack) in self.cracks.iter().enumerate() {
             let ends = [
                 ("start", crack.plane[0]),
@@ -200,6 +206,7 @@ impl FractureModel for Cramp {
                 - self.initial_points,
             "warnings_wrong_side": self.warnings.wrong_side,
             "warnings_third_crack": self.warnings.third_crack,
+            "released_energy": self.released,
         })
     }
 
@@ -208,6 +215,7 @@ impl FractureModel for Cramp {
             cracks: self.cracks.clone(),
             started: self.started,
             warnings: self.warnings,
+            released: self.released,
         })
     }
 
@@ -223,6 +231,7 @@ impl FractureModel for Cramp {
         self.cracks = s.cracks;
         self.started = s.started;
         self.warnings = s.warnings;
+        self.released = s.released;
         Ok(())
     }
 
