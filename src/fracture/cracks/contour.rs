@@ -124,7 +124,8 @@ struct Around<'a, const V: usize> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NoJ {
     /// No particle of the crack's body within a cell of the end: the end
-    /// lies outside the material (an edge crack's mouth).
+    /// lies outside the material (an edge crack's mouth); or growth has
+    /// joined the end to another crack.
     NotATip,
     /// The contour leaves the grid.
     OffGrid,
@@ -429,12 +430,18 @@ pub fn tip_j<K: Kernel, const V: usize>(
     sides: &[u32],
 ) -> Vec<Result<TipJ, NoJ>> {
     let crack = &cracks[target];
+    if crack.is_joined(end) {
+        return sides.iter().map(|_| Err(NoJ::NotATip)).collect();
+    }
     let (tip, dir) = tip_of(crack, end);
     let xi = geom.xi(tip);
     let centre = [xi[0].round() as isize, xi[1].round() as isize];
     let h = geom.h;
-    // the particles within reach of the largest contour (a kernel support
-    // beyond its nodes), in particle order
+    // the particles of the crack's body within reach of the largest
+    // contour (a kernel support beyond its nodes), in particle order: J is
+    // the crack's body's, and another body bonded to it (a loading grip,
+    // typically far denser) would add its own kinetic energy and inertia
+    // to the integrals where a contour reaches it
     let big = sides.iter().copied().max().unwrap_or(0) as f64 * 0.5 + 2.0;
     let lo = [
         geom.origin[0] + (centre[0] as f64 - big) * h,
@@ -448,14 +455,17 @@ pub fn tip_j<K: Kernel, const V: usize>(
         .into_par_iter()
         .filter(|&p| {
             let x = parts.x[p as usize];
-            x[0] >= lo[0] && x[0] <= hi[0] && x[1] >= lo[1] && x[1] <= hi[1]
+            parts.body[p as usize] == crack.body
+                && x[0] >= lo[0]
+                && x[0] <= hi[0]
+                && x[1] >= lo[1]
+                && x[1] <= hi[1]
         })
         .collect();
     // a tip has material of its crack's body within a cell
     let body = near.iter().find(|&&p| {
         let x = parts.x[p as usize];
-        parts.body[p as usize] == crack.body
-            && (x[0] - tip[0]).powi(2) + (x[1] - tip[1]).powi(2) <= h * h
+        (x[0] - tip[0]).powi(2) + (x[1] - tip[1]).powi(2) <= h * h
     });
     let Some(&first) = body else {
         return sides.iter().map(|_| Err(NoJ::NotATip)).collect();

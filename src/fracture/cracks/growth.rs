@@ -9,9 +9,12 @@
 //! the new segments are then added crack by crack, start before end, so
 //! the result is the same for any thread count. A new segment stops
 //! short of any crack it would cross (another crack, or its own away from
-//! the tip): the tip then sits against that crack and, with nothing left
-//! to grow into, stays there (the paper's cracks "stopped propagating" where
-//! they met another). A tip that leaves its body (an edge reached) is no
+//! the tip): the tip then sits against that crack, joined to it, and is no
+//! longer a tip (the paper's cracks "stopped propagating" where they met
+//! another). A tip that comes within two segments of another crack's end
+//! ahead of it (within 45°) joins it: its last segment ends on that end,
+//! and neither is a tip any more (the paper's C4: two collinear cracks
+//! "link into one"). A tip that leaves its body (an edge reached) is no
 //! longer a tip and grows no more.
 //!
 //! The energy a growth event releases is the tip's J (the energy flux
@@ -34,6 +37,8 @@ use crate::particles::Particles;
 /// nothing).
 const GAP: f64 = 1e-3;
 const SHORTEST: f64 = 0.05;
+/// How far ahead, in segments, a growing tip joins another crack's end.
+const JOIN: f64 = 2.0;
 
 impl GrowthSpec {
     /// K_Ic, Pa·√m, for a material of effective modulus `e_star`
@@ -104,20 +109,27 @@ impl Cramp {
         let step = growth.segment * geom.h;
         let mut added = 0;
         for e in events {
+            // a tip joined this step by another crack's growth grows no more
+            if self.cracks[e.crack].is_joined(e.end) {
+                continue;
+            }
             let (tip, _) = tip_of(&self.cracks[e.crack], e.end);
             let d = [e.angle.cos(), e.angle.sin()];
-            let mut q = [tip[0] + step * d[0], tip[1] + step * d[1]];
+            if let Some((other, end, x)) = self.tip_ahead(&e, tip, d, JOIN * step) {
+                self.cracks[e.crack].extend(e.end, x);
+                self.cracks[e.crack].joined[e.end as usize] = true;
+                self.cracks[other].joined[end as usize] = true;
+                let len = ((x[0] - tip[0]).powi(2) + (x[1] - tip[1]).powi(2)).sqrt();
+                self.released += e.j * len * self.thickness;
+                added += 1;
+                continue;
+            }
+            let q = [tip[0] + step * d[0], tip[1] + step * d[1]];
             // stop short of the first crack the segment would cross
-            let hit = self
-                .cracks
-                .iter()
-                .enumerate()
-                .filter_map(|(c, crack)| {
-                    let skip = (c == e.crack).then_some(e.end);
-                    first_hit(crack, skip, tip, q)
-                })
-                .fold(1.0, f64::min);
+            let hit = self.first_crossing(&e, None, tip, q);
             let len = if hit < 1.0 {
+                // the tip reaches that crack: it stops there, joined to it
+                self.cracks[e.crack].joined[e.end as usize] = true;
                 hit * step - GAP * geom.h
             } else {
                 step
@@ -125,7 +137,7 @@ impl Cramp {
             if len < SHORTEST * geom.h {
                 continue;
             }
-            q = [tip[0] + len * d[0], tip[1] + len * d[1]];
+            let q = [tip[0] + len * d[0], tip[1] + len * d[1]];
             // keep the crack two cells inside the grid (its hash and the
             // particles' supports)
             let xi = geom.xi(q);
@@ -138,6 +150,67 @@ impl Cramp {
             added += 1;
         }
         added
+    }
+
+    /// The nearest end of another crack that the growing tip at `tip`
+    /// (direction `d`) joins: an end not yet joined, within `reach` of the
+    /// tip and within 45° of the direction, which a segment from the tip
+    /// reaches without crossing a crack. Two tips that run at each other
+    /// (Nairn & Aimene's C4, where they "link into one") would otherwise
+    /// stop a fraction of a cell apart with nothing to split the nodes
+    /// between them, or overlap.
+    fn tip_ahead(
+        &self,
+        e: &Event,
+        tip: [f64; 2],
+        d: [f64; 2],
+        reach: f64,
+    ) -> Option<(usize, End, [f64; 2])> {
+        let mut best: Option<(f64, usize, End, [f64; 2])> = None;
+        for (c, crack) in self.cracks.iter().enumerate() {
+            if c == e.crack {
+                continue;
+            }
+            for end in End::BOTH {
+                if crack.is_joined(end) {
+                    continue;
+                }
+                let (x, _) = tip_of(crack, end);
+                let r = [x[0] - tip[0], x[1] - tip[1]];
+                let dist = (r[0] * r[0] + r[1] * r[1]).sqrt();
+                let ahead = r[0] * d[0] + r[1] * d[1] >= dist * std::f64::consts::FRAC_1_SQRT_2;
+                if dist <= reach && dist > 0.0 && ahead && best.is_none_or(|b| dist < b.0) {
+                    best = Some((dist, c, end, x));
+                }
+            }
+        }
+        let (_, c, end, x) = best?;
+        (self.first_crossing(e, Some((c, end)), tip, x) >= 1.0).then_some((c, end, x))
+    }
+
+    /// The first place, as a fraction of the way from `p` to `q`, where
+    /// the segment crosses a crack (1 if nowhere), leaving out the growing
+    /// tip's own segment and, if given, the end segment of the crack end it
+    /// joins.
+    fn first_crossing(
+        &self,
+        e: &Event,
+        joins: Option<(usize, End)>,
+        p: [f64; 2],
+        q: [f64; 2],
+    ) -> f64 {
+        self.cracks
+            .iter()
+            .enumerate()
+            .filter_map(|(c, crack)| {
+                let skip = if c == e.crack {
+                    Some(e.end)
+                } else {
+                    joins.filter(|j| j.0 == c).map(|j| j.1)
+                };
+                first_hit(crack, skip, p, q)
+            })
+            .fold(1.0, f64::min)
     }
 }
 
@@ -224,6 +297,50 @@ mod tests {
         assert_eq!(c.below, c.plane);
         assert_eq!(c.v_above[3], [1.0, 0.0]);
         assert_eq!(c.v_below[0], [0.0, 0.0]);
+    }
+
+    /// Two collinear cracks whose facing tips are `gap` apart, crack 0's
+    /// end growing along +x.
+    fn facing(gap: f64) -> (Cramp, Event) {
+        let a = crack(vec![[-2.0, 0.0], [0.0, 0.0]]);
+        let b = crack(vec![[gap, 0.0], [gap + 2.0, 0.0]]);
+        let cramp = Cramp::new(vec![a, b], Default::default(), vec![4]);
+        let e = Event {
+            crack: 0,
+            end: End::End,
+            angle: 0.0,
+            j: 1.0,
+        };
+        (cramp, e)
+    }
+
+    #[test]
+    fn a_tip_joins_the_crack_end_ahead_of_it_within_reach() {
+        let (mut cramp, e) = facing(0.8);
+        let ahead = cramp.tip_ahead(&e, [0.0, 0.0], [1.0, 0.0], 1.0);
+        assert_eq!(ahead, Some((1, End::Start, [0.8, 0.0])));
+        // beyond reach, behind, or more than 45° off the direction: none
+        assert_eq!(cramp.tip_ahead(&e, [0.0, 0.0], [1.0, 0.0], 0.7), None);
+        assert_eq!(cramp.tip_ahead(&e, [0.0, 0.0], [-1.0, 0.0], 1.0), None);
+        let steep = [0.6f64.cos(), 0.6f64.sin()];
+        assert!(cramp.tip_ahead(&e, [0.0, 0.0], steep, 1.0).is_some());
+        let off = [0.9f64.cos(), 0.9f64.sin()];
+        assert_eq!(cramp.tip_ahead(&e, [0.0, 0.0], off, 1.0), None);
+        // an end already joined is not joined again
+        cramp.cracks[1].joined[End::Start as usize] = true;
+        assert_eq!(cramp.tip_ahead(&e, [0.0, 0.0], [1.0, 0.0], 1.0), None);
+        // a third crack between the tips keeps them apart
+        let (mut cramp, e) = facing(0.8);
+        cramp.cracks.push(crack(vec![[0.4, -1.0], [0.4, 1.0]]));
+        assert_eq!(cramp.tip_ahead(&e, [0.0, 0.0], [1.0, 0.0], 1.0), None);
+        assert_eq!(cramp.first_crossing(&e, None, [0.0, 0.0], [0.8, 0.0]), 0.5);
+        // the joined end's own segment is left out of the crossings (here
+        // a segment across the way, from the joined end up)
+        let (mut cramp, e) = facing(0.8);
+        cramp.cracks[1] = crack(vec![[0.8, 0.0], [0.8, 2.0]]);
+        assert_eq!(cramp.first_crossing(&e, None, [0.0, 0.0], [1.6, 0.0]), 0.5);
+        let skip = Some((1, End::Start));
+        assert_eq!(cramp.first_crossing(&e, skip, [0.0, 0.0], [1.6, 0.0]), 1.0);
     }
 
     #[test]

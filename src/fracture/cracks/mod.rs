@@ -73,6 +73,10 @@ pub struct Crack {
     pub below: Vec<[f64; 2]>,
     pub v_above: Vec<[f64; 2]>,
     pub v_below: Vec<[f64; 2]>,
+    /// Per end (start, end): whether growth has joined it to another
+    /// crack (`Cramp::grow`): it is then no longer a tip (no J, no
+    /// growth).
+    pub joined: [bool; 2],
 }
 
 impl Crack {
@@ -87,7 +91,13 @@ impl Crack {
             plane: points,
             v_above: vec![[0.0; 2]; n],
             v_below: vec![[0.0; 2]; n],
+            joined: [false; 2],
         }
+    }
+
+    /// Whether `end` has been joined to another crack.
+    pub fn is_joined(&self, end: contour::End) -> bool {
+        self.joined[end as usize]
     }
 
     /// Unit normal of segment `k` (its left, the "above" side).
