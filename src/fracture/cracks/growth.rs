@@ -7,10 +7,11 @@
 //!
 //! Every tip is judged on the state the step left, before any tip grows;
 //! the new segments are then added crack by crack, start before end, so
-//! the result is the same for any thread count. A new segment stops
-//! short of any crack it would cross (another crack, or its own away from
-//! the tip): the tip then sits against that crack, joined to it, and is no
-//! longer a tip (the paper's cracks "stopped propagating" where they met
+//! the result is the same for any thread count. A tip that has a crack
+//! (another, or its own away from the tip) within two segments ahead
+//! grows to it, stopping just short, instead of by one segment (which
+//! would leave a ligament under a cell that the grid cannot resolve): the
+//! tip then sits against that crack, joined to it, and is no longer a tip (the paper's cracks "stopped propagating" where they met
 //! another). A tip that comes within two segments of another crack's end
 //! ahead of it (within 45°) joins it: its last segment ends on that end,
 //! and neither is a tip any more (the paper's C4: two collinear cracks
@@ -37,7 +38,8 @@ use crate::particles::Particles;
 /// nothing).
 const GAP: f64 = 1e-3;
 const SHORTEST: f64 = 0.05;
-/// How far ahead, in segments, a growing tip joins another crack's end.
+/// How far ahead, in segments, a growing tip joins another crack (its
+/// end, or a segment it would cross).
 const JOIN: f64 = 2.0;
 
 impl GrowthSpec {
@@ -124,13 +126,15 @@ impl Cramp {
                 added += 1;
                 continue;
             }
-            let q = [tip[0] + step * d[0], tip[1] + step * d[1]];
-            // stop short of the first crack the segment would cross
+            // a crack within reach ahead (a ligament under a cell, which
+            // the grid cannot resolve, would be left by a regular segment):
+            // the segment ends at it, short by GAP, and the tip is joined
+            let reach = JOIN * step;
+            let q = [tip[0] + reach * d[0], tip[1] + reach * d[1]];
             let hit = self.first_crossing(&e, None, tip, q);
             let len = if hit < 1.0 {
-                // the tip reaches that crack: it stops there, joined to it
                 self.cracks[e.crack].joined[e.end as usize] = true;
-                hit * step - GAP * geom.h
+                hit * reach - GAP * geom.h
             } else {
                 step
             };
