@@ -11,7 +11,8 @@
 //! (another, or its own away from the tip) within two segments ahead
 //! grows to it, stopping just short, instead of by one segment (which
 //! would leave a ligament under a cell that the grid cannot resolve): the
-//! tip then sits against that crack, joined to it, and is no longer a tip (the paper's cracks "stopped propagating" where they met
+//! tip then sits against that crack, joined to it, and is no longer a
+//! tip (the paper's cracks "stopped propagating" where they met
 //! another). A tip that comes within two segments of another crack's end
 //! ahead of it (within 45°) joins it: its last segment ends on that end,
 //! and neither is a tip any more (the paper's C4: two collinear cracks
