@@ -240,8 +240,8 @@ fn a_resumed_run_with_explicit_cracks_repeats_the_straight_one_bit_for_bit() {
 fn first_and_last(series: &str, name: &str) -> (f64, f64) {
     let lines: Vec<&str> = series.lines().collect();
     let at = lines[0].split(',').position(|c| c == name);
-    let length = |row: &str| -> f64 { row.split(',').nth(at.unwrap()).unwrap().parse().unwrap() };
-    (length(lines[1]), length(lines[lines.len() - 1]))
+    let value = |row: &str| -> f64 { row.split(',').nth(at.unwrap()).unwrap().parse().unwrap() };
+    (value(lines[1]), value(lines[lines.len() - 1]))
 }
 
 #[test]

@@ -33,6 +33,7 @@ use crate::grid::shape::Kernel;
 use crate::grid::GridGeom;
 use crate::material::Elastic;
 use crate::particles::Particles;
+use crate::tensor::norm;
 
 /// The part of a cell a new segment must keep from any crack it stops at,
 /// and the shortest segment still added (a tip against another crack adds
@@ -122,7 +123,7 @@ impl Cramp {
                 self.cracks[e.crack].extend(e.end, x);
                 self.cracks[e.crack].joined[e.end as usize] = true;
                 self.cracks[other].joined[end as usize] = true;
-                let len = ((x[0] - tip[0]).powi(2) + (x[1] - tip[1]).powi(2)).sqrt();
+                let len = norm([x[0] - tip[0], x[1] - tip[1]]);
                 self.released += e.j * len * self.thickness;
                 added += 1;
                 continue;
@@ -182,7 +183,7 @@ impl Cramp {
                 }
                 let (x, _) = tip_of(crack, end);
                 let r = [x[0] - tip[0], x[1] - tip[1]];
-                let dist = (r[0] * r[0] + r[1] * r[1]).sqrt();
+                let dist = norm(r);
                 let ahead = r[0] * d[0] + r[1] * d[1] >= dist * std::f64::consts::FRAC_1_SQRT_2;
                 if dist <= reach && dist > 0.0 && ahead && best.is_none_or(|b| dist < b.0) {
                     best = Some((dist, c, end, x));
