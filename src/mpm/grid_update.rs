@@ -1,12 +1,15 @@
 //! Grid update: nodal velocities before and after the step's forces,
 //! v_i = p_i/m_i and v_i' = v_i + Δt (f_i/m_i + g), then the boundary
-//! conditions of the four sides.
+//! conditions of the grid's sides and of the driven bodies (grips whose
+//! nodes follow them).
 //!
 //! Near-empty nodes (mass below the guard's threshold) get zero velocity:
 //! dividing a force by a vanishing mass is the classic source of MPM
 //! blow-ups at free surfaces. A negative nodal mass stops the run.
 
-use crate::grid::{GridFields, GridGeom, MultiField, SyncPtr, PAD};
+use crate::grid::shape::Kernel;
+use crate::grid::{particle_support, GridFields, GridGeom, MultiField, SyncPtr, PAD};
+use crate::particles::Particles;
 use crate::scene::{SideCondition, TimeFunction};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -152,13 +155,38 @@ enum Constraint {
     Velocity([Option<TimeFunction>; 3]),
 }
 
-/// Boundary conditions with their node lists, built once.
+/// Boundary conditions with their node lists: the grid's sides, built
+/// once, then the driven bodies, whose nodes are found every step.
 #[derive(Debug, Clone, Default)]
 pub struct Boundary {
     sides: Vec<(Constraint, Vec<u32>)>,
-    /// The scene's name of each side in `sides` (`left`, …, `front`).
-    names: Vec<&'static str>,
+    /// The scene's name of each entry in `sides` (`left`, …, `front`, then
+    /// each driven body's name).
+    names: Vec<String>,
+    driven: Vec<Driven>,
 }
+
+/// A driven body ([`crate::scene::BodySpec::drive`]): a velocity
+/// constraint in `Boundary::sides` whose node list is the body's nodes of
+/// the step.
+#[derive(Debug, Clone, Default)]
+struct Driven {
+    /// Its entry in `Boundary::sides`.
+    side: usize,
+    /// Its index in the scene's bodies (`Particles::body`).
+    body: u16,
+    /// Σ_p N_ip m_p of the body's particles per node: scratch, zero
+    /// outside [`Boundary::find_driven`].
+    share: Vec<f64>,
+    /// The nodes `share` was written at.
+    touched: Vec<u32>,
+}
+
+/// A driven body drives a node where it holds at least this fraction of
+/// the node's mass (all fields): its own nodes and the half of the shared
+/// ones nearer it, so that the driven layer ends midway across the
+/// interface cells and not a kernel's reach into the body it pulls.
+pub const DRIVEN_SHARE: f64 = 0.5;
 
 impl Boundary {
     /// Resolves the scene's sides: left/right (x), bottom/top (y) and, in
@@ -196,9 +224,85 @@ impl Boundary {
                 }
             };
             sides.push((c, side_nodes(normal_axis, k % 2 == 1)));
-            names.push(NAMES[k]);
+            names.push(NAMES[k].to_string());
         }
-        Boundary { sides, names }
+        Boundary {
+            sides,
+            names,
+            driven: Vec::new(),
+        }
+    }
+
+    /// Adds the bodies with a `drive`, after the sides: each named by its
+    /// name (`b<index>` without one), its nodes found by
+    /// [`Boundary::find_driven`] every step.
+    pub fn with_drives(mut self, bodies: &[crate::scene::BodySpec], node_count: usize) -> Self {
+        for (i, b) in bodies.iter().enumerate() {
+            let Some(d) = &b.drive else { continue };
+            self.driven.push(Driven {
+                side: self.sides.len(),
+                body: i as u16,
+                share: vec![0.0; node_count],
+                touched: Vec::new(),
+            });
+            let target = [d.x.clone(), d.y.clone(), d.z.clone()];
+            self.sides.push((Constraint::Velocity(target), Vec::new()));
+            self.names.push(if b.name.is_empty() {
+                format!("b{i}")
+            } else {
+                b.name.clone()
+            });
+        }
+        self
+    }
+
+    /// Whether a body drives nodes ([`Boundary::find_driven`] has work).
+    pub fn has_drives(&self) -> bool {
+        !self.driven.is_empty()
+    }
+
+    /// After P2G: each driven body's nodes of this step, those where its
+    /// particles' Σ N m is at least [`DRIVEN_SHARE`] of the node's mass
+    /// over every field, in ascending order.
+    pub fn find_driven<K: Kernel, const D: usize, const V: usize>(
+        &mut self,
+        geom: &GridGeom<D>,
+        parts: &Particles<D, V>,
+        grid: &GridFields<D>,
+        multi: Option<&MultiField>,
+    ) {
+        let nodes = geom.node_count();
+        let Boundary { sides, driven, .. } = self;
+        for d in driven.iter_mut() {
+            let (share, touched) = (&mut d.share, &mut d.touched);
+            for p in (0..parts.len()).filter(|&p| parts.body[p] == d.body) {
+                let m = parts.mass[p];
+                particle_support::<K, D, V>(geom, parts, p).for_each(|n| {
+                    let wm = n.w * m;
+                    if wm > 0.0 {
+                        if share[n.node] == 0.0 {
+                            touched.push(n.node as u32);
+                        }
+                        share[n.node] += wm;
+                    }
+                });
+            }
+            let list = &mut sides[d.side].1;
+            list.clear();
+            for &n in touched.iter() {
+                let n = n as usize;
+                let extra = multi.map_or(0..0, |m| {
+                    nodes + m.offset[n] as usize..nodes + m.offset[n + 1] as usize
+                });
+                let total: f64 = std::iter::once(n).chain(extra).map(|s| grid.mass[s]).sum();
+                if share[n] >= DRIVEN_SHARE * total {
+                    list.push(n as u32);
+                }
+                share[n] = 0.0;
+            }
+            touched.clear();
+            list.sort_unstable();
+        }
     }
 
     /// Imposes the conditions at time `t` on the new velocities of every
@@ -216,7 +320,7 @@ impl Boundary {
 
     /// The names of the constrained sides, in the order of the impulses
     /// [`Boundary::apply_measured`] reports.
-    pub fn names(&self) -> &[&'static str] {
+    pub fn names(&self) -> &[String] {
         &self.names
     }
 

@@ -685,6 +685,11 @@ where
                                 self.scatter::<K, S>(slots, mgrad, slots_n);
                             }
                         }
+                        if self.boundary.has_drives() {
+                            let (geom, parts) = (&self.geom, &self.parts);
+                            self.boundary
+                                .find_driven::<K, D, V>(geom, parts, &self.grid, multi);
+                        }
                         true
                     }
                     // Tractions at mid-step: the impulse of a linear ramp is then exact

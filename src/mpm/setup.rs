@@ -205,7 +205,8 @@ where
         }
     }
     let tractions = Tractions::<D>::new(scene, &parts);
-    let boundary = Boundary::new(&geom, &file.grid.boundary);
+    let boundary =
+        Boundary::new(&geom, &file.grid.boundary).with_drives(&file.bodies, geom.node_count());
     let sides = if file.output.reactions {
         boundary.names().len()
     } else {

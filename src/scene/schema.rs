@@ -693,6 +693,28 @@ pub struct BodySpec {
     /// keep their faces from interpenetrating.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub explicit_cracks: Vec<ExplicitCrackSpec>,
+    /// A velocity the body imposes, a grip's: each step, at every grid
+    /// node where the body holds at least half the mass, the given
+    /// components of every field's velocity are set after the grid update
+    /// (as a side's velocity condition is); a component left out is free.
+    /// `drive = { y = 0.1 }` on a grip pulls its edge along y and lets it
+    /// slide along x, a roller that moves. The body's particles move with
+    /// those nodes; give it the same initial `velocity`. Grid MPM only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drive: Option<DriveSpec>,
+}
+
+/// The velocity components (m/s, functions of time) a body imposes
+/// ([`BodySpec::drive`]); `z` is for 3D scenes only.
+#[derive(Debug, Clone, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DriveSpec {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<TimeFunction>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y: Option<TimeFunction>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z: Option<TimeFunction>,
 }
 
 impl BodySpec {

@@ -390,6 +390,7 @@ impl Scene {
             body_material.push(mat.unwrap_or(usize::MAX));
             groups.insert(body.contact_group);
             seedable.push(check_body(&mut c, &path, body, &file.grid, dim, cells3));
+            check_drive(&mut c, &path, body, dim, file.method);
         }
         let particle_counts = count_particles(&mut c, &file, cells3, &seedable);
         if groups.len() > MAX_CONTACT_GROUPS {
@@ -812,30 +813,7 @@ fn check_grid(c: &mut Checker, g: &GridSpec, dim: usize) -> [usize; 3] {
         let path = format!("grid.boundary.{name}");
         match side {
             Some(SideCondition::Velocity { x, y, z }) => {
-                if x.is_none() && y.is_none() && z.is_none() {
-                    let which = if dim == 3 {
-                        "`x`, `y` and/or `z`"
-                    } else {
-                        "`x` and/or `y`"
-                    };
-                    c.err(&path, format!("a velocity condition needs {which}"));
-                }
-                if let Some(f) = x {
-                    c.time_function(&format!("{path}.x"), f);
-                }
-                if let Some(f) = y {
-                    c.time_function(&format!("{path}.y"), f);
-                }
-                if let Some(f) = z {
-                    if dim == 2 {
-                        c.err(
-                            &format!("{path}.z"),
-                            "a z velocity needs a 3D grid (grid.max has 2 components)",
-                        );
-                    } else {
-                        c.time_function(&format!("{path}.z"), f);
-                    }
-                }
+                velocity_components(c, &path, "a velocity condition", [x, y, z], dim);
             }
             Some(SideCondition::Traction { normal, shear }) => {
                 if normal.is_none() && shear.is_none() {
@@ -852,6 +830,66 @@ fn check_grid(c: &mut Checker, g: &GridSpec, dim: usize) -> [usize; 3] {
         }
     }
     cells
+}
+
+/// The components of a prescribed velocity (a side's, a driven body's):
+/// at least one, each a valid function of time, `z` only in 3D.
+fn velocity_components(
+    c: &mut Checker,
+    path: &str,
+    what: &str,
+    [x, y, z]: [&Option<TimeFunction>; 3],
+    dim: usize,
+) {
+    if x.is_none() && y.is_none() && z.is_none() {
+        let which = if dim == 3 {
+            "`x`, `y` and/or `z`"
+        } else {
+            "`x` and/or `y`"
+        };
+        c.err(path, format!("{what} needs {which}"));
+    }
+    if let Some(f) = x {
+        c.time_function(&format!("{path}.x"), f);
+    }
+    if let Some(f) = y {
+        c.time_function(&format!("{path}.y"), f);
+    }
+    if let Some(f) = z {
+        if dim == 2 {
+            c.err(
+                &format!("{path}.z"),
+                "a z velocity needs a 3D grid (grid.max has 2 components)",
+            );
+        } else {
+            c.time_function(&format!("{path}.z"), f);
+        }
+    }
+}
+
+/// A driven body's `drive` ([`BodySpec::drive`]): its components, a grid
+/// MPM scene, and a name that cannot be taken for a side's in the
+/// reaction columns.
+fn check_drive(c: &mut Checker, path: &str, body: &BodySpec, dim: usize, method: MethodKind) {
+    let Some(d) = &body.drive else { return };
+    let path = format!("{path}.drive");
+    velocity_components(c, &path, "a drive", [&d.x, &d.y, &d.z], dim);
+    if method == MethodKind::DamageParticle {
+        c.err(
+            &path,
+            "drives grid nodes, and the damage particle method has no grid",
+        );
+    }
+    const SIDES: [&str; 6] = ["left", "right", "bottom", "top", "back", "front"];
+    if SIDES.contains(&body.name.as_str()) {
+        c.err(
+            &path,
+            format!(
+                "a driven body's reaction columns are named after it, and `{}` names a grid side: rename the body",
+                body.name
+            ),
+        );
+    }
 }
 
 fn check_time(c: &mut Checker, t: &TimeSpec) {

@@ -576,3 +576,168 @@ body_momenta = true
         assert!(worst < 1e-9 * scale, "{update}: momentum off by {worst}");
     }
 }
+
+/// The uniaxial-tension plate of [`driven_grips_pull_along_y_and_let_the_edges_slide`]:
+/// a 0.1 × 0.16 m plate between two 2-cell grips ten times as dense (so
+/// that the nodes they share with the plate are theirs) and a thousandth
+/// as stiff (so that their material does not hold the plate's edges in x:
+/// the drive moves them along y), the base driven at v_y = 0 and the grip
+/// at v_y ramped to 10 mm/s over 5 ms; `x` is the grips' `x` component
+/// (`None`: left free).
+fn gripped_plate(x: Option<f64>) -> String {
+    let x = x.map_or(String::new(), |v| format!("x = {v:?}, "));
+    format!(
+        r#"
+[grid]
+cell_size = 0.005
+min = [-0.01, -0.01]
+max = [0.11, 0.21]
+[analysis]
+plane = "plane_stress"
+thickness = 0.01
+[time]
+end = 0.02
+cfl = 0.4
+[materials.plate]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 1.0e7
+poissons_ratio = 0.3
+[materials.grip]
+model = "linear_elastic"
+density = 10000.0
+youngs_modulus = 1.0e4
+poissons_ratio = 0.3
+[[bodies]]
+name = "plate"
+shape = {{ type = "box", min = [0.0, 0.02], max = [0.1, 0.18] }}
+material = "plate"
+[[bodies]]
+name = "base"
+shape = {{ type = "box", min = [0.0, 0.0], max = [0.1, 0.02] }}
+material = "grip"
+drive = {{ {x}y = 0.0 }}
+[[bodies]]
+name = "grip"
+shape = {{ type = "box", min = [0.0, 0.18], max = [0.1, 0.2] }}
+material = "grip"
+drive = {{ {x}y = {{ table = [[0.0, 0.0], [0.005, 0.01], [1.0, 0.01]] }} }}
+[output]
+reactions = true
+"#
+    )
+}
+
+#[test]
+fn driven_grips_pull_along_y_and_let_the_edges_slide() {
+    // Grips that drive only y are rollers that move: the plate between
+    // them is in uniaxial tension (σ_xx ≈ 0, its width shrinks by ν ε at
+    // the grips too) and the grip's reaction is the plate's force σ_yy W t.
+    // Grips that also drive x = 0 clamp the edges' width.
+    // (Measured: rollers −3.282e-4 against −ν ε = −3.283e-4, σ_xx/σ_yy
+    // 3e-4, grip force 1 % below σ_yy W t; clamped 0.13 × −ν ε.)
+    let (w, t, e, nu) = (0.1, 0.01, 1.0e7, 0.3);
+    let mut widths = Vec::new();
+    for x in [None, Some(0.0)] {
+        let scene = Scene::from_text(&gripped_plate(x), None).unwrap();
+        let mut sim = Simulation::new(&scene);
+        let cols = sim.series_columns();
+        for name in ["reaction_base_y", "reaction_grip_x", "reaction_grip_y"] {
+            assert!(cols.iter().any(|c| c == name), "no {name} in {cols:?}");
+        }
+        // the plate's two top rows of particles (the cell under the grip)
+        let p = sim.particles();
+        let top: Vec<usize> = (0..p.len())
+            .filter(|&k| p.body[k] == 0 && p.x[k][1] > 0.175)
+            .collect();
+        // their left and right halves' mean x apart, and the grip's mean y
+        let grip = |sim: &Simulation| {
+            let p = sim.particles();
+            let (mut l, mut r, mut nl, mut nr) = (0.0, 0.0, 0.0, 0.0);
+            for &k in &top {
+                if p.x[k][0] < 0.05 {
+                    (l, nl) = (l + p.x[k][0], nl + 1.0);
+                } else {
+                    (r, nr) = (r + p.x[k][0], nr + 1.0);
+                }
+            }
+            let g: Vec<f64> = (0..p.len())
+                .filter(|&k| p.body[k] == 2)
+                .map(|k| p.x[k][1])
+                .collect();
+            (r / nr - l / nl, g.iter().sum::<f64>() / g.len() as f64)
+        };
+        let (d0, y0) = grip(&sim);
+        let (mut force, mut stress, mut across, mut n) = (0.0, 0.0, 0.0, 0.0);
+        while sim.time() < scene.file.time.end * (1.0 - 1e-12) {
+            sim.step().unwrap();
+            let r = sim.row();
+            if sim.time() > 0.005 {
+                let p = sim.particles();
+                let plate = (0..p.len()).filter(|&k| p.body[k] == 0);
+                let (sxx, syy, m) = plate.fold((0.0, 0.0, 0.0), |(a, b, c), k| {
+                    (a + p.stress[k][0], b + p.stress[k][1], c + 1.0)
+                });
+                force += r.get(&cols, "reaction_grip_y").unwrap();
+                stress += syy / m;
+                across += sxx / m;
+                n += 1.0;
+            }
+        }
+        let (d1, y1) = grip(&sim);
+        let strain = (y1 - y0) / 0.16;
+        let (force, stress, across) = (force / n, stress / n, across / n);
+        println!(
+            "x {x:?}: strain {strain:.3e}, width strain under the grip {:.3e} (−ν ε = {:.3e}), \
+             mean grip force {force:.4} N, mean σ_yy W t {:.4} N, mean σ_xx/σ_yy {:.4}",
+            (d1 - d0) / d0,
+            -nu * strain,
+            stress * w * t,
+            across / stress
+        );
+        if x.is_none() {
+            assert!(
+                across.abs() < 0.03 * stress,
+                "rollers: mean σ_xx {across} against σ_yy {stress}"
+            );
+        }
+        // the grip moved as driven: 10 mm/s over 17.5 ms of its 20
+        assert!((y1 - y0 - 1.75e-4).abs() < 1e-6, "grip moved {}", y1 - y0);
+        assert!(
+            (force / (stress * w * t) - 1.0).abs() < 0.05,
+            "grip force {force} against the plate's {}",
+            stress * w * t
+        );
+        assert!(
+            stress > 0.5 * e * strain,
+            "the plate is not pulled: {stress}"
+        );
+        widths.push((d1 - d0) / d0 / (-nu * strain));
+    }
+    assert!(
+        (widths[0] - 1.0).abs() < 0.15,
+        "the plate's width strain under the rolling grip is {} × −ν ε",
+        widths[0]
+    );
+    // (the rows a cell from the driven nodes still shrink a little)
+    assert!(
+        widths[1].abs() < 0.25,
+        "the plate's width strain under the clamping grip is {} × −ν ε",
+        widths[1]
+    );
+}
+
+#[test]
+fn a_bad_drive_is_refused_naming_it() {
+    let plate = gripped_plate(None);
+    let empty = plate.replace("drive = { y = 0.0 }", "drive = {}");
+    common::refused(&empty, &["bodies[1].drive", "a drive needs `x` and/or `y`"]);
+    let z = plate.replace("drive = { y = 0.0 }", "drive = { y = 0.0, z = 1.0 }");
+    common::refused(&z, &["bodies[1].drive.z", "needs a 3D grid"]);
+    let table = plate.replace("drive = { y = 0.0 }", "drive = { y = { table = [] } }");
+    common::refused(&table, &["bodies[1].drive.y"]);
+    let named = plate.replace("name = \"base\"", "name = \"top\"");
+    common::refused(&named, &["bodies[1].drive", "`top` names a grid side"]);
+    let unknown = plate.replace("drive = { y = 0.0 }", "drive = { y = 0.0, w = 1.0 }");
+    common::refused(&unknown, &["unknown field `w`"]);
+}
