@@ -444,3 +444,112 @@ fn traction_sides_deliver_their_impulse_and_work_in_3d() {
         assert!(v[col(&cols, "momentum_z")].abs() < 1e-9 * py);
     }
 }
+
+#[test]
+fn driven_grips_pull_a_block_along_y_and_let_its_ends_slide_in_x_and_z() {
+    // The 3D form of the 2D plate between roller grips: grips that drive
+    // only v_y (soft, ten times as dense) leave the block in uniaxial
+    // tension, so its width shrinks by ν ε under the grip along x and z
+    // alike, and the grip's reaction is σ_yy times the section.
+    let text = r#"
+[grid]
+cell_size = 0.005
+min = [-0.01, -0.01, -0.01]
+max = [0.06, 0.11, 0.06]
+[time]
+end = 0.015
+cfl = 0.4
+[materials.block]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 1.0e7
+poissons_ratio = 0.3
+[materials.grip]
+model = "linear_elastic"
+density = 10000.0
+youngs_modulus = 1.0e4
+poissons_ratio = 0.3
+[[bodies]]
+name = "block"
+shape = { type = "box", min = [0.0, 0.01, 0.0], max = [0.05, 0.09, 0.05] }
+material = "block"
+[[bodies]]
+name = "base"
+shape = { type = "box", min = [0.0, 0.0, 0.0], max = [0.05, 0.01, 0.05] }
+material = "grip"
+drive = { y = 0.0 }
+[[bodies]]
+name = "grip"
+shape = { type = "box", min = [0.0, 0.09, 0.0], max = [0.05, 0.1, 0.05] }
+material = "grip"
+drive = { y = { table = [[0.0, 0.0], [0.004, 0.01], [1.0, 0.01]] } }
+[output]
+reactions = true
+"#;
+    let scene = Scene::from_text(text, None).unwrap();
+    let mut sim = Simulation::<3, 6>::build(&scene);
+    let cols = sim.series_columns();
+    // the block's top particle layer (the cell under the grip): its
+    // extent along x and z from its halves' means, and the grip's mean y
+    let p = sim.particles();
+    let top: Vec<usize> = (0..p.len())
+        .filter(|&k| p.body[k] == 0 && p.x[k][1] > 0.085)
+        .collect();
+    let measure = |sim: &Simulation<3, 6>| {
+        let p = sim.particles();
+        let width = |a: usize| {
+            let (mut lo, mut hi, mut nl, mut nh) = (0.0, 0.0, 0.0, 0.0);
+            for &k in &top {
+                if p.x[k][a] < 0.025 {
+                    (lo, nl) = (lo + p.x[k][a], nl + 1.0);
+                } else {
+                    (hi, nh) = (hi + p.x[k][a], nh + 1.0);
+                }
+            }
+            hi / nh - lo / nl
+        };
+        let g: Vec<f64> = (0..p.len())
+            .filter(|&k| p.body[k] == 2)
+            .map(|k| p.x[k][1])
+            .collect();
+        (width(0), width(2), g.iter().sum::<f64>() / g.len() as f64)
+    };
+    let (x0, z0, y0) = measure(&sim);
+    let (mut force, mut stress, mut n) = (0.0, 0.0, 0.0);
+    while sim.time() < scene.file.time.end * (1.0 - 1e-12) {
+        sim.step().unwrap();
+        let r = sim.row();
+        if sim.time() > 0.004 {
+            let p = sim.particles();
+            let (s, m) = (0..p.len())
+                .filter(|&k| p.body[k] == 0)
+                .fold((0.0, 0.0), |(s, m), k| (s + p.stress[k][1], m + 1.0));
+            force += r.get(&cols, "reaction_grip_y").unwrap();
+            stress += s / m;
+            n += 1.0;
+        }
+    }
+    let (x1, z1, y1) = measure(&sim);
+    let strain = (y1 - y0) / 0.08;
+    let (fx, fz) = ((x1 - x0) / x0, (z1 - z0) / z0);
+    let (force, stress) = (force / n, stress / n);
+    println!(
+        "strain {strain:.3e}: width strains under the grip x {fx:.3e}, z {fz:.3e} (−ν ε = {:.3e}); \
+         mean grip force {force:.4} N against mean σ_yy A {:.4} N",
+        -0.3 * strain,
+        stress * 0.05 * 0.05
+    );
+    assert!((y1 - y0 - 1.3e-4).abs() < 1e-6, "grip moved {}", y1 - y0);
+    for f in [fx, fz] {
+        assert!(
+            (f / (-0.3 * strain) - 1.0).abs() < 0.1,
+            "width strain {f} against −ν ε {}",
+            -0.3 * strain
+        );
+    }
+    assert!(
+        (force / (stress * 0.05 * 0.05) - 1.0).abs() < 0.05,
+        "grip force {force} against {}",
+        stress * 0.05 * 0.05
+    );
+}
