@@ -32,6 +32,9 @@
 #   SHAPE    quadratic_bspline (default, as C1) or gimp: grid.shape_function
 #   SUMMARY_ONLY=1  only rewrite the summary from the runs already in OUT
 #   PLOT=1   also draw OUT/cracks-c2.png (needs matplotlib on PYTHONPATH)
+#   GRIPS    bonded (default: dense, stiff grips pushed by a traction,
+#            which hold the plate's ends in x) or roller (grips that drive
+#            only v_y, the same u(t), and let the ends slide in x: `drive`)
 #   CRAMP_EXTRA  lines added to every scene's [cramp] table, e.g.
 #            'contact_passes = 2' (the paper's two crack-contact passes;
 #            the default is one)
@@ -56,6 +59,8 @@ tag=""
 [ "$TIP_MM" != 32.5 ] && tag="${tag}_t${TIP_MM}"
 [ "$STRESS" != usl ] && tag="${tag}_${STRESS}"
 [ "$SHAPE" != quadratic_bspline ] && tag="${tag}_${SHAPE}"
+export GRIPS=${GRIPS:-bonded}
+[ "$GRIPS" != bonded ] && tag="${tag}_${GRIPS}"
 
 # ---------------------------------------------------------------- scenes
 cat > "$OUT/gen_c2.py" <<'EOF'
@@ -100,13 +105,36 @@ if case == "split":
 
 # The grips follow u(t) = u0 (t/T - sin(2 pi t/T)/(2 pi)) as in C1: the
 # traction on a grip's outer face is its mass per area times
-# a(t) = u0 (2 pi/T^2) sin(2 pi t/T); 200 intervals.
+# a(t) = u0 (2 pi/T^2) sin(2 pi t/T); 200 intervals. Roller grips
+# (GRIPS=roller) drive v_y = u0/T (1 - cos(2 pi t/T)) instead and leave
+# v_x free; they are 10 x as dense as the plate (the nodes they share
+# with it are theirs) and 1e-3 x as stiff (they do not hold it in x).
+roller = os.environ.get("GRIPS", "bonded") == "roller"
+if roller:
+    grip = None
+    rho_g, E_g = rho * 10.0, E * 1e-3
 N = 200
 tab = [(ramp * k / N, rho_g * tg * u0 * 2 * math.pi / ramp ** 2 * math.sin(2 * math.pi * k / N))
        for k in range(N + 1)]
 tab[-1] = (ramp, 0.0)
 tab.append((ramp + hold, 0.0))
 table = ", ".join("[%.6e, %.6e]" % p for p in tab)
+vtab = [(ramp * k / N, u0 / ramp * (1.0 - math.cos(2 * math.pi * k / N))) for k in range(N + 1)]
+vtab[-1] = (ramp, 0.0)
+vtab.append((ramp + hold, 0.0))
+vtable = ", ".join("[%.6e, %.6e]" % p for p in vtab)
+neg_vtable = ", ".join("[%.6e, %.6e]" % (t, -v) for t, v in vtab)
+loading = ('''[grid.boundary.top]
+type = "traction"
+normal = {{ table = [{table}] }}
+
+[grid.boundary.bottom]
+type = "traction"
+normal = {{ table = [{table}] }}
+'''.format(table=table), "", "")
+if roller:
+    loading = ("", "drive = { y = { table = [%s] } }\n" % neg_vtable,
+               "drive = { y = { table = [%s] } }\n" % vtable)
 end = ramp + hold
 pts = lambda c: ", ".join("[%.7g, %.7g]" % p for p in c)
 what = ("H a = %g mm + full-length V at x = %.4g mm" % (a * 1e3, cracks[1][0][0] * 1e3) if case == "split"
@@ -115,9 +143,7 @@ what = ("H a = %g mm + full-length V at x = %.4g mm" % (a * 1e3, cracks[1][0][0]
 open(out, "w").write(f"""# Nairn & Aimene section 3.2 (C2, patch test): SENT {w * 1e3:g} x 100 mm,
 # {what}; J method {method}; {h * 1e3:g} mm cells.
 # Written by docs/scripts/cracks_c2.sh (see docs/cracks-c2.md). Ends
-# displaced 0.5 mm each (1 % strain) through bonded grips {grip:g} x as
-# dense and stiff as the plate, pushed by a traction that gives them
-# u0 (t/T - sin(2 pi t/T)/2 pi), T = {ramp * 1e3:g} ms; held to {end * 1e3:g} ms.
+# displaced 0.5 mm each (1 % strain) through {('roller grips (10 x as dense, 1e-3 x as stiff as the plate) that drive v_y only, moving them by' + chr(10) + '# ') if roller else ('bonded grips %g x as' % grip + chr(10) + '# dense and stiff as the plate, pushed by a traction that gives them' + chr(10) + '# ')}u0 (t/T - sin(2 pi t/T)/2 pi), T = {ramp * 1e3:g} ms; held to {end * 1e3:g} ms.
 [meta]
 name = "cracks_c2_{case}_{method}"
 description = "Nairn & Aimene C2 patch test ({case}, {method})"
@@ -128,14 +154,7 @@ min = [-0.004, -0.005]
 max = [{gx}, 0.105]
 shape_function = "{shape}"
 
-[grid.boundary.top]
-type = "traction"
-normal = {{ table = [{table}] }}
-
-[grid.boundary.bottom]
-type = "traction"
-normal = {{ table = [{table}] }}
-
+{loading[0]}
 [analysis]
 plane = "plane_stress"
 
@@ -166,12 +185,12 @@ explicit_cracks = [
 name = "bottom_grip"
 shape = {{ type = "box", min = [0.0, {-tg}], max = [{w}, 0.0] }}
 material = "grip"
-
+{loading[1]}
 [[bodies]]
 name = "top_grip"
 shape = {{ type = "box", min = [0.0, {L}], max = [{w}, {L + tg}] }}
 material = "grip"
-
+{loading[2]}
 [cramp]
 j_contours = {contours}
 {os.environ.get('CRAMP_EXTRA', '')}

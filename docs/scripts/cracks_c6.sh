@@ -11,7 +11,10 @@
 #   OUT     output folder (default /tmp/cracks_c6): OUT/<load>_<rate>.toml,
 #           OUT/<load>_<rate>/ (each run's out dir), OUT/summary.txt
 #   CASES   which runs (default "axial_slow axial_fast biaxial_slow biaxial_fast")
-#   PLOT=1  also draw docs/cracks-c6.png and docs/cracks-c6-stress.png
+#   GRIPS   bonded (default) or roller: the scene script's --grips (roller
+#           grips drive only the velocity along their edge's normal)
+#   PNG     the figures' name stem (default docs/cracks-c6)
+#   PLOT=1  also draw $PNG.png and $PNG-stress.png
 #           (needs matplotlib on PYTHONPATH)
 #   RAYON_NUM_THREADS (default 2)
 # The slow runs take 5-7 minutes each on two threads, the fast ones under a
@@ -21,6 +24,8 @@ CLEAVE=${CLEAVE:-target/release/cleave}
 OUT=${OUT:-/tmp/cracks_c6}
 CASES=${CASES:-"axial_slow axial_fast biaxial_slow biaxial_fast"}
 export RAYON_NUM_THREADS=${RAYON_NUM_THREADS:-2}
+GRIPS=${GRIPS:-bonded}
+PNG=${PNG:-docs/cracks-c6}
 mkdir -p "$OUT"
 # the paper's rates: each end at 0.02 % and 1 % of sqrt(E/rho) = 525 m/s,
 # over the 50.8 mm plate
@@ -30,7 +35,7 @@ args=()
 for c in $CASES; do
     load=${c%_*}
     rate=${c#*_}
-    python3 docs/scripts/cramp_ten_cracks_scene.py --load "$load" --rate "$rate" > "$OUT/$c.toml"
+    python3 docs/scripts/cramp_ten_cracks_scene.py --load "$load" --rate "$rate" --grips "$GRIPS" > "$OUT/$c.toml"
     echo "== $c"
     "$CLEAVE" run "$OUT/$c.toml" --out "$OUT/$c" --quiet 2>&1 | tail -1
     if [ "$rate" = slow ]; then r=$SLOW; else r=$FAST; fi
@@ -38,6 +43,6 @@ for c in $CASES; do
 done
 plot=()
 if [ "${PLOT:-0}" = 1 ]; then
-    plot=(--paths docs/cracks-c6.png --curves docs/cracks-c6-stress.png)
+    plot=(--paths "$PNG.png" --curves "$PNG-stress.png")
 fi
 python3 docs/scripts/plot_cracks_c6.py "${args[@]}" "${plot[@]}" | tee "$OUT/summary.txt"

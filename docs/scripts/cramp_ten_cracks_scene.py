@@ -3,7 +3,7 @@
 problem, C6 in BENCHMARKS.md) as a cleave scene.
 
     python3 docs/scripts/cramp_ten_cracks_scene.py [--load axial|biaxial]
-        [--rate slow|fast] [--end SECONDS] > scene.toml
+        [--rate slow|fast] [--grips bonded|roller] [--end SECONDS] > scene.toml
 
 `scenes/cramp_ten_cracks.toml` is this script's output with the defaults
 (slow axial loading); docs/scripts/cracks_c6.sh writes the other three.
@@ -16,6 +16,12 @@ runs into cracks 2 and 3 on either side of it; under biaxial loading the
 longest crack, 4, nearly vertical, goes first. Cracks are numbered 1-10
 here and in the doc; the series' columns count from 0 (crack 1 is
 `crack0_*`).
+
+Grips: "bonded" (the default) are dense bodies in the plate's velocity
+field that carry the whole homogeneous field of the loading, tangential
+stretch included; "roller" grips drive only the velocity normal to their
+edge (`drive`, a moving roller) and are soft, so that the plate's edges
+slide along them.
 """
 import argparse
 import math
@@ -46,6 +52,25 @@ CRACKS = [
 ]
 
 
+GRIPS_TEXT = {
+    "bonded": """# The ends are {g}-cell grips bonded to the plate (one velocity field),
+# 10^6 times as dense as the plate but as stiff, so that their momentum
+# carries them at the imposed velocity (the homogeneous field of the
+# loading: {field})
+# while their wave speed, a thousandth of the plate's, leaves the time step
+# alone. The plate starts at rest: the waves from the ends are part of the
+# loading, as in the paper's fast case.""",
+    "roller": """# The ends are {g}-cell roller grips: each drives the velocity along its
+# edge's normal (the homogeneous field of the loading there: {field})
+# on the nodes it holds (`drive`) and leaves the other component free, so
+# that the plate's edge slides along it. They are 10 times as dense as the
+# plate (the nodes they share with it are theirs) and a thousandth as
+# stiff (their material does not hold the edge). The plate starts at
+# rest: the waves from the ends are part of the loading, as in the
+# paper's fast case.""",
+}
+
+
 def crack_points(centre, length, angle):
     """Points every half cell or less along the crack, m."""
     n = max(2, math.ceil(length * 1e-3 / (0.5 * H)))
@@ -64,8 +89,9 @@ def fmt(x):
     return repr(round(x, 9))
 
 
-def scene(load, rate, end):
+def scene(load, rate, end, grips_kind="bonded"):
     v = {"slow": 2e-4, "fast": 1e-2}[rate] * C_BAR  # each end, m/s
+    roller = grips_kind == "roller"
     strain_rate = 2.0 * v / W
     lateral = -NU * strain_rate if load == "axial" else strain_rate
     lo, hi = -MARGIN * H, W + MARGIN * H
@@ -86,17 +112,11 @@ def scene(load, rate, end):
 # closest to horizontal, is the first critical under axial loading and
 # runs into cracks 2 and 3, and crack 4, the longest, nearly vertical, is
 # the first under biaxial loading. Written by
-# docs/scripts/cramp_ten_cracks_scene.py (--load {load} --rate {rate}).
+# docs/scripts/cramp_ten_cracks_scene.py (--load {load} --rate {rate}{' --grips roller' if roller else ''}).
 #
-# The ends are {GRIP}-cell grips bonded to the plate (one velocity field),
-# 10^6 times as dense as the plate but as stiff, so that their momentum
-# carries them at the imposed velocity (the homogeneous field of the
-# loading: {'uniaxial stress, the sides drawn in by nu' if load == 'axial' else 'equal stretch both ways'})
-# while their wave speed, a thousandth of the plate's, leaves the time step
-# alone. The plate starts at rest: the waves from the ends are part of the
-# loading, as in the paper's fast case.
+{GRIPS_TEXT[grips_kind].format(g=GRIP, field=('uniaxial stress, the sides drawn in by nu' if load == 'axial' else 'equal stretch both ways'))}
 [meta]
-name = "cramp_ten_cracks{'' if (load, rate) == ('axial', 'slow') else '_' + load + '_' + rate}"
+name = "cramp_ten_cracks{'' if (load, rate) == ('axial', 'slow') else '_' + load + '_' + rate}{'_roller' if roller else ''}"
 description = "Ten interior explicit cracks in a weak glass plate under {rate} {load} loading (Nairn & Aimene 3.7, C6)"
 
 [grid]
@@ -120,8 +140,8 @@ poissons_ratio = {NU!r}
 
 [materials.grip]
 model = "linear_elastic"
-density = {RHO * 1e6!r}
-youngs_modulus = {E!r}
+density = {RHO * (10.0 if roller else 1e6)!r}
+youngs_modulus = {E * (1e-3 if roller else 1.0)!r}
 poissons_ratio = {NU!r}
 
 [[bodies]]
@@ -134,16 +154,29 @@ explicit_cracks = [""")
         p(f"    {{ points = [{pts}] }},")
     p("]")
     grad = f"[[{lateral!r}, 0.0], [0.0, {strain_rate!r}]]"
-    grips = [("bottom", (0.0, -g), (W, 0.0)), ("top", (0.0, W), (W, W + g))]
+    # (name, min, max, the driven axis, its outward sign)
+    grips = [("bottom", (0.0, -g), (W, 0.0), 1, -1), ("top", (0.0, W), (W, W + g), 1, 1)]
     if load == "biaxial":
-        grips += [("left", (-g, -g), (0.0, W + g)), ("right", (W, -g), (W + g, W + g))]
-    for name, a, b in grips:
+        # bonded side grips span the corners; roller ones end at the
+        # plate's corners, which the top and bottom grips' nodes and
+        # theirs drive along y and x
+        y0, y1 = (0.0, W) if roller else (-g, W + g)
+        grips += [("left", (-g, y0), (0.0, y1), 0, -1), ("right", (W, y0), (W + g, y1), 0, 1)]
+    for name, a, b, axis, sign in grips:
         p(f"""
 [[bodies]]
 name = "{name}_grip"
 shape = {{ type = "box", min = [{fmt(a[0])}, {fmt(a[1])}], max = [{fmt(b[0])}, {fmt(b[1])}] }}
-material = "grip"
-velocity_gradient = {grad}
+material = "grip\"""")
+        if roller:
+            # the edge's velocity in the homogeneous field, along its normal
+            vn = sign * strain_rate * W / 2
+            vel = [0.0, 0.0]
+            vel[axis] = vn
+            p(f"""velocity = [{vel[0]!r}, {vel[1]!r}]
+drive = {{ {'xy'[axis]} = {vn!r} }}""")
+        else:
+            p(f"""velocity_gradient = {grad}
 velocity_origin = [{W / 2!r}, {W / 2!r}]""")
     p("""
 # K_Ic = 0.87908 MPa sqrt(m); J on the default 4-cell contour (FIJC); a
@@ -151,7 +184,14 @@ velocity_origin = [{W / 2!r}, {W / 2!r}]""")
 [cramp]
 growth = { k_ic = 8.7908e5 }
 """)
-    p(f"""# each body's momentum: the grips' rates are the forces on the plate
+    if roller:
+        p(f"""# each grip's force on the material it drives
+[output]
+series_rows = {401 if rate == 'slow' else 301}
+snapshots = 9
+reactions = true""")
+    else:
+        p(f"""# each body's momentum: the grips' rates are the forces on the plate
 [output]
 series_rows = {401 if rate == 'slow' else 301}
 snapshots = 9
@@ -163,12 +203,13 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--load", choices=["axial", "biaxial"], default="axial")
     ap.add_argument("--rate", choices=["slow", "fast"], default="slow")
+    ap.add_argument("--grips", choices=["bonded", "roller"], default="bonded")
     ap.add_argument("--end", type=float, default=None)
     a = ap.parse_args()
     end = a.end
     if end is None:
         end = {("axial", "slow"): 3.6e-3, ("biaxial", "slow"): 3.0e-3}.get((a.load, a.rate), 1.5e-4)
-    print(scene(a.load, a.rate, end), end="")
+    print(scene(a.load, a.rate, end, a.grips), end="")
 
 
 if __name__ == "__main__":

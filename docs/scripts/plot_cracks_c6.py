@@ -16,8 +16,11 @@ the paper's slow rate, 206.75 for its fast one):
   strain: a segment is half a cell, 0.198 mm), at what nominal strain,
   and how much its length grew by the end;
 - the nominal stress: the force on the plate from each grip's momentum
-  (its rate is the force the plate exerts on it), the mean of top and
-  bottom over the plate's width and thickness, and its peak;
+  (its rate is the force the plate exerts on it; roller grips, whose
+  momentum is driven, report their force in the reaction columns), the
+  mean of top and bottom over the plate's width and thickness, and its
+  peak; under biaxial loading, the same along x from the side grips, and
+  both stresses' means over the run's last fifth;
 - the energy the cracks released (the series' fracture_energy).
 
 With matplotlib: the initial and final crack planes of every run
@@ -51,22 +54,36 @@ def measure(label, run, rate):
     s = series(run)
     t = s["time"]
     n = sum(1 for k in s if k.startswith("crack") and k.endswith("_length"))
-    p_top = s["momentum_y_top_grip"]
-    # the grips move at a constant speed (their load slows them by under
+    # the grips move at a constant speed (bonded ones are slowed by under
     # 1e-4): the nominal strain is the strain rate times the time
     strain = [rate * x for x in t]
-    force = []
-    for k in range(len(t)):
-        a, b = max(k - 1, 0), min(k + 1, len(t) - 1)
-        dt = t[b] - t[a]
-        top = -(p_top[b] - p_top[a]) / dt
-        bottom = (s["momentum_y_bottom_grip"][b] - s["momentum_y_bottom_grip"][a]) / dt
-        force.append(0.5 * (top + bottom))
-    stress = [f / (W * THICKNESS) for f in force]
+
+    def grip_force(low, high, axis):
+        """The mean of the pulls of grips `low` and `high` along `axis`."""
+        if f"reaction_{high}_grip_{axis}" in s:
+            # the drive's force on the material it holds: on the plate
+            # (the driven grip's own momentum is constant)
+            return [0.5 * (h - l) for h, l in zip(s[f"reaction_{high}_grip_{axis}"],
+                                                  s[f"reaction_{low}_grip_{axis}"])]
+        p_high, p_low = s[f"momentum_{axis}_{high}_grip"], s[f"momentum_{axis}_{low}_grip"]
+        force = []
+        for k in range(len(t)):
+            a, b = max(k - 1, 0), min(k + 1, len(t) - 1)
+            dt = t[b] - t[a]
+            force.append(0.5 * (-(p_high[b] - p_high[a]) + (p_low[b] - p_low[a])) / dt)
+        return force
+
+    stress = [f / (W * THICKNESS) for f in grip_force("bottom", "top", "y")]
     print(f"== {label} ({run}): strain rate {rate:.4g} /s, {len(t)} rows to {t[-1] * 1e3:.3f} ms")
     peak = max(range(len(t)), key=lambda k: stress[k])
     print(f"   peak nominal stress {stress[peak] / 1e6:.2f} MPa at {t[peak] * 1e6:.1f} us, "
           f"strain {strain[peak] * 100:.3f} %")
+    tail = [k for k in range(len(t)) if t[k] >= 0.8 * t[-1]]
+    held = f"   over the last fifth: nominal stress y {sum(stress[k] for k in tail) / len(tail) / 1e6:.2f} MPa"
+    if any(k.startswith("momentum_x_left_grip") or k.startswith("reaction_left_grip") for k in s):
+        across = [f / (W * THICKNESS) for f in grip_force("left", "right", "x")]
+        held += f", x {sum(across[k] for k in tail) / len(tail) / 1e6:.2f} MPa"
+    print(held)
     print(f"   released energy {s['fracture_energy'][-1]:.4g} J (per m of thickness)")
     order = []
     for c in range(n):
@@ -146,7 +163,7 @@ def main():
             ax.plot([e * 100 for e in r["strain"]], [s / 1e6 for s in r["stress"]], label=label, lw=1)
         ax.set_xlabel("nominal strain (%)")
         ax.set_ylabel("nominal stress (MPa)")
-        ax.set_title("Ten-crack plate: force on the plate from the grips' momenta")
+        ax.set_title("Ten-crack plate: nominal stress from the grips' force on the plate")
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
         fig.tight_layout()
