@@ -19,8 +19,8 @@
 #   OUT      output folder (default /tmp/cracks_c2): OUT/scenes/*.toml,
 #            OUT/runs/<name>/ (each run's out dir), OUT/summary.md, OUT/summary.csv
 #   CELL_MM  cell size in mm: 0.5 (contours 4, 8, 16, 32 cells, the
-#            paper's Table 1) or 1 (2, 4, 8, 16 cells); the same 2, 4, 8,
-#            16 mm squares either way (default 0.5)
+#            paper's Table 1), 1 (2, 4, 8, 16 cells) or 0.25 (8, 16, 32,
+#            64 cells); the same 2, 4, 8, 16 mm squares (default 0.5)
 #   CASES    runs, each CASE:METHOD, CASE = split (H + V) or single35
 #            (a 35 mm wide SENT, H only), METHOD = fijc | pijc
 #            (default "single35:fijc split:fijc split:pijc")
