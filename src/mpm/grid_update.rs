@@ -164,6 +164,12 @@ pub struct Boundary {
     /// each driven body's name).
     names: Vec<String>,
     driven: Vec<Driven>,
+    /// Σ_p N_ip m_p of one driven body's particles per node: scratch for
+    /// [`Boundary::find_driven`] (zero outside it), one node-long array
+    /// for all the driven bodies, and none without them.
+    share: Vec<f64>,
+    /// The nodes `share` was written at.
+    touched: Vec<u32>,
 }
 
 /// A driven body ([`crate::scene::BodySpec::drive`]): a velocity
@@ -175,11 +181,6 @@ struct Driven {
     side: usize,
     /// Its index in the scene's bodies (`Particles::body`).
     body: u16,
-    /// Σ_p N_ip m_p of the body's particles per node: scratch, zero
-    /// outside [`Boundary::find_driven`].
-    share: Vec<f64>,
-    /// The nodes `share` was written at.
-    touched: Vec<u32>,
 }
 
 /// A driven body drives a node where it holds at least this fraction of
@@ -229,7 +230,7 @@ impl Boundary {
         Boundary {
             sides,
             names,
-            driven: Vec::new(),
+            ..Boundary::default()
         }
     }
 
@@ -242,9 +243,8 @@ impl Boundary {
             self.driven.push(Driven {
                 side: self.sides.len(),
                 body: i as u16,
-                share: vec![0.0; node_count],
-                touched: Vec::new(),
             });
+            self.share.resize(node_count, 0.0);
             let target = [d.x.clone(), d.y.clone(), d.z.clone()];
             self.sides.push((Constraint::Velocity(target), Vec::new()));
             self.names.push(if b.name.is_empty() {
@@ -272,9 +272,14 @@ impl Boundary {
         multi: Option<&MultiField>,
     ) {
         let nodes = geom.node_count();
-        let Boundary { sides, driven, .. } = self;
-        for d in driven.iter_mut() {
-            let (share, touched) = (&mut d.share, &mut d.touched);
+        let Boundary {
+            sides,
+            driven,
+            share,
+            touched,
+            ..
+        } = self;
+        for d in driven.iter() {
             for p in (0..parts.len()).filter(|&p| parts.body[p] == d.body) {
                 let m = parts.mass[p];
                 particle_support::<K, D, V>(geom, parts, p).for_each(|n| {
