@@ -4,7 +4,7 @@
 pub mod proto;
 
 use crate::jobs::{self, JobError, JobEvent, JobManager, JobState};
-use crate::scene::{Format, SceneError};
+use crate::scene::{FieldError, Format, SceneError};
 use proto::cleave_server::{Cleave, CleaveServer};
 use std::net::SocketAddr;
 use std::path::PathBuf;
@@ -64,32 +64,31 @@ fn invalid(e: &SceneError) -> Status {
         }
         format!("{}…", &s[..end])
     };
-    let (mut shown, mut bytes) = (Vec::new(), 0);
+    let (mut shown, mut bytes) = (Vec::<FieldError>::new(), 0);
     for f in &e.errors {
-        let v = FieldViolation::new(clip(&f.path), clip(&f.reason));
-        let n = v.field.len() + v.description.len() + 3;
+        let f = FieldError {
+            path: clip(&f.path),
+            reason: clip(&f.reason),
+        };
+        let n = f.path.len() + f.reason.len() + 3;
         if !shown.is_empty() && bytes + n > REFUSAL_BYTES {
             break;
         }
         bytes += n;
-        shown.push(v);
+        shown.push(f);
     }
-    let mut message: Vec<String> = shown
-        .iter()
-        .map(|v| {
-            if v.field.is_empty() {
-                v.description.clone()
-            } else {
-                format!("{}: {}", v.field, v.description)
-            }
-        })
-        .collect();
+    // each line `path: reason` (or the reason alone), `FieldError`'s Display
+    let mut message: Vec<String> = shown.iter().map(ToString::to_string).collect();
     let rest = e.errors.len() - shown.len();
     if rest > 0 {
         message.push(format!(
             "… and {rest} more problems (ValidateScene lists every one)"
         ));
     }
+    let shown = shown
+        .into_iter()
+        .map(|f| FieldViolation::new(f.path, f.reason))
+        .collect();
     bad_request(format!("invalid scene: {}", message.join("\n")), shown)
 }
 

@@ -102,3 +102,31 @@ def test_settings_metrics_and_the_front():
         Metric.parse("y").measure(s)
     assert error(1.1, 1.0) == pytest.approx(0.1) and error(0.5, 0.0) == 0.5
     assert pareto([(1, 0.5), (2, 0.1), (3, 0.2), (math.nan, 0.0)]) == [True, True, False, False]
+
+
+def test_a_study_goes_on_with_the_jobs_an_earlier_one_submitted(client, tmp_path):
+    scene = short_bar(tmp_path)
+    out = tmp_path / "study"
+    vary = {"time.cfl": [0.3, 0.5]}
+    first = client.study(scene, vary, metric="final:momentum_x", out=out)
+    before = sum(1 for _ in client.jobs())
+    # the same out again without resume: refused, nothing submitted or lost
+    with pytest.raises(FileExistsError, match="resume=True"):
+        client.study(scene, vary, metric="final:momentum_x", out=out)
+    # other settings into the same out: refused before anything is submitted
+    with pytest.raises(ValueError, match="not this study's run 1"):
+        client.study(scene, {"time.cfl": [0.3, 0.4]}, metric="final:momentum_x", out=out, resume=True)
+    assert sum(1 for _ in client.jobs()) == before
+    # resumed: the earlier jobs are followed, none submitted again
+    again = client.study(scene, vary, metric="final:momentum_x", out=out, resume=True)
+    assert sum(1 for _ in client.jobs()) == before
+    assert [r.job_id for r in again.runs] == [r.job_id for r in first.runs]
+    assert [r.metric for r in again.runs] == [r.metric for r in first.runs]
+    # a job the server no longer knows is submitted again
+    (out / "runs" / "001" / "job").write_text("no-such-job\n")
+    third = client.study(scene, vary, metric="final:momentum_x", out=out, resume=True)
+    assert sum(1 for _ in client.jobs()) == before + 1
+    assert third.runs[0].job_id == first.runs[0].job_id
+    assert third.runs[1].job_id != first.runs[1].job_id
+    assert (out / "runs" / "001" / "job").read_text().strip() == third.runs[1].job_id
+    assert third.runs[1].metric == first.runs[1].metric

@@ -408,11 +408,11 @@ class Client:
                 return
 
     def study(self, scene: SceneLike, vary, metric: str, reference: str = "finest",
-              out: Union[str, Path, None] = None, *, label: str = "study"):
+              out: Union[str, Path, None] = None, *, label: str = "study", resume: bool = False):
         """``cleave study`` through this server: see :func:`cleave_client.study.run`."""
         from .study import run
 
-        return run(self, scene, vary, metric, reference, out, label=label)
+        return run(self, scene, vary, metric, reference, out, label=label, resume=resume)
 
 
 class Job:

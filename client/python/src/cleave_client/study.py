@@ -332,11 +332,48 @@ class StudyResult:
         return "\n".join(lines) + "\n"
 
 
+def _earlier_jobs(client, out_dir: Optional[Path], docs: list, resume: bool) -> list:
+    """The jobs an earlier study into ``out_dir`` submitted, per variant
+    (None: submit it), checked as :func:`run` says."""
+    found: list = [None] * len(docs)
+    if out_dir is None:
+        return found
+    runs = out_dir / "runs"
+    held = [k for k in range(len(docs)) if (runs / f"{k:03}" / "job").is_file()]
+    if held and not resume:
+        raise FileExistsError(f"{out_dir} holds the runs of an earlier study: resume=True goes on "
+                              "with it (its jobs are followed), or give another out")
+    if not resume:
+        return found
+    for k, d in enumerate(docs):
+        scene_file = runs / f"{k:03}" / "scene.json"
+        if scene_file.is_file() and json.loads(scene_file.read_text()) != json.loads(json.dumps(d)):
+            raise ValueError(f"resume: {scene_file} is not this study's run {k}: the scene or the "
+                             "settings changed; resume with the ones it was started with, or give another out")
+    for k in held:
+        job = client.job(((runs / f"{k:03}" / "job").read_text()).strip())
+        try:
+            job.info()
+        except errors.NotFound:
+            continue  # the server no longer has it: submitted again
+        found[k] = job
+    return found
+
+
 def run(client, scene: SceneLike, vary, metric: str, reference: str = "finest",
-        out: Union[str, Path, None] = None, *, label: str = "study") -> StudyResult:
+        out: Union[str, Path, None] = None, *, label: str = "study",
+        resume: bool = False) -> StudyResult:
     """Runs a study on ``client``'s server and returns it; with ``out``,
     writes ``out/study.csv`` and, per run, ``out/runs/NNN/scene.json``,
     ``series.csv`` and ``job`` (its id), as ``cleave study`` does.
+
+    A study outlives its process as ``cleave study --server --resume``'s
+    does: an ``out`` that holds an earlier study's runs is refused
+    (FileExistsError: nothing stored is overwritten) unless ``resume``; then
+    each run whose ``job`` the server still knows is followed rather than
+    submitted again (a finished one is fetched), the others are submitted,
+    and a run whose ``scene.json`` is not this study's (the scene or the
+    settings changed) raises ValueError before anything is submitted.
 
     ``vary`` is ``{"time.cfl": [0.2, 0.4], ...}`` or the command line's
     ``["time.cfl=0.2,0.4", ...]``; ``metric`` as :class:`Metric` parses it;
@@ -382,11 +419,12 @@ def run(client, scene: SceneLike, vary, metric: str, reference: str = "finest",
     if problems:
         raise errors.InvalidScene.of(problems)
     out_dir = Path(out) if out is not None else None
+    earlier = _earlier_jobs(client, out_dir, [d for _, d in variants], resume)
     jobs = []
     for k, (_, d) in enumerate(variants):
-        job = client.submit(d, label=f"{label} {k:03}")
+        job = earlier[k] or client.submit(d, label=f"{label} {k:03}")
         jobs.append(job)
-        if out_dir is not None:
+        if out_dir is not None and earlier[k] is None:
             rd = out_dir / "runs" / f"{k:03}"
             rd.mkdir(parents=True, exist_ok=True)
             (rd / "scene.json").write_text(json.dumps(d, indent=2) + "\n")
