@@ -5,7 +5,11 @@
 # roller (the supports then cannot slide); prints the peaks against the
 # experiment's and draws docs/eigen-e2.png (python3 with matplotlib).
 # About a minute on two threads; EXPERIMENTS=1 adds the variants of
-# docs/eigen.md's second table (some minutes more).
+# docs/eigen.md's second table (some minutes more); EXPERIMENTS=2 instead
+# the variants of its third and fourth tables (the authors' model one
+# change at a time, and a compliant pad under the hammer:
+# docs/scripts/eigen_e2_variants.py; about 25 minutes, most of it the two
+# runs at 1.25 mm) and draws docs/eigen-e2-contact.png.
 # Usage, from the repository root:
 #   cargo build --release -p cleave-client
 #   [CLEAVE=target/release/cleave] [OUT=/tmp/eigen_e2] bash docs/scripts/eigen_e2.sh
@@ -53,9 +57,19 @@ open(f"{out}/tup.toml", "w").write(s)
 PY
   runs="$runs musl musl_contact tup"
 fi
+if [ "${EXPERIMENTS:-0}" = 2 ]; then
+  variants="nose wide cylinders notch10 fine authors authors_lme pad31 pad10 pad3 pad2 pad1"
+  python3 docs/scripts/eigen_e2_variants.py "$out" $variants
+  runs="$runs $variants"
+fi
 for k in $runs; do
   rm -rf "${out:?}/$k"
   "$cleave" run "$out/$k.toml" --out "$out/$k" --quiet
 done
-python3 docs/scripts/eigen_e2.py "$out" docs/eigen-e2.png $runs
+if [ "${EXPERIMENTS:-0}" = 2 ]; then
+  python3 docs/scripts/eigen_e2.py "$out" docs/eigen-e2-geometry.png roller nose wide cylinders notch10 fine authors authors_lme
+  python3 docs/scripts/eigen_e2.py "$out" docs/eigen-e2-contact.png roller pad31 pad10 pad3 pad2 pad1
+else
+  python3 docs/scripts/eigen_e2.py "$out" docs/eigen-e2.png $runs
+fi
 cp "$out/roller/chi_0004.png" docs/eigen-e2-chi.png
