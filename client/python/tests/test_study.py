@@ -41,6 +41,16 @@ def test_a_study_through_the_server_matches_the_cli(client, server, tmp_path):
     assert any(run.pareto for run in r.runs)
     t = r.table()
     assert t.shape == (4,) and list(t["run"]) == [0, 1, 2, 3]
+    # study.png as the command line draws it: a point per run (the
+    # reference is analytic, so every run has an error), the front joined
+    fig = r.plot(out / "study.png")
+    assert (out / "study.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    ax = fig.axes[0]
+    np.testing.assert_array_equal(ax.collections[0].get_offsets(),
+                                  [[run.wall_seconds, run.error] for run in r.runs])
+    front = sorted((run.wall_seconds, run.error) for run in r.runs if run.pareto)
+    np.testing.assert_array_equal(np.column_stack(ax.lines[0].get_data()), front)
+    assert ax.get_title() == "final:momentum_x against 0.2"
     # the same study by the command line against the same server
     cli = tmp_path / "cli"
     subprocess.run([str(binary("cleave")), "--server", server.url, "study", str(scene),

@@ -314,6 +314,45 @@ class StudyResult:
         return np.array([(r.index, r.wall_seconds, r.steps, r.particles, r.metric, r.error,
                           r.reference, r.pareto) for r in self.runs], dtype=dt)
 
+    def plot(self, path: Union[str, Path, None] = None):
+        """Error against wall time, as ``cleave study``'s ``study.png``: a
+        point per run with a finite error (the reference run has none),
+        labelled with its number and settings, the Pareto front joined, log
+        axes where the values allow. Returns the matplotlib ``Figure``
+        (made without pyplot, so no backend is chosen for the caller);
+        with ``path``, saves it there. Needs matplotlib (the ``plot``
+        extra: ``pip install 'cleave-client[plot]'``)."""
+        try:
+            from matplotlib.figure import Figure
+        except ImportError as e:
+            raise ImportError("StudyResult.plot needs matplotlib: pip install 'cleave-client[plot]'") from e
+        shown = [r for r in self.runs if math.isfinite(r.error) and math.isfinite(r.wall_seconds)]
+        fig = Figure(figsize=(7.0, 4.5))
+        ax = fig.subplots()
+        ax.scatter([r.wall_seconds for r in shown], [r.error for r in shown], s=18, label="runs")
+        for r in shown:
+            tag = " ".join(_text(r.settings[k]) for k in self.keys)
+            ax.annotate(f"{r.index:03} {tag}", (r.wall_seconds, r.error), fontsize=7,
+                        xytext=(4, 3), textcoords="offset points")
+        front = sorted((r for r in shown if r.pareto), key=lambda r: r.wall_seconds)
+        ax.plot([r.wall_seconds for r in front], [r.error for r in front], "r-", lw=1,
+                label="Pareto front")
+        if shown and min(r.wall_seconds for r in shown) > 0:
+            ax.set_xscale("log")
+        if shown and min(r.error for r in shown) > 0:
+            ax.set_yscale("log")
+        ref = (f"{self.reference_value:g}" if self.reference != "finest"
+               else next((f"run {r.index:03}" for r in self.runs if r.reference), "none"))
+        ax.set_title(f"{self.metric} against {ref}")
+        ax.set_xlabel("wall time (s)")
+        ax.set_ylabel("relative error")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=110)
+        return fig
+
     def csv(self) -> str:
         """``study.csv`` as ``cleave study`` writes it."""
         def cell(s: str) -> str:
