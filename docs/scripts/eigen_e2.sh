@@ -24,7 +24,8 @@ runs="roller fixed"
 if [ "${EXPERIMENTS:-0}" = 1 ]; then
   # one change at a time from the scene (docs/eigen.md, E2): MUSL instead
   # of Newmark; MUSL with the hammer in a contact group of its own
-  # (frictionless multi-field contact instead of shared nodes); a
+  # (frictionless multi-field contact instead of shared nodes); the same
+  # contact under Newmark (its predictor and corrector contacted); a
   # steel tup 20 x 100 mm under a 60 x 80 mm weight (120.6 kg in all)
   # instead of the dense 20 x 180 mm block. Each takes minutes.
   sed 's/stress_update = "newmark"/stress_update = "musl"/' "$scene" > "$out/musl.toml"
@@ -34,6 +35,7 @@ out = sys.argv[1]
 s = open(f"{out}/musl.toml").read()
 open(f"{out}/musl_contact.toml", "w").write(s.replace('name = "hammer"\n', 'name = "hammer"\ncontact_group = 1\n'))
 s = open("scenes/eigen_e2_drop_weight.toml").read()
+open(f"{out}/newmark_contact.toml", "w").write(s.replace('name = "hammer"\n', 'name = "hammer"\ncontact_group = 1\n'))
 old = """[[bodies]]
 name = "hammer"
 shape = { type = "box", min = [-0.01, 0.1], max = [0.01, 0.28] }
@@ -55,7 +57,7 @@ assert old in s
 s = s.replace(old, new).replace("density = 335000.0", "density = 248000.0")
 open(f"{out}/tup.toml", "w").write(s)
 PY
-  runs="$runs musl musl_contact tup"
+  runs="$runs musl musl_contact newmark_contact tup"
 fi
 if [ "${EXPERIMENTS:-0}" = 2 ]; then
   variants="nose wide cylinders notch10 fine authors authors_lme pad31 pad10 pad3 pad2 pad1"

@@ -194,6 +194,10 @@ pub struct GridFields<const D: usize = 2> {
     pub vel: Vec<[f64; D]>,
     /// Σ m_p ∇N (contact normals); empty without contact.
     pub mass_grad: Vec<[f64; D]>,
+    /// Newmark with contact: the contacted predictor velocities, with
+    /// which the particles move (`vel_old` keeps the uncontacted one the
+    /// accelerations are measured from); empty otherwise.
+    pub vel_moved: Vec<[f64; D]>,
 }
 
 /// Heap bytes of a vector (capacity × element size).
@@ -210,6 +214,7 @@ impl<const D: usize> GridFields<D> {
             + vec_bytes(&self.vel_old)
             + vec_bytes(&self.vel)
             + vec_bytes(&self.mass_grad)
+            + vec_bytes(&self.vel_moved)
     }
 
     /// Prepares the arrays for a scatter into `nodes` node slots plus

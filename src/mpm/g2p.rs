@@ -341,7 +341,11 @@ pub fn musl_stress<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
 /// (Newmark's corrector on the particle, blended with PIC by the FLIP
 /// fraction α); x_p ← x_p + Δt S v⁰, the motion whose gradient gave the
 /// step's strain. Then the guards, as every gather ends. The stress is
-/// the stress pass's (`musl_stress` without a move).
+/// the stress pass's (`musl_stress` without a move). With contact
+/// (`moved_by`: the contacted predictor) the particles move with S v⁰ of
+/// the contacted predictor, and a_p is measured, as without contact, from
+/// the walled predictor in `vel_old` (the corrector's contact is in the
+/// corrected velocities).
 #[allow(clippy::too_many_arguments)]
 pub fn newmark<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
     geom: &GridGeom<D>,
@@ -353,6 +357,7 @@ pub fn newmark<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
     alpha: f64,
     gamma: f64,
     dt: f64,
+    moved_by: Option<&[[f64; D]]>,
 ) -> G2pStats<D> {
     let n = parts.len();
     let pass = NewmarkPass {
@@ -361,6 +366,7 @@ pub fn newmark<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
         slots,
         vel: &grid.vel,
         vel_old: &grid.vel_old,
+        moved_by: moved_by.unwrap_or(&[]),
         half_size: &parts.half_size,
         kept: &parts.supports,
         material: &parts.material,
@@ -381,7 +387,13 @@ pub fn newmark<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
         .map(|c| {
             crate::cpu::wide(
                 #[inline(always)]
-                || unsafe { newmark_chunk::<K, S, D, V>(&pass, chunk(c, n)) },
+                || unsafe {
+                    if moved_by.is_some() {
+                        newmark_chunk::<K, S, true, D, V>(&pass, chunk(c, n))
+                    } else {
+                        newmark_chunk::<K, S, false, D, V>(&pass, chunk(c, n))
+                    }
+                },
             )
         })
         .reduce(G2pStats::default, G2pStats::merge)
@@ -394,6 +406,8 @@ struct NewmarkPass<'a, S, const D: usize, const V: usize> {
     slots: &'a S,
     vel: &'a [[f64; D]],
     vel_old: &'a [[f64; D]],
+    /// The contacted predictor the particles move with (empty: `vel_old`).
+    moved_by: &'a [[f64; D]],
     /// GIMP half-widths (empty: a point kernel).
     half_size: &'a [f64],
     kept: &'a SupportCache<D>,
@@ -415,7 +429,13 @@ struct NewmarkPass<'a, S, const D: usize, const V: usize> {
 /// # Safety
 /// No other task accesses the particles of `range`.
 #[inline(always)]
-unsafe fn newmark_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
+unsafe fn newmark_chunk<
+    K: Kernel,
+    S: FieldSlots,
+    const MOVED: bool,
+    const D: usize,
+    const V: usize,
+>(
     s: &NewmarkPass<'_, S, D, V>,
     range: std::ops::Range<usize>,
 ) -> G2pStats<D> {
@@ -430,6 +450,7 @@ unsafe fn newmark_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize
         let lp = if gimp { s.half_size[p] } else { 0.0 };
         let mut vbar = [0.0; D];
         let mut vpre = [0.0; D];
+        let mut vmov = [0.0; D];
         Support::<K, D>::kept(geom, *xp, lp, s.kept, p).for_each(
             #[inline(always)]
             |n| {
@@ -439,8 +460,17 @@ unsafe fn newmark_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize
                     vbar[a] += n.w * vi[a];
                     vpre[a] += n.w * vo[a];
                 }
+                if MOVED {
+                    let vm = s.moved_by[k];
+                    for a in 0..D {
+                        vmov[a] += n.w * vm[a];
+                    }
+                }
             },
         );
+        if !MOVED {
+            vmov = vpre;
+        }
         let mut vnew = [0.0; D];
         let mut moved = [0.0; D];
         for a in 0..D {
@@ -448,7 +478,7 @@ unsafe fn newmark_chunk<K: Kernel, S: FieldSlots, const D: usize, const V: usize
             let newmark = vp[a] + lead * ap[a] + corr;
             vnew[a] = alpha * newmark + (1.0 - alpha) * vbar[a];
             ap[a] = corr / gamma_dt;
-            moved[a] = xp[a] + dt * vpre[a];
+            moved[a] = xp[a] + dt * vmov[a];
         }
         geom.keep_inside(&mut moved, &mut vnew);
         *xp = moved;

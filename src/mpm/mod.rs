@@ -675,15 +675,15 @@ where
             let ran = 'stage: {
                 match t.stage {
                     Stage::P2g => {
+                        let mgrad = multi.is_some() && split.is_none_or(|s| s.mass_gradients());
                         match self.newmark {
-                            Some(gamma) => {
-                                self.scatter_predictor::<K, S>(slots, slots_n, (1.0 - gamma) * dt)
-                            }
-                            None => {
-                                let mgrad =
-                                    multi.is_some() && split.is_none_or(|s| s.mass_gradients());
-                                self.scatter::<K, S>(slots, mgrad, slots_n);
-                            }
+                            Some(gamma) => self.scatter_predictor::<K, S>(
+                                slots,
+                                mgrad,
+                                slots_n,
+                                (1.0 - gamma) * dt,
+                            ),
+                            None => self.scatter::<K, S>(slots, mgrad, slots_n),
                         }
                         if self.boundary.has_drives() {
                             let (geom, parts) = (&self.geom, &self.parts);
@@ -737,12 +737,7 @@ where
                     // kept as the step's v⁰
                     Stage::NewmarkPredictor => {
                         self.grid_update(0.0, [0.0; D], t_bc, multi, false)?;
-                        let nodes = self.geom.node_count();
-                        let g = &mut self.grid;
-                        for r in &self.bins.active {
-                            g.vel_old[r.clone()].copy_from_slice(&g.vel[r.clone()]);
-                        }
-                        g.vel_old[nodes..].copy_from_slice(&g.vel[nodes..]);
+                        self.keep_predictor();
                         true
                     }
                     Stage::NewmarkStress => {
@@ -799,6 +794,7 @@ where
                         };
                         // the particles move with the predictor
                         self.applied_work(dt, true);
+                        let contacted = self.scene.plan.has(Stage::NewmarkContact);
                         let stats = g2p::newmark::<K, S, D, V>(
                             &self.geom,
                             &mut self.parts,
@@ -809,6 +805,7 @@ where
                             self.flip,
                             gamma,
                             dt,
+                            contacted.then_some(self.grid.vel_moved.as_slice()),
                         );
                         moved_tile = self.finish_gather(dt, stats)?;
                         true
@@ -847,9 +844,41 @@ where
                         if touched > 0 {
                             self.contact_steps += 1;
                         }
+                        if self.newmark.is_some() {
+                            // the predictor's walls again (not work, as in
+                            // `newmark_predictor`); the particles move with
+                            // the contacted predictor (`vel_moved`), while
+                            // the corrector and the accelerations start from
+                            // the walled one (`vel_old`): the impulse the
+                            // velocities take is `newmark_contact`'s
+                            self.boundary.apply(t_bc, &mut self.grid, multi);
+                            let g = &mut self.grid;
+                            g.vel_moved.resize(g.vel.len(), [0.0; D]);
+                            keep_active(
+                                &g.vel,
+                                &mut g.vel_moved,
+                                &self.bins.active,
+                                self.geom.node_count(),
+                            );
+                            break 'stage true;
+                        }
                         // contact must not undo the walls
                         let w = self.walls(t_bc, multi, dt, false);
                         self.add_work(w);
+                        true
+                    }
+                    Stage::NewmarkContact => {
+                        let (Some(m), Some(gamma)) = (multi, self.newmark) else {
+                            break 'stage false;
+                        };
+                        if contact::apply(&mut self.grid, m, &self.friction, self.m_min) > 0 {
+                            self.contact_steps += 1;
+                        }
+                        // the walls again, as the corrector imposes them:
+                        // their impulse over γΔt is the reaction, over γ
+                        // its work
+                        let w = self.walls(t_bc, multi, gamma * dt, false);
+                        self.add_work(w / gamma);
                         true
                     }
                     Stage::G2p => {
@@ -976,18 +1005,36 @@ where
     }
 
     /// Newmark's predictor scatter: clears the nodes the last scatter
-    /// wrote, then the mass and the momentum of v_p + `lead` a_p.
+    /// wrote, then the mass and the momentum of v_p + `lead` a_p (and the
+    /// mass gradients contact takes its normals from).
     fn scatter_predictor<K: Kernel, S: FieldSlots>(
         &mut self,
         slots: &S,
+        contact: bool,
         slots_n: usize,
         lead: f64,
     ) {
         self.grid
-            .reset(self.geom.node_count(), slots_n, false, &self.written);
+            .reset(self.geom.node_count(), slots_n, contact, &self.written);
         self.written.clone_from(&self.bins.active);
         let (geom, parts, bins, grid) = (&self.geom, &self.parts, &self.bins, &mut self.grid);
-        p2g::p2g_predictor::<K, S, D, V>(geom, parts, bins, slots, grid, lead);
+        if contact {
+            p2g::p2g_predictor::<K, S, true, D, V>(geom, parts, bins, slots, grid, lead);
+        } else {
+            p2g::p2g_predictor::<K, S, false, D, V>(geom, parts, bins, slots, grid, lead);
+        }
+    }
+
+    /// Newmark: the walled predictor velocities kept as the step's v⁰
+    /// (`vel_old`), which the corrector starts from.
+    fn keep_predictor(&mut self) {
+        let g = &mut self.grid;
+        keep_active(
+            &g.vel,
+            &mut g.vel_old,
+            &self.bins.active,
+            self.geom.node_count(),
+        );
     }
 
     /// Nodal velocities, body force `g`, the negative-mass guard and the
@@ -1161,10 +1208,13 @@ where
         if self.applied.is_empty() {
             return;
         }
-        let vel = if predictor {
-            &self.grid.vel_old
-        } else {
+        let vel = if !predictor {
             &self.grid.vel
+        } else if self.scene.plan.has(Stage::NewmarkContact) {
+            // with contact the particles move with the contacted predictor
+            &self.grid.vel_moved
+        } else {
+            &self.grid.vel_old
         };
         let w: f64 = self
             .applied
@@ -1285,4 +1335,18 @@ where
         self.times.diagnostics += t0.elapsed().as_secs_f64();
         obs.snapshot(&snap).map_err(SimError::Observer)
     }
+}
+
+/// Copies the active node ranges and every extra field slot (from `nodes`
+/// on) of `from` into `to`, which has `from`'s length.
+fn keep_active<const D: usize>(
+    from: &[[f64; D]],
+    to: &mut [[f64; D]],
+    active: &[std::ops::Range<usize>],
+    nodes: usize,
+) {
+    for r in active {
+        to[r.clone()].copy_from_slice(&from[r.clone()]);
+    }
+    to[nodes..].copy_from_slice(&from[nodes..]);
 }

@@ -105,10 +105,17 @@ fn add_internal_force<const D: usize, const V: usize>(
 
 /// Newmark's predictor scatter (Molinos et al., eq. 1 and Algorithm 1,
 /// steps 1–2): the mass Σ N m_p and the momentum Σ N m_p (v_p + `lead` a_p)
-/// with `lead` = (1 − γ) Δt. No force: it comes from the stress the
+/// with `lead` = (1 − γ) Δt, and with `MGRAD` the mass gradient as [`p2g`]
+/// scatters it (contact's normals). No force: it comes from the stress the
 /// predictor gives ([`scatter_forces`]). `grid` must have been reset.
 /// Coloured like [`p2g`].
-pub fn p2g_predictor<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
+pub fn p2g_predictor<
+    K: Kernel,
+    S: FieldSlots,
+    const MGRAD: bool,
+    const D: usize,
+    const V: usize,
+>(
     geom: &GridGeom<D>,
     parts: &Particles<D, V>,
     bins: &Bins,
@@ -118,6 +125,7 @@ pub fn p2g_predictor<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
 ) {
     let mass = SyncPtr::new(&mut grid.mass);
     let mom = SyncPtr::new(&mut grid.momentum);
+    let mgrad = SyncPtr::new(&mut grid.mass_grad);
     scatter_coloured::<K, D, V>(
         geom,
         parts,
@@ -141,6 +149,12 @@ pub fn p2g_predictor<K: Kernel, S: FieldSlots, const D: usize, const V: usize>(
                         let q = mom.at(slot);
                         for c in 0..D {
                             q[c] += wm * u[c];
+                        }
+                        if MGRAD {
+                            let mg = mgrad.at(slot);
+                            for c in 0..D {
+                                mg[c] += m * n.grad[c];
+                            }
                         }
                     }
                 },

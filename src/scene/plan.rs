@@ -62,7 +62,10 @@ pub enum Stage {
     /// `[cramp] contact_passes = 2`.
     ContactMomenta,
     /// Frictional contact between velocity fields (Bardenhagen et al.
-    /// 2001), then the walls again.
+    /// 2001), then the walls again. Under Newmark, on the predictor's
+    /// velocities: the particles move with the contacted predictor and
+    /// take their strain from it (the corrector starts from the walled
+    /// one).
     Contact,
     /// Update-stress-last grid-to-particle: velocity, position, velocity
     /// gradient and stress in one gather, then the particle guards.
@@ -94,6 +97,12 @@ pub enum Stage {
     /// Newmark's corrector (Algorithm 1, step 8): v_I = v_I^pred +
     /// γ Δt (f_I/m_I + g), then the walls.
     NewmarkCorrector,
+    /// Contact between the velocity fields of contact groups on the
+    /// corrected velocities (Newmark with more than one group; the
+    /// predictor's are contacted in `contact`), then the walls again: the
+    /// particles' accelerations S(v̄ − v⁰)/(γΔt) carry the contact's
+    /// impulse.
+    NewmarkContact,
     /// Newmark's particle update (Algorithm 1, step 9, as docs/eigen.md
     /// reads it): a_p, v_p and x_p from the nodal accelerations and the
     /// predictor velocities, then the particle guards.
@@ -149,7 +158,7 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 33] = [
+    pub const ALL: [Stage; 34] = [
         Stage::Supports,
         Stage::DamageField,
         Stage::FieldPartition,
@@ -171,6 +180,7 @@ impl Stage {
         Stage::Eigen,
         Stage::NewmarkForce,
         Stage::NewmarkCorrector,
+        Stage::NewmarkContact,
         Stage::NewmarkG2p,
         Stage::Rebin,
         Stage::PhaseFieldStagger,
@@ -213,6 +223,7 @@ impl Stage {
             Stage::Eigen => "eigen",
             Stage::NewmarkForce => "newmark_force",
             Stage::NewmarkCorrector => "newmark_corrector",
+            Stage::NewmarkContact => "newmark_contact",
             Stage::NewmarkG2p => "newmark_g2p",
             Stage::Rebin => "rebin",
             Stage::PhaseFieldStagger => "phase_field_stagger",
@@ -350,6 +361,7 @@ impl Plan {
                 | Stage::NewmarkForce
                 | Stage::NewmarkCorrector
                 | Stage::NewmarkG2p => newmark,
+                Stage::NewmarkContact => newmark && contact,
                 Stage::G2pVelocity | Stage::Remap | Stage::G2pStress => musl,
                 Stage::Damage => damage,
                 Stage::Eigen => eigen,

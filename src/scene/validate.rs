@@ -403,7 +403,7 @@ impl Scene {
             );
         }
         check_contact(&mut c, &file.contact, &groups);
-        check_newmark(&mut c, &file, groups.len());
+        check_newmark(&mut c, &file);
         let eigen_body = file.bodies.iter().position(|b| {
             file.material_of(&b.material)
                 .is_some_and(|m| m.eigen.is_some())
@@ -926,12 +926,14 @@ fn check_time(c: &mut Checker, t: &TimeSpec) {
     }
 }
 
-/// The Newmark predictor–corrector's γ and what it runs with: one
-/// velocity field (its corrector has no contact pass), no phase field
+/// The Newmark predictor–corrector's γ and what it runs with: the velocity
+/// fields of contact groups (contacted on the predictor and on the
+/// corrector), but not those DFG or explicit cracks split a body into
+/// (their contact passes are written for usl and musl), no phase field
 /// (whose stagger re-solves on the step's own nodal state), and the
 /// particle update of its own (PIC/FLIP blend only: APIC, XPIC(1) and
 /// FMPM(1) are other particle updates).
-fn check_newmark(c: &mut Checker, file: &SceneFile, groups: usize) {
+fn check_newmark(c: &mut Checker, file: &SceneFile) {
     let t = &file.transfer;
     let Some(gamma) = t.newmark() else {
         if t.newmark_gamma.is_some() {
@@ -958,16 +960,12 @@ fn check_newmark(c: &mut Checker, file: &SceneFile, groups: usize) {
             format!("{why} has its own particle update (blended with PIC by flip_blend): use scheme = \"flip\" or \"pic\""),
         );
     }
-    if groups > 1 {
-        c.err(
-            "bodies",
-            format!("{why} runs one velocity field; these bodies are in {groups} contact groups: put them in one group or use usl or musl"),
-        );
-    }
     if file.dfg.is_some() {
         c.err(
             "dfg",
-            format!("{why} runs one velocity field, without partitioning: use usl or musl"),
+            format!(
+                "{why} contacts the fields of contact groups, not DFG's partition: use usl or musl"
+            ),
         );
     }
     if let Some(b) = file
@@ -977,7 +975,7 @@ fn check_newmark(c: &mut Checker, file: &SceneFile, groups: usize) {
     {
         c.err(
             &format!("bodies[{b}].explicit_cracks"),
-            format!("{why} runs one velocity field, without crack fields: use usl or musl"),
+            format!("{why} contacts the fields of contact groups, not the fields of explicit cracks: use usl or musl"),
         );
     }
     if let Some(b) = file

@@ -219,8 +219,8 @@ fn the_strip_under_newmark_peaks_at_its_strength_and_dissipates_gf() {
 
 /// What the Newmark predictor–corrector runs with, each refusal naming
 /// its field: γ in [0.5, 1] and only with it; its own particle update
-/// (FLIP/PIC blend, not APIC, XPIC(1) or FMPM(1)); one velocity field (no
-/// contact groups, no explicit cracks); no phase field.
+/// (FLIP/PIC blend, not APIC, XPIC(1) or FMPM(1)); contact groups with
+/// their two contact stages, but not DFG's partition; no phase field.
 #[test]
 fn newmark_scenes_are_validated() {
     let newmark = |extra: &str| {
@@ -252,16 +252,25 @@ fn newmark_scenes_are_validated() {
         &newmark("").replace("scheme = \"flip\"", "scheme = \"apic\""),
         &["transfer.scheme", "own particle update"],
     );
-    refused(
+    // contact groups are contacted (the plan says where); DFG's partition is not
+    let grouped = Scene::from_text(
         &newmark("").replace(
             "material = \"weak\"",
             "material = \"weak\"\ncontact_group = 1",
         ),
-        &["bodies", "contact groups"],
+        None,
+    )
+    .expect("Newmark with two contact groups");
+    let names = grouped.plan.names();
+    let at = |s: &str| names.iter().position(|n| *n == s).unwrap();
+    assert!(at("newmark_predictor") < at("contact") && at("contact") < at("newmark_stress"));
+    assert!(
+        at("newmark_corrector") < at("newmark_contact")
+            && at("newmark_contact") < at("newmark_g2p")
     );
     refused(
         &newmark("").replace("[output]", "[dfg]\n\n[output]"),
-        &["dfg", "one velocity field"],
+        &["dfg", "not DFG's partition"],
     );
     let pf = shipped("pf_straight_crack.toml");
     let pf = if pf.contains("[transfer]") {

@@ -741,3 +741,93 @@ fn a_bad_drive_is_refused_naming_it() {
     let unknown = plate.replace("drive = { y = 0.0 }", "drive = { y = 0.0, w = 1.0 }");
     common::refused(&unknown, &["unknown field `w`"]);
 }
+
+/// Newmark's predictor–corrector with two contact groups (`contact` on the
+/// predictor, `newmark_contact` on the corrector): two elastic blocks meet
+/// head on and part again, with the rebound MUSL gives them under the
+/// same contact and the total momentum zero to round-off at every step.
+/// Without a contact pass their two fields would let them pass through
+/// each other (A's momentum would stay its first).
+#[test]
+fn newmark_contacts_two_groups_as_musl_does() {
+    // (A's final momentum, the gap between the blocks at the start and at
+    // the end, the worst |total momentum| over the run)
+    let run = |update: &str| -> (f64, f64, f64, f64) {
+        let text = format!(
+            r#"
+[grid]
+cell_size = 0.005
+min = [0.0, 0.0]
+max = [0.3, 0.1]
+[time]
+end = 0.012
+cfl = 0.4
+[transfer]
+flip_blend = 0.99
+stress_update = "{update}"
+[materials.soft]
+model = "linear_elastic"
+density = 1000.0
+youngs_modulus = 1.0e6
+poissons_ratio = 0.3
+[[bodies]]
+name = "a"
+shape = {{ type = "box", min = [0.05, 0.03], max = [0.1, 0.07] }}
+material = "soft"
+velocity = [1.0, 0.0]
+contact_group = 0
+[[bodies]]
+name = "b"
+shape = {{ type = "box", min = [0.105, 0.03], max = [0.155, 0.07] }}
+material = "soft"
+velocity = [-1.0, 0.0]
+contact_group = 1
+[output]
+body_momenta = true
+"#,
+        );
+        let scene = Scene::from_text(&text, None).unwrap();
+        assert_eq!(scene.plan.has(Stage::NewmarkContact), update == "newmark");
+        let mut sim = Simulation::new(&scene);
+        let cols = sim.series_columns();
+        let gap = |sim: &Simulation| {
+            let p = sim.particles();
+            let (mut a, mut b) = (f64::MIN, f64::MAX);
+            for (x, &body) in p.x.iter().zip(&p.body) {
+                if body == 0 {
+                    a = a.max(x[0]);
+                } else {
+                    b = b.min(x[0]);
+                }
+            }
+            b - a
+        };
+        let start = gap(&sim);
+        let p0 = sim.row().get(&cols, "momentum_x_a").unwrap();
+        let mut worst: f64 = 0.0;
+        while sim.time() < scene.file.time.end {
+            sim.step().unwrap();
+            worst = worst.max(sim.row().momentum_x.abs());
+        }
+        let pa = sim.row().get(&cols, "momentum_x_a").unwrap();
+        (pa / p0, start, gap(&sim), worst / p0)
+    };
+    let (newmark, start, end, worst) = run("newmark");
+    assert!(worst < 1e-12, "total momentum {worst:e} of A's");
+    // they met and parted: A goes back, the gap opens again
+    assert!(
+        newmark < -0.5,
+        "A's momentum at the end: {newmark} of its first"
+    );
+    assert!(end > start, "gap {end} at the end against {start}");
+    // as MUSL with the same contact
+    let (musl, _, musl_end, _) = run("musl");
+    assert!(
+        (newmark - musl).abs() < 0.1 * musl.abs(),
+        "A's rebound: Newmark {newmark}, MUSL {musl}"
+    );
+    assert!(musl_end > start);
+    println!(
+        "A's momentum at the end (of its first): Newmark {newmark:.4}, MUSL {musl:.4}; gap {start:.5} -> {end:.5} (MUSL {musl_end:.5}); worst total momentum {worst:.1e}"
+    );
+}
