@@ -13,10 +13,11 @@ offset s from the impact line y = Y0.
   running from the contact zone into the beam. Cracks from the impact
   face farther along the beam (the paper's "secondary cracks from the
   left edge") fall outside the wedge.
-- median: broken particles within 1 mm of the impact line deeper than
-  2 mm (the crack of section 5.3.1).
+- on the line: the deepest broken particle within 1 mm of the impact
+  line and deeper than 2 mm (a crack there, from either face;
+  docs/scripts/p3_two_cracks.py tells which).
 
-Prints a row per run (speed, beta, each side's span, median depth, the
+Prints a row per run (speed, beta, each side's span, the depth on the line, the
 beam's fracture energy at the end, wall seconds) and, with --plot, draws
 beta against the speed (the paper's Fig. 30) and the phase field of six
 speeds (its Fig. 31). Usage:
@@ -81,7 +82,7 @@ if __name__ == "__main__":
     p.add_argument("--panels")
     a = p.parse_args()
     runs = sorted((speed(r), r) for r in Path(a.out).glob("v*") if (r / "particles.pvd").exists())
-    print(" v0 (mm/us)  beta  cone span above / below (mm)  median depth (mm)  beam+disk Psi_f (J)  wall (s)")
+    print(" v0 (mm/us)  beta  cone span above / below (mm)  on the line to (mm)  beam+disk Psi_f (J)  wall (s)")
     table = []
     for v, r in runs:
         beta, spans, median, psi, t = measure(r)
