@@ -599,14 +599,18 @@ body_momenta = true
         let mut rec = Recorder::default();
         sim.run(&mut rec).expect("the blocks collide");
         let cols = sim.series_columns();
-        let col = |name: &str| cols.iter().position(|c| c == name).expect(name);
-        let rows: Vec<Vec<f64>> = rec.rows.iter().map(|r| r.values()).collect();
-        let p0 = rows[0][col("momentum_x_a")];
-        let worst = rows
+        let value = |r: &cleave::diagnostics::SeriesRow, name: &str| {
+            r.get(&cols, name)
+                .unwrap_or_else(|| panic!("no column {name}"))
+        };
+        let p0 = value(&rec.rows[0], "momentum_x_a");
+        let worst = rec
+            .rows
             .iter()
-            .map(|r| r[col("momentum_x")].abs())
+            .map(|r| value(r, "momentum_x").abs())
             .fold(0.0, f64::max);
-        (rows[rows.len() - 1][col("momentum_x_a")] / p0, worst / p0)
+        let end = common::last_value(&rec, &cols, "momentum_x_a");
+        (end / p0, worst / p0)
     };
     let (newmark, worst) = run("newmark");
     let (musl, _) = run("musl");
