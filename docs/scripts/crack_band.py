@@ -17,22 +17,28 @@ snapshots (numpy only). Used for the measurements in docs/phase-field.md,
       particles) as a check.
 
   crack_band.py split EARLY.vtp LATE.vtp --body B --thickness T [--gc-area J]
+      [--reference FIRST.vtp]
       Where body B's fracture energy goes between two snapshots: the sum of
       volume * fracture_energy_density (the run's Psi_f of B) at both
       times, and its increment within R = 0.5, 1, 2, 3 mm (city-block
       distance on a raster of the particle spacing) of the crack, the
       particles of B with c < 0.1 in LATE, and outside; the same material
       points (particle_id) in both snapshots. With --gc-area, increments
-      are also given against Gc*A_f (J).
+      are also given against Gc*A_f (J). With --reference, every particle's
+      volume is its volume in FIRST (the undeformed body) instead of its
+      present one: the functional integrated over the reference
+      configuration. (A run with `volumes = "reference"` writes densities
+      per present volume, so that volume * density is already its own
+      measure: no --reference needed there.)
 
   crack_band.py slices FIRST.vtp EARLY.vtp LATE.vtp --gc GC --y Y --start X0 --end X1
-      [--width W] [--half H] [--body B] [--thickness T]
+      [--width W] [--half H] [--body B] [--thickness T] [--reference]
       For a crack along x near height Y: in slices of width W (default
       1 mm) from X0 to X1 by the particles' positions in FIRST (the
       undeformed body), the fracture energy within |y - Y| < H (default
       3 mm) at EARLY and at LATE, in units of Gc * thickness * W: what
       each slice of the crack holds per unit length, against 1 for an
-      ideal crack.
+      ideal crack. With --reference, over FIRST's volumes (as split's).
 """
 import argparse, math, re
 from pathlib import Path
@@ -123,8 +129,13 @@ def split(a):
     x = B['position'][:, :2]
     crack = B['phase_field'] < 0.1
     sp = np.sqrt(np.median(B['volume']) / a.thickness)
-    eA = A['volume'] * A['fracture_energy_density']
-    eB = B['volume'] * B['fracture_energy_density']
+    vA, vB = A['volume'], B['volume']
+    if a.reference:
+        O = read_body(a.reference, a.body, names)
+        assert np.array_equal(O['particle_id'], B['particle_id']), "not the same particles"
+        vA = vB = O['volume']
+    eA = vA * A['fracture_energy_density']
+    eB = vB * B['fracture_energy_density']
     rel = lambda e: f" ({100 * (e / a.gc_area - 1):+.1f} % against Gc*A_f)" if a.gc_area else ""
     print(f"{len(x)} particles, spacing {sp * 1e3:.4f} mm; {crack.sum()} with c < 0.1 in the later snapshot, "
           f"x {x[crack, 0].min() * 1e3:.2f} to {x[crack, 0].max() * 1e3:.2f} mm, y {x[crack, 1].min() * 1e3:.2f} to {x[crack, 1].max() * 1e3:.2f} mm")
@@ -158,8 +169,9 @@ def slices(a):
     names = ['position', 'particle_id', 'volume', 'body_id', 'fracture_energy_density']
     O, A, B = (read_body(f, a.body, names) for f in (a.first, a.early, a.late))
     x, y = O['position'][:, 0], O['position'][:, 1]
-    eA = A['volume'] * A['fracture_energy_density']
-    eB = B['volume'] * B['fracture_energy_density']
+    vA, vB = (O['volume'], O['volume']) if a.reference else (A['volume'], B['volume'])
+    eA = vA * A['fracture_energy_density']
+    eB = vB * B['fracture_energy_density']
     unit = a.gc * a.thickness * a.width
     for x0 in np.arange(a.start, a.end - 1e-12, a.width):
         m = (x >= x0) & (x < x0 + a.width)
@@ -185,6 +197,7 @@ if __name__ == '__main__':
     q.add_argument('--body', type=int, default=0)
     q.add_argument('--thickness', type=float, default=1.0)
     q.add_argument('--gc-area', type=float)
+    q.add_argument('--reference', help='the undeformed snapshot: integrate over its volumes')
     q = sub.add_parser('slices')
     q.add_argument('first')
     q.add_argument('early')
@@ -197,5 +210,6 @@ if __name__ == '__main__':
     q.add_argument('--start', type=float, required=True)
     q.add_argument('--end', type=float, required=True)
     q.add_argument('--width', type=float, default=1e-3)
+    q.add_argument('--reference', action='store_true', help="integrate over FIRST's volumes")
     a = p.parse_args()
     {'profile': profile, 'split': split, 'slices': slices}[a.cmd](a)

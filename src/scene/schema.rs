@@ -21,7 +21,9 @@ pub use crate::fracture::cracks::section::{CrampSpec, ExplicitCrackSpec, Surface
 pub use crate::fracture::damage::section::{DamageModel, DamageSpec, WeibullSpec};
 pub use crate::fracture::dfg::section::DfgSpec;
 pub use crate::fracture::eigen::section::{EigenModel, EigenSpec};
-pub use crate::fracture::phase_field::section::{PhaseFieldSpec, PlaneStressSplit};
+pub use crate::fracture::phase_field::section::{
+    PhaseFieldSpec, PhaseFieldVolumes, PlaneStressSplit,
+};
 
 /// The whole scene file.
 #[derive(Debug, Clone, Deserialize, Serialize)]

@@ -36,7 +36,8 @@ use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, miehe_split_3d, Elastic};
 use crate::particles::Particles;
 use crate::scene::{
-    phase_field_gamma, CrackProfile, PhaseFieldMethod, PlaneKind, PlaneStressSplit, Scene, Stage,
+    phase_field_gamma, CrackProfile, PhaseFieldMethod, PhaseFieldVolumes, PlaneKind,
+    PlaneStressSplit, Scene, Stage,
 };
 use crate::tensor::resize;
 use rayon::prelude::*;
@@ -91,6 +92,20 @@ struct Body<const D: usize> {
     tip: Option<TipTracker<D>>,
     /// Plane stress with the in-plane split ([`PlaneStressSplit::InPlane`]).
     in_plane: bool,
+    /// The functional over the reference volumes V_p⁰
+    /// ([`PhaseFieldVolumes::Reference`]) instead of the present ones.
+    reference: bool,
+}
+
+impl<const D: usize> Body<D> {
+    /// The volumes this body's integrals take ([`PhaseFieldVolumes`]).
+    fn volumes<'a, const V: usize>(&self, parts: &'a Particles<D, V>) -> &'a [f64] {
+        if self.reference {
+            &parts.vol0
+        } else {
+            &parts.vol
+        }
+    }
 }
 
 /// Particles with c below this count as cracked for the crack tip.
@@ -172,12 +187,13 @@ pub(crate) struct PhaseState<const D: usize = 2> {
 /// One body's particles as the phase-field system reads them.
 fn of_body<'a, const D: usize, const V: usize>(
     parts: &'a Particles<D, V>,
+    vol: &'a [f64],
     body: u16,
     bins: Option<&'a Bins>,
 ) -> FieldParticles<'a, D> {
     FieldParticles {
         x: &parts.x,
-        vol: &parts.vol,
+        vol,
         history: &parts.history,
         body: Some((&parts.body, body)),
         bins,
@@ -228,13 +244,14 @@ impl<const D: usize> PhaseFields<D> {
                 .crack_origin
                 .or_else(|| spec.cracks.first().and_then(|c| c.points.first().copied()));
             let in_plane = pf.plane_stress_split == PlaneStressSplit::InPlane;
+            let reference = pf.volumes == PhaseFieldVolumes::Reference;
             let cracks: Vec<_> = spec
                 .cracks
                 .iter()
                 .map(|c| c.profile)
                 .zip(scene.cracks[b].iter().cloned())
                 .collect();
-            bodies.push((b, cracks, params, particles, origin, in_plane));
+            bodies.push((b, cracks, params, particles, origin, in_plane, reference));
         }
         if bodies.is_empty() {
             return None;
@@ -243,22 +260,25 @@ impl<const D: usize> PhaseFields<D> {
         parts.history = vec![0.0; parts.len()];
         let out = bodies
             .into_iter()
-            .map(|(b, cracks, params, particles, origin, in_plane)| {
-                let spacing = scene.particle_spacing(b);
-                for &p in &particles {
-                    let p = p as usize;
-                    parts.history[p] = initial_history(&parts.x[p], &cracks, &params, spacing);
-                }
-                Body {
-                    body: b as u16,
-                    particles,
-                    params,
-                    system: PhaseFieldSystem::new(),
-                    c: Vec::new(),
-                    tip: origin.map(|o| TipTracker::new(o.get::<D>())),
-                    in_plane,
-                }
-            })
+            .map(
+                |(b, cracks, params, particles, origin, in_plane, reference)| {
+                    let spacing = scene.particle_spacing(b);
+                    for &p in &particles {
+                        let p = p as usize;
+                        parts.history[p] = initial_history(&parts.x[p], &cracks, &params, spacing);
+                    }
+                    Body {
+                        body: b as u16,
+                        particles,
+                        params,
+                        system: PhaseFieldSystem::new(),
+                        c: Vec::new(),
+                        tip: origin.map(|o| TipTracker::new(o.get::<D>())),
+                        in_plane,
+                        reference,
+                    }
+                },
+            )
             .collect();
         let o = &scene.file.phase_field_solver;
         let method = match o.method {
@@ -375,7 +395,7 @@ impl<const D: usize> PhaseFields<D> {
                 continue;
             }
             let energy = SyncPtr::new(&mut self.energy);
-            let (c, xs, vol) = (&body.c, &parts.x, &parts.vol);
+            let (c, xs, vol) = (&body.c, &parts.x, body.volumes(parts));
             body.particles.par_iter().for_each(|&p| {
                 let p = p as usize;
                 let v =
@@ -400,7 +420,7 @@ impl<const D: usize> PhaseFields<D> {
         parts: &mut Particles<D, V>,
     ) -> Result<(), PhaseFieldError> {
         for body in &mut self.bodies {
-            let fp = of_body(parts, body.body, Some(bins));
+            let fp = of_body(parts, body.volumes(parts), body.body, Some(bins));
             body.system.assemble::<K>(geom, &fp, &body.params);
             body.system
                 .solve_into(geom.node_count(), self.method, &mut body.c)?;
@@ -460,7 +480,7 @@ impl<const D: usize> PhaseFields<D> {
     ) -> f64 {
         let mut r: f64 = 0.0;
         for body in &mut self.bodies {
-            let fp = of_body(parts, body.body, Some(bins));
+            let fp = of_body(parts, body.volumes(parts), body.body, Some(bins));
             r = r.max(body.system.history_residual::<K>(geom, &fp, &self.dh));
         }
         r
@@ -477,9 +497,15 @@ impl<const D: usize> PhaseFields<D> {
         let history = SyncPtr::new(&mut parts.history);
         let stress = SyncPtr::new(&mut parts.stress);
         let dh = SyncPtr::new(&mut self.dh);
-        let (strain, phase, material, vol) =
-            (&parts.strain, &parts.phase, &parts.material, &parts.vol);
+        let (strain, phase, material) = (&parts.strain, &parts.phase, &parts.material);
+        let (vol_present, vol_reference) = (&parts.vol, &parts.vol0);
         for body in &self.bodies {
+            // ([`Body::volumes`], field by field: `parts` is borrowed above)
+            let vol = if body.reference {
+                vol_reference
+            } else {
+                vol_present
+            };
             let k_f = body.params.k_f;
             let reaction = 4.0 * body.params.l0 * (1.0 - k_f) / body.params.gc_bar;
             let in_plane = body.in_plane;
@@ -896,7 +922,7 @@ cracks = [{ points = [[0.0, 0.002], [0.004, 0.002]] }]
             .unwrap();
         let c = pf.bodies[0].c.clone();
         let at = |parts: &Particles| {
-            let fp = of_body(parts, 0, None);
+            let fp = of_body(parts, &parts.vol, 0, None);
             system::fracture_energy::<K, 2>(&sim.geom, &c, &fp, &pf.bodies[0].params, |_| true)
         };
         let solved = at(&sim.parts);

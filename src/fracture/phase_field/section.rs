@@ -32,6 +32,28 @@ pub struct PhaseFieldSpec {
     /// particle (no effect, and rejected, in plane strain).
     #[serde(default)]
     pub plane_stress_split: PlaneStressSplit,
+    /// The particle volumes the functional is integrated over: eq. 57's
+    /// assembly, Ψ_f and the stagger residual.
+    #[serde(default)]
+    pub volumes: PhaseFieldVolumes,
+}
+
+/// Which volume V_p a particle brings to the phase field's integrals.
+/// Kakouris & Triantafyllou integrate the functional by the particles
+/// (eq. 57) without saying which volume; the crack density of Bourdin et
+/// al.'s functional is defined on the body, and an opened crack's band
+/// of broken particles stretches (V_p = J V_p⁰ grows) where the material
+/// has parted: docs/phase-field.md, "P3 (i): the present volumes against
+/// the reference ones".
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PhaseFieldVolumes {
+    /// The present volume J V_p⁰, as the momentum equation uses (the
+    /// default).
+    #[default]
+    Present,
+    /// The reference volume V_p⁰: the functional over the undeformed body.
+    Reference,
 }
 
 /// Miehe's spectral split in plane stress, where Kakouris & Triantafyllou do not say
