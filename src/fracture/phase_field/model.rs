@@ -100,10 +100,16 @@ struct Body<const D: usize> {
 impl<const D: usize> Body<D> {
     /// The volumes this body's integrals take ([`PhaseFieldVolumes`]).
     fn volumes<'a, const V: usize>(&self, parts: &'a Particles<D, V>) -> &'a [f64] {
+        self.volumes_of(&parts.vol, &parts.vol0)
+    }
+
+    /// [`Self::volumes`] from the two arrays, for a caller that holds
+    /// other fields of the particles mutably.
+    fn volumes_of<'a>(&self, present: &'a [f64], reference: &'a [f64]) -> &'a [f64] {
         if self.reference {
-            &parts.vol0
+            reference
         } else {
-            &parts.vol
+            present
         }
     }
 }
@@ -498,14 +504,9 @@ impl<const D: usize> PhaseFields<D> {
         let stress = SyncPtr::new(&mut parts.stress);
         let dh = SyncPtr::new(&mut self.dh);
         let (strain, phase, material) = (&parts.strain, &parts.phase, &parts.material);
-        let (vol_present, vol_reference) = (&parts.vol, &parts.vol0);
+        let (vol, vol0) = (&parts.vol, &parts.vol0);
         for body in &self.bodies {
-            // ([`Body::volumes`], field by field: `parts` is borrowed above)
-            let vol = if body.reference {
-                vol_reference
-            } else {
-                vol_present
-            };
+            let vol = body.volumes_of(vol, vol0);
             let k_f = body.params.k_f;
             let reaction = 4.0 * body.params.l0 * (1.0 - k_f) / body.params.gc_bar;
             let in_plane = body.in_plane;
