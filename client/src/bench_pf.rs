@@ -156,6 +156,7 @@ fn measure(
             PhaseFieldMethod::Direct => "direct (Cholesky every step)",
             PhaseFieldMethod::Pcg => "PCG (warm start, last factor)",
             PhaseFieldMethod::Multigrid => "PCG (warm start, multigrid V-cycle)",
+            PhaseFieldMethod::Auto => "auto (the faster of the two PCGs)",
         },
         mpm,
         assembly,

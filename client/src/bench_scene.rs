@@ -25,7 +25,7 @@ struct Measured {
     diagnostics: f64,
 }
 
-fn measure(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measured> {
+fn measure(scene: &Scene, threads: usize, steps: usize, after: f64) -> anyhow::Result<Measured> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -42,6 +42,7 @@ fn measure(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measur
                 .map_err(|e| anyhow::anyhow!("step {}: {e}", m.steps() + 1))?;
             Ok(true)
         };
+        while m.time() < after && step(&mut m)? {}
         for _ in 0..WARMUP {
             step(&mut m)?;
         }
@@ -54,7 +55,7 @@ fn measure(scene: &Scene, threads: usize, steps: usize) -> anyhow::Result<Measur
         let seconds = t0.elapsed().as_secs_f64();
         anyhow::ensure!(
             taken > 0,
-            "the scene ends within the {WARMUP} warm-up steps: nothing to time (lengthen time.end)"
+            "the scene ends before its {WARMUP} warm-up steps are done: nothing to time (lengthen time.end, or lower --after)"
         );
         let after = m.stage_times();
         let stages = after
@@ -80,14 +81,22 @@ pub fn run(
     out: Option<&Path>,
     steps: usize,
     thread_counts: &[usize],
+    after: f64,
 ) -> anyhow::Result<()> {
     let scene = Scene::from_path(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     let mut runs = Vec::new();
     for &threads in thread_counts {
-        let m = measure(&scene, threads, steps)?;
+        let m = measure(&scene, threads, steps, after)?;
         eprintln!(
-            "{} threads: {} steps in {:.3} s",
-            threads, m.steps, m.seconds
+            "{} threads: {} steps in {:.3} s{}",
+            threads,
+            m.steps,
+            m.seconds,
+            if after > 0.0 {
+                format!(" (from t = {after:e} s)")
+            } else {
+                String::new()
+            }
         );
         runs.push(m);
     }
@@ -180,8 +189,8 @@ pub fn run(
         let list: Vec<String> = thread_counts.iter().map(|t| t.to_string()).collect();
         let doc = format!(
             "# `{}` on {} ({} logical CPUs)\n\n\
-             Measured by `cargo run --release -p cleave-client -- bench --scene {} --steps {steps} --threads {}`: \
-             {} particles, {WARMUP} warm-up steps, then up to {steps} steps timed (fewer where the scene ends), \
+             Measured by `cargo run --release -p cleave-client -- bench --scene {}{} --steps {steps} --threads {}`: \
+             {} particles, {}{WARMUP} warm-up steps, then up to {steps} steps timed (fewer where the scene ends), \
              each thread count in its own pool, back to back in one process. \
              Efficiency is the speed-up over the ratio of thread counts (100 % is perfect scaling); \
              a stage's speed-up is from the first thread count to the last.\n\n{md}",
@@ -189,8 +198,10 @@ pub fn run(
             crate::bench::cpu_name(),
             std::thread::available_parallelism().map_or(0, |n| n.get()),
             path.display(),
+            if after > 0.0 { format!(" --after {after:e}") } else { String::new() },
             list.join(","),
             base.particles,
+            if after > 0.0 { format!("run untimed to t = {after:e} s, then ") } else { String::new() },
         );
         if let Some(dir) = out.parent() {
             std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

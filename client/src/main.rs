@@ -93,6 +93,12 @@ enum Command {
         /// written to --out if given).
         #[arg(long, conflicts_with_all = ["dim", "largest", "transfer", "kernel", "taichi"])]
         scene: Option<PathBuf>,
+        /// With --scene: run the scene untimed to this simulated time (s)
+        /// first, at each thread count, then warm up and time its steps
+        /// there (a long run's late steps, whose particles have moved away
+        /// from the order they were sorted in at the start).
+        #[arg(long, requires = "scene", value_parser = non_negative_seconds)]
+        after: Option<f64>,
         /// Dimension of the benchmark block: 2 (linear elastic, FLIP and
         /// APIC) or 3 (neo-Hookean, APIC, 8 particles per cell).
         #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
@@ -664,6 +670,7 @@ fn local_main(command: Command) -> ExitCode {
         }
         Command::Bench {
             scene,
+            after,
             dim,
             out,
             steps,
@@ -675,7 +682,7 @@ fn local_main(command: Command) -> ExitCode {
         } => match match scene {
             Some(scene) => thread_counts(&threads).and_then(|t| {
                 anyhow::ensure!(steps > 0, "--steps must be at least 1");
-                bench_scene::run(&scene, out.as_deref(), steps, &t)
+                bench_scene::run(&scene, out.as_deref(), steps, &t, after.unwrap_or(0.0))
             }),
             None => bench_dims(
                 dim,
@@ -693,6 +700,15 @@ fn local_main(command: Command) -> ExitCode {
                 ExitCode::from(EXIT_FAILED)
             }
         },
+    }
+}
+
+/// `--after SECONDS`: a finite simulated time, not negative.
+fn non_negative_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(t) if t.is_finite() && t >= 0.0 => Ok(t),
+        Ok(t) => Err(format!("{t} is not a time: give seconds, 0 or more")),
+        Err(e) => Err(format!("{s:?} is not a number of seconds: {e}")),
     }
 }
 

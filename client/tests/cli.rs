@@ -1282,6 +1282,45 @@ fn bench_scene_times_every_stage_of_the_plan() {
     assert!(stderr(&o).contains("warm-up"), "{}", stderr(&o));
 }
 
+/// `cleave bench --scene FILE --after T` runs the scene untimed to T and
+/// times its steps there (the table's command says so); a T past the
+/// scene's end leaves nothing to time, and a negative T, or `--after`
+/// without a scene, is refused before anything runs.
+#[test]
+fn bench_scene_after_times_the_late_steps() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("late.md");
+    let scene = scenes().join("spinning_disk.toml");
+    let o = cleave()
+        .args(["bench", "--scene"])
+        .arg(&scene)
+        .args(["--after", "0.15", "--steps", "2", "--threads", "1", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("(from t = 1.5e-1 s)"), "{}", stderr(&o));
+    let doc = std::fs::read_to_string(&out).unwrap();
+    assert!(doc.contains("--after 1.5e-1 --steps 2"), "{doc}");
+    assert!(doc.contains("run untimed to t = 1.5e-1 s"), "{doc}");
+    assert!(doc.lines().any(|l| l.starts_with("| 1 | 2 |")), "{doc}");
+    let o = cleave()
+        .args(["bench", "--scene"])
+        .arg(&scene)
+        .args(["--after", "5", "--threads", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("lower --after"), "{}", stderr(&o));
+    for args in [
+        vec!["bench", "--after", "0.1"],
+        vec!["bench", "--scene", "x.toml", "--after=-1"],
+    ] {
+        let o = cleave().args(&args).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    }
+}
+
 /// `cleave gc-polar` with a 3D tensor (9 numbers): Gc of a plane by its
 /// normal and the extremes over the sphere, from the 1D profile along n.
 /// γ with a(n) = 1 + 3 n_z⁴: Gc_min = √2 Ḡc (a = 1) with n in the xy plane,

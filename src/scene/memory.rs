@@ -325,7 +325,8 @@ pub(super) fn estimate(
             // copy beside them as its preconditioner; the supernodal
             // structure and the factorization's workspace, per dof
             let value = match file.phase_field_solver.method {
-                PhaseFieldMethod::Pcg => 8.0 + 4.0,
+                // "auto" holds the factor and the hierarchy during its trial
+                PhaseFieldMethod::Pcg | PhaseFieldMethod::Auto => 8.0 + 4.0,
                 _ => 8.0,
             };
             factor += (l * value + dofs * 64.0) as u64;

@@ -96,6 +96,15 @@ pub enum PhaseFieldMethod {
     /// no symbolic analysis when the active nodes change, and a cheap
     /// rebuild when the history has grown (`refactor_after` is its cost).
     Multigrid,
+    /// Whichever of `pcg` and `multigrid` takes less wall time on this
+    /// scene and this machine: each system's first solves are made by both
+    /// (the factor's solutions are used) and timed, then the faster goes
+    /// on alone. Until then, and when the factor is chosen, a run gives
+    /// `pcg`'s results bit for bit; the choice rests on seconds, so it can
+    /// differ between machines, thread counts and loads. The run's summary
+    /// says what was chosen (`auto_factor`, `auto_multigrid`): to repeat a
+    /// run exactly, name that method.
+    Auto,
 }
 
 /// Options of the phase-field solve.

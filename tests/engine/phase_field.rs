@@ -4,7 +4,8 @@
 
 use cleave::fracture::phase_field::anisotropy::{surface_energy, Gamma};
 use cleave::fracture::phase_field::system::{
-    fracture_energy, FieldParticles, PhaseFieldParams, PhaseFieldSystem, SolveMethod, SolveStats,
+    fracture_energy, AutoChoice, FieldParticles, PhaseFieldParams, PhaseFieldSystem, SolveMethod,
+    SolveStats, AUTO_TRIAL_SOLVES,
 };
 use cleave::grid::shape::{CubicBspline, Gimp, Kernel, Linear, QuadraticBspline};
 use cleave::grid::{Bins, GridGeom};
@@ -1078,6 +1079,142 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
     );
 }
 
+/// Method "auto" on a disk whose crack band grows a little every solve:
+/// during its trial, and on when it chooses the factor, its solutions and
+/// counts are method "pcg"'s bit for bit; its trial ends after
+/// `AUTO_TRIAL_SOLVES` solves with one choice, counted in the stats with
+/// the seconds of the solves it dropped; handed to the multigrid (chosen
+/// here by hand, as the trial's own choice rests on the machine's speed),
+/// it makes no factorization more and stays on the direct solution.
+#[test]
+fn method_auto_is_pcg_until_it_hands_over_and_the_multigrid_after() {
+    let (geom, x0, vol0) = block(0.0625, 4.0, 2);
+    let keep: Vec<usize> = (0..x0.len())
+        .filter(|&p| (x0[p][0] - 0.1).hypot(x0[p][1] + 0.05) < 3.7)
+        .collect();
+    let x: Vec<[f64; 2]> = keep.iter().map(|&p| x0[p]).collect();
+    let vol: Vec<f64> = keep.iter().map(|&p| vol0[p]).collect();
+    let params = PhaseFieldParams {
+        gc_bar: 1.0,
+        l0: 0.25,
+        k_f: 0.0,
+        gamma: Gamma::default(),
+        gamma3: Default::default(),
+    };
+    let history = |k: usize| -> Vec<f64> {
+        let tip = -1.0 + 0.05 * k as f64;
+        x.iter()
+            .map(|p| {
+                if p[1].abs() < 0.05 && p[0] < tip {
+                    1e3
+                } else {
+                    0.5
+                }
+            })
+            .collect()
+    };
+    let (tolerance, max_iterations, refactor_after) = (1e-10, 500, 10);
+    let pcg = SolveMethod::Pcg {
+        tolerance,
+        max_iterations,
+        refactor_after,
+    };
+    let auto = SolveMethod::Auto {
+        tolerance,
+        max_iterations,
+        refactor_after,
+    };
+    let solves = AUTO_TRIAL_SOLVES as usize + 6;
+    let mut reference = PhaseFieldSystem::new();
+    let mut direct = PhaseFieldSystem::new();
+    let (mut want, mut exact) = (Vec::new(), Vec::new());
+    for k in 0..solves {
+        let h = history(k);
+        let parts = FieldParticles::all(&x, &vol, &h);
+        reference.assemble::<QuadraticBspline>(&geom, &parts, &params);
+        want.push(reference.solve_with(geom.node_count(), pcg).unwrap());
+        direct.assemble::<QuadraticBspline>(&geom, &parts, &params);
+        exact.push(direct.solve(geom.node_count()).unwrap());
+    }
+    let pcg_stats = reference.stats;
+    // `hand_over`: None lets the trial choose; Some ends it after 3 solves
+    for hand_over in [None, Some(AutoChoice::Factor), Some(AutoChoice::Multigrid)] {
+        let mut sys = PhaseFieldSystem::new();
+        let mut handed = None;
+        for (k, (want, exact)) in want.iter().zip(&exact).enumerate() {
+            if k == 3 {
+                if let Some(choice) = hand_over {
+                    sys.choose_auto(choice);
+                }
+            }
+            let h = history(k);
+            sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
+            let before = sys.stats;
+            let c = sys.solve_with(geom.node_count(), auto).unwrap();
+            if k + 1 < AUTO_TRIAL_SOLVES as usize && hand_over.is_none() {
+                assert_eq!(sys.auto_choice(), None, "solve {k}: still in the trial");
+            }
+            let choice = sys.auto_choice();
+            if handed.is_none() && choice == Some(AutoChoice::Multigrid) {
+                handed = Some(k);
+            }
+            match handed {
+                // the trial, or the factor chosen: pcg's bits
+                None => assert!(
+                    c.iter().zip(want).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{hand_over:?}, solve {k}: not pcg's bits"
+                ),
+                Some(first) => {
+                    let worst = c
+                        .iter()
+                        .zip(exact)
+                        .map(|(a, b)| (a - b).abs())
+                        .fold(0.0, f64::max);
+                    assert!(worst < 1e-7, "{hand_over:?}, solve {k}: {worst}");
+                    if k > first {
+                        assert_eq!(
+                            sys.stats.preconditioner_factorizations,
+                            before.preconditioner_factorizations,
+                            "solve {k}: the multigrid makes no factor"
+                        );
+                    }
+                }
+            }
+        }
+        let s = sys.stats;
+        assert_eq!(s.auto_factor + s.auto_multigrid, 1, "{hand_over:?}: {s:?}");
+        assert!(
+            s.auto_trial > 0.0,
+            "{hand_over:?}: the dropped solves' seconds"
+        );
+        match sys.auto_choice() {
+            Some(AutoChoice::Factor) => {
+                assert_eq!(s.auto_factor, 1);
+                assert_eq!(
+                    (s.factorizations, s.pcg_solves, s.pcg_iterations),
+                    (
+                        pcg_stats.factorizations,
+                        pcg_stats.pcg_solves,
+                        pcg_stats.pcg_iterations
+                    ),
+                    "{hand_over:?}: pcg's counts"
+                );
+            }
+            Some(AutoChoice::Multigrid) => assert!(handed.is_some()),
+            None => panic!("{hand_over:?}: no choice after {solves} solves"),
+        }
+        println!(
+            "{hand_over:?}: chose {:?} (handed over at {handed:?}), {} factorizations, trial's dropped solves {:.3} s",
+            sys.auto_choice(),
+            s.factorizations,
+            s.auto_trial
+        );
+        if let Some(choice) = hand_over {
+            assert_eq!(sys.auto_choice(), Some(choice), "the choice by hand holds");
+        }
+    }
+}
+
 /// After the node set changes (a row of particles joins the body), PCG
 /// starts from the c the caller kept, not from zero; and a multigrid whose
 /// fresh hierarchy takes more than `rebuild_after` iterations from a warm
@@ -1273,6 +1410,52 @@ fn the_factorizations_are_counted_by_kind_in_the_summary_and_the_series() {
         }
         assert_eq!(column_sum(&rec, "pf_fallbacks"), s.fallbacks as f64);
     }
+}
+
+/// `method = "auto"` in a scene: on the coarse P1, whose pre-crack (a
+/// history far above the rest) keeps PCG with the multigrid's first
+/// hierarchy from converging within `max_iterations`, the trial ends at its
+/// first solve with the factor, whatever the machine's speed, and the run is method "pcg"'s bit for bit but its
+/// seconds; the summary says what was chosen and what the trial's dropped
+/// solves cost.
+#[test]
+fn a_scene_with_method_auto_runs_pcg_where_the_multigrid_declines() {
+    let base = p1_coarse("6.0e-6").replace("series_rows = 81", "series_rows = 7");
+    let run = |method: &str| {
+        run_text(&format!(
+            "{base}\n[phase_field_solver]\nmethod = \"{method}\"\n"
+        ))
+    };
+    let (pcg, pcg_summary) = run("pcg");
+    let (auto, summary) = run("auto");
+    let s = pf_stats(&summary);
+    assert_eq!((s.auto_factor, s.auto_multigrid), (1, 0), "{s:?}");
+    assert!(s.auto_trial > 0.0, "{s:?}");
+    assert_eq!(
+        (s.factorizations, s.pcg_iterations),
+        {
+            let p = pf_stats(&pcg_summary);
+            (p.factorizations, p.pcg_iterations)
+        },
+        "pcg's counts"
+    );
+    assert_eq!(auto.columns, pcg.columns);
+    assert_eq!(auto.rows.len(), 7);
+    let mut compared = 0;
+    for (a, p) in auto.rows.iter().zip(&pcg.rows) {
+        for name in auto.columns.iter().filter(|c| !c.ends_with("_s")) {
+            let (x, y) = (a.get(&auto.columns, name), p.get(&pcg.columns, name));
+            assert_eq!(x.map(f64::to_bits), y.map(f64::to_bits), "{name}");
+            compared += 1;
+        }
+    }
+    assert!(compared > 100, "{compared} values");
+    let unknown = cleave::scene::Scene::from_text(
+        &format!("{base}\n[phase_field_solver]\nmethod = \"fastest\"\n"),
+        None,
+    );
+    let e = unknown.expect_err("an unknown method").to_string();
+    assert!(e.contains("auto") && e.contains("method"), "{e}");
 }
 
 /// The phase-field solver's counters of a run's summary.

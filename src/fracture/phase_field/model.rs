@@ -299,6 +299,11 @@ impl<const D: usize> PhaseFields<D> {
                 max_iterations: o.max_iterations as usize,
                 rebuild_after: o.refactor_after as usize,
             },
+            PhaseFieldMethod::Auto => SolveMethod::Auto {
+                tolerance: o.tolerance,
+                max_iterations: o.max_iterations as usize,
+                refactor_after: o.refactor_after as usize,
+            },
         };
         let n = parts.len();
         Some(PhaseFields {
@@ -684,6 +689,9 @@ impl<const D: usize> PhaseFields<D> {
             s.direct_factorizations += t.direct_factorizations;
             s.direct_factorization += t.direct_factorization;
             s.fallbacks += t.fallbacks;
+            s.auto_trial += t.auto_trial;
+            s.auto_factor += t.auto_factor;
+            s.auto_multigrid += t.auto_multigrid;
         }
         s
     }

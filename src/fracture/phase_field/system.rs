@@ -118,6 +118,16 @@ pub struct SolveStats {
     /// Direct solves after PCG with a fresh preconditioner (or multigrid
     /// hierarchy) failed to converge: each one factorization more.
     pub fallbacks: u64,
+    /// Method "auto": seconds spent in its trial solving with the method
+    /// whose solutions were not used (the multigrid beside the factor; in
+    /// no other figure above), and how many systems its trial gave to the
+    /// factor and to the multigrid.
+    #[serde(default)]
+    pub auto_trial: f64,
+    #[serde(default)]
+    pub auto_factor: u64,
+    #[serde(default)]
+    pub auto_multigrid: u64,
 }
 
 /// The kinds of numeric factorization a run makes (see
@@ -157,6 +167,49 @@ pub enum SolveMethod {
         max_iterations: usize,
         rebuild_after: usize,
     },
+    /// Whichever of `Pcg` (with the factor) and `Multigrid` takes less
+    /// wall time on this system and this machine: for its first
+    /// [`AUTO_TRIAL_SOLVES`] solves, each system is solved by `Pcg`, whose
+    /// solutions are used, and again by `Multigrid` from the same start,
+    /// whose solutions are dropped; then the one whose solves took less
+    /// time goes on alone (`refactor_after` is both methods' renewal cost).
+    /// Until the choice, and whenever `Pcg` is chosen, the results are
+    /// those of method `Pcg` bit for bit; the choice itself rests on
+    /// seconds, so another machine or a busier one may choose otherwise.
+    Auto {
+        tolerance: f64,
+        max_iterations: usize,
+        refactor_after: usize,
+    },
+}
+
+/// Solves of method "auto"'s trial (each made twice): enough for both
+/// methods to amortise their first factorization / hierarchy over a few
+/// steps and for the renewal rule to run, few enough that doubling the
+/// solves costs a small part of a long run.
+pub const AUTO_TRIAL_SOLVES: u32 = 12;
+
+/// What method "auto"'s trial chose for one system.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AutoChoice {
+    /// PCG preconditioned by the Cholesky factor (method "pcg").
+    Factor,
+    /// PCG preconditioned by the multigrid (method "multigrid").
+    Multigrid,
+}
+
+/// The state of method "auto"'s trial (see [`SolveMethod::Auto`]).
+#[derive(Debug, Default)]
+struct AutoTrial {
+    solves: u32,
+    factor_seconds: f64,
+    multigrid_seconds: f64,
+    /// The multigrid's renewal rule (`cycle_cost`, `cycle_solves`,
+    /// `refactor_next`) while the factor's is the system's.
+    renewal: (f64, u32, bool),
+    /// The multigrid's solution, dropped.
+    x: Vec<f64>,
+    choice: Option<AutoChoice>,
 }
 
 /// The particles of one discrete field, as the assembly reads them, in 2D
@@ -576,6 +629,7 @@ pub struct PhaseFieldSystem<const D: usize = 2> {
     /// gone on with the factor for good.
     multigrid_poor: u32,
     multigrid_declined: bool,
+    auto: AutoTrial,
     /// The kernel's two-scale mask and the grid's nodes per axis, for the
     /// multigrid's levels.
     refine: &'static [f64],
@@ -624,6 +678,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
             use_multigrid: false,
             multigrid_poor: 0,
             multigrid_declined: false,
+            auto: AutoTrial::default(),
             refine: &[],
             grid_nodes: [0; D],
             scratch: Vec::new(),
@@ -1056,6 +1111,37 @@ impl<const D: usize> PhaseFieldSystem<D> {
         if n == 0 {
             return Ok(());
         }
+        match method {
+            SolveMethod::Auto {
+                tolerance,
+                max_iterations,
+                refactor_after,
+            } => match self.auto.choice {
+                Some(AutoChoice::Factor) => self.solve_method(SolveMethod::Pcg {
+                    tolerance,
+                    max_iterations,
+                    refactor_after,
+                })?,
+                Some(AutoChoice::Multigrid) => self.solve_method(SolveMethod::Multigrid {
+                    tolerance,
+                    max_iterations,
+                    rebuild_after: refactor_after,
+                })?,
+                None => self.auto_trial(tolerance, max_iterations, refactor_after)?,
+            },
+            m => self.solve_method(m)?,
+        }
+        // the solution is in `x`
+        for (d, &node) in self.dofs.iter().enumerate() {
+            c[node as usize] = self.x[d];
+        }
+        std::mem::swap(&mut self.last, &mut self.x);
+        Ok(())
+    }
+
+    /// One solve by `method` (not `Auto`) from `last`, into `x`.
+    fn solve_method(&mut self, method: SolveMethod) -> Result<(), PhaseFieldError> {
+        let n = self.dofs.len();
         let method = match method {
             SolveMethod::Multigrid {
                 tolerance,
@@ -1108,13 +1194,128 @@ impl<const D: usize> PhaseFieldSystem<D> {
                 refactor_after,
             } => self.renew(tolerance, max_iterations, refactor_after)?,
             SolveMethod::Direct => self.direct()?,
+            SolveMethod::Auto { .. } => {
+                return Err(PhaseFieldError::Solver(
+                    "method auto resolves to pcg or multigrid before a solve".into(),
+                ))
+            }
         }
-        // the solution is in `x`
-        for (d, &node) in self.dofs.iter().enumerate() {
-            c[node as usize] = self.x[d];
-        }
-        std::mem::swap(&mut self.last, &mut self.x);
         Ok(())
+    }
+
+    /// One solve of method "auto"'s trial: PCG with the factor, whose
+    /// solution is kept in `x`, then the multigrid on the same system from
+    /// the same start, timed, with its own renewal rule and its solution and
+    /// counts dropped (its seconds go to [`SolveStats::auto_trial`]). After
+    /// [`AUTO_TRIAL_SOLVES`] solves, or once the multigrid has declined
+    /// this system, the method that took less time is chosen.
+    fn auto_trial(
+        &mut self,
+        tolerance: f64,
+        max_iterations: usize,
+        refactor_after: usize,
+    ) -> Result<(), PhaseFieldError> {
+        let t0 = Instant::now();
+        self.solve_method(SolveMethod::Pcg {
+            tolerance,
+            max_iterations,
+            refactor_after,
+        })?;
+        self.auto.factor_seconds += t0.elapsed().as_secs_f64();
+        if !self.multigrid_declined {
+            let kept = self.stats;
+            std::mem::swap(&mut self.x, &mut self.auto.x);
+            self.swap_renewal();
+            self.use_multigrid = true;
+            let t1 = Instant::now();
+            let converged = self.multigrid_attempt(tolerance, max_iterations, refactor_after);
+            let seconds = t1.elapsed().as_secs_f64();
+            self.use_multigrid = false;
+            self.swap_renewal();
+            std::mem::swap(&mut self.x, &mut self.auto.x);
+            self.stats = kept;
+            self.stats.auto_trial += seconds;
+            self.auto.multigrid_seconds += seconds;
+            if !converged {
+                // a fresh hierarchy that does not converge would have
+                // cost a direct solve on top
+                self.multigrid_declined = true;
+                self.multigrid = None;
+            }
+        }
+        self.auto.solves += 1;
+        if self.multigrid_declined || self.auto.solves >= AUTO_TRIAL_SOLVES {
+            self.auto_choose();
+        }
+        Ok(())
+    }
+
+    /// Ends method "auto"'s trial: the faster method goes on alone, and the
+    /// other's memory (the factor's values, or the hierarchy) is freed.
+    fn auto_choose(&mut self) {
+        let a = &mut self.auto;
+        let choice = if !self.multigrid_declined && a.multigrid_seconds < a.factor_seconds {
+            AutoChoice::Multigrid
+        } else {
+            AutoChoice::Factor
+        };
+        tracing::info!(
+            unknowns = self.dofs.len(),
+            solves = a.solves,
+            factor_s = a.factor_seconds,
+            multigrid_s = a.multigrid_seconds,
+            declined = self.multigrid_declined,
+            ?choice,
+            "phase-field method auto: chosen"
+        );
+        a.choice = Some(choice);
+        a.x = Vec::new();
+        match choice {
+            AutoChoice::Multigrid => {
+                self.swap_renewal();
+                // should the multigrid decline later, PCG makes a factor anew
+                self.factored = false;
+                self.l_values = Vec::new();
+                self.l_single = Vec::new();
+                self.stats.auto_multigrid += 1;
+            }
+            AutoChoice::Factor => {
+                self.multigrid = None;
+                self.stats.auto_factor += 1;
+            }
+        }
+    }
+
+    /// Exchanges the live renewal rule with the one method "auto"'s trial
+    /// keeps for the multigrid.
+    fn swap_renewal(&mut self) {
+        let (cost, solves, next) = self.auto.renewal;
+        self.auto.renewal = (self.cycle_cost, self.cycle_solves, self.refactor_next);
+        self.cycle_cost = cost;
+        self.cycle_solves = solves;
+        self.refactor_next = next;
+    }
+
+    /// What method "auto" chose for this system (None: still in its trial,
+    /// or another method).
+    pub fn auto_choice(&self) -> Option<AutoChoice> {
+        self.auto.choice
+    }
+
+    /// Ends method "auto"'s trial now with `choice` rather than the one its
+    /// seconds would make (a trial's choice rests on the machine's speed;
+    /// this lets a test follow each hand-over). No effect after the choice.
+    #[doc(hidden)]
+    pub fn choose_auto(&mut self, choice: AutoChoice) {
+        if self.auto.choice.is_some() {
+            return;
+        }
+        let a = &mut self.auto;
+        (a.factor_seconds, a.multigrid_seconds) = match choice {
+            AutoChoice::Factor => (0.0, 1.0),
+            AutoChoice::Multigrid => (1.0, 0.0),
+        };
+        self.auto_choose();
     }
 
     /// PCG's fresh start, which begins a new cycle of its renewal rule: a
@@ -1178,6 +1379,27 @@ impl<const D: usize> PhaseFieldSystem<D> {
         max_iterations: usize,
         rebuild_after: usize,
     ) -> Result<(), PhaseFieldError> {
+        if self.multigrid_attempt(tolerance, max_iterations, rebuild_after) {
+            return Ok(());
+        }
+        let n = self.dofs.len();
+        tracing::debug!(
+            unknowns = n,
+            "phase-field multigrid: PCG did not converge with a fresh hierarchy; solving directly"
+        );
+        self.use_multigrid = false;
+        self.stats.fallbacks += 1;
+        self.direct()
+    }
+
+    /// [`Self::multigrid_solve`] but its direct solve: whether PCG with
+    /// the hierarchy (refreshed, or fresh) converged.
+    fn multigrid_attempt(
+        &mut self,
+        tolerance: f64,
+        max_iterations: usize,
+        rebuild_after: usize,
+    ) -> bool {
         let n = self.dofs.len();
         if let Some(mg) = self
             .multigrid
@@ -1192,7 +1414,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
                     self.timed_pcg(tolerance, max_iterations.min(2 * rebuild_after.max(1)));
                 self.count_cycle(iterations);
                 if converged {
-                    return Ok(());
+                    return true;
                 }
             }
         }
@@ -1238,14 +1460,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
             self.multigrid = None;
             self.refactor_next = true;
         }
-        if converged {
-            Ok(())
-        } else {
-            tracing::debug!(unknowns = n, iterations, "phase-field multigrid: PCG did not converge with a fresh hierarchy; solving directly");
-            self.use_multigrid = false;
-            self.stats.fallbacks += 1;
-            self.direct()
-        }
+        converged
     }
 
     fn timed_pcg(&mut self, tolerance: f64, max_iterations: usize) -> (bool, usize) {
