@@ -176,7 +176,10 @@ where
         let s: State<'static, D, V> = postcard::from_bytes(cp.state_bytes().unwrap_or_default())
             .map_err(|e| CheckpointError::Decode(e.to_string()))?;
         let bad = |m: String| CheckpointError::Inconsistent(m);
-        if s.parts.len() != sim.parts.len() || s.parts.id != sim.parts.id {
+        // with `grid.resort_every` the particles were saved in the order of
+        // their last re-sort (matched by id below)
+        let resorts = scene.file.grid.resort_every > 0;
+        if s.parts.len() != sim.parts.len() || (!resorts && s.parts.id != sim.parts.id) {
             return Err(bad(format!(
                 "{} particles in the checkpoint, {} seeded from the scene (or in another order)",
                 s.parts.len(),
@@ -202,8 +205,35 @@ where
         {
             return Err(bad("its stages are not the scene's".into()));
         }
+        let setup_ids = std::mem::take(&mut sim.parts.id);
         sim.parts = s.parts.into_owned();
         sim.group_of = sim.parts.group.clone();
+        if sim.parts.id != setup_ids {
+            // a run with `grid.resort_every` saved its particles in
+            // another order than setup's: the sides' traction lists follow
+            let mut setup_of = vec![u32::MAX; setup_ids.len()];
+            for (k, &id) in setup_ids.iter().enumerate() {
+                if let Some(s) = setup_of.get_mut(id as usize) {
+                    *s = k as u32;
+                }
+            }
+            let order: Vec<u32> = sim
+                .parts
+                .id
+                .iter()
+                .map(|&id| setup_of.get(id as usize).copied().unwrap_or(u32::MAX))
+                .collect();
+            let mut seen = vec![false; order.len()];
+            let every_once = order.iter().all(|&k| {
+                (k as usize) < seen.len() && !std::mem::replace(&mut seen[k as usize], true)
+            });
+            if !every_once {
+                return Err(bad(
+                    "its particles are not the ones seeded from the scene".to_string()
+                ));
+            }
+            sim.tractions.renumber(&order);
+        }
         sim.bins
             .restore(&sim.geom, &sim.parts.x, s.bins_order.into_owned())
             .map_err(bad)?;

@@ -199,6 +199,9 @@ pub struct Simulation<const D: usize = 2, const V: usize = 3> {
     /// Dense contact group of each particle (a copy of `parts.group` the
     /// field slots borrow while the step mutates the particles).
     group_of: Vec<u8>,
+    /// A re-sort happened while `group_of` was lent to the step's slots:
+    /// copied anew when it comes back.
+    resorted: bool,
     apic: bool,
     /// MUSL scratch: where the particles move this step.
     x_next: Vec<[f64; D]>,
@@ -612,6 +615,9 @@ where
         }
         self.multi = Some(multi);
         self.group_of = group;
+        if std::mem::take(&mut self.resorted) {
+            self.group_of.clone_from(&self.parts.group);
+        }
         r
     }
 }
@@ -941,6 +947,13 @@ where
                         }
                         true
                     }
+                    Stage::Resort => {
+                        let every = u64::from(self.scene.file.grid.resort_every.max(1));
+                        if self.step % every == 0 {
+                            self.resort(K::N);
+                        }
+                        true
+                    }
                     // these run before the scatter and after the slots (`execute`)
                     Stage::Supports
                     | Stage::DamageField
@@ -1104,6 +1117,31 @@ where
     /// the particle guards (non-finite values, leaving the grid, vanished
     /// volume) turn a bad particle into the run's error. Returns whether a
     /// particle changed tile (the re-binning's cue).
+    /// Stage `resort`: the particle arrays permuted into the bins' order
+    /// (tile by tile, and by support in a tile: the order setup stores
+    /// them in), with what refers to particles by index (the sides'
+    /// traction lists, the contact groups' copy), and the bins made anew.
+    /// The scatter then reads each tile's particles from one contiguous
+    /// range again. Within a tile the bins keep the particles of one
+    /// support in index order, which the permutation changes, so later
+    /// scatters may add in another order: results agree to round-off,
+    /// not bit for bit. Validation keeps it to scenes without fracture
+    /// models, whose per-particle state would have to follow.
+    fn resort(&mut self, support: usize) {
+        let order = &self.bins.order;
+        if order.iter().enumerate().all(|(k, &p)| p as usize == k) {
+            return;
+        }
+        let order = std::mem::take(&mut self.bins.order);
+        setup::permute(&mut self.parts, &order);
+        self.tractions.renumber(&order);
+        // (with contact `group_of` is lent to the slots now: `resorted`
+        // copies it when it comes back)
+        self.group_of.clone_from(&self.parts.group);
+        self.resorted = true;
+        self.bins = Bins::new(&self.geom, &self.parts.x, support);
+    }
+
     fn finish_gather(&mut self, dt: f64, stats: g2p::G2pStats<D>) -> Result<bool, SimError> {
         self.step += 1;
         self.time += dt;

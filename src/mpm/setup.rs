@@ -224,6 +224,7 @@ where
         tractions,
         models,
         group_of: parts.group.clone(),
+        resorted: false,
         parts,
         apic,
         x_next: Vec::new(),
@@ -277,8 +278,8 @@ fn registry<const D: usize, const V: usize>() -> &'static [Build<D, V>] {
 }
 
 /// Reorders every particle array so that new index k holds old particle
-/// `order[k]`.
-fn permute<const D: usize, const V: usize>(parts: &mut Particles<D, V>, order: &[u32]) {
+/// `order[k]` (the LME supports, scratch refilled each step, are left).
+pub(super) fn permute<const D: usize, const V: usize>(parts: &mut Particles<D, V>, order: &[u32]) {
     fn apply<T: Copy>(v: &mut Vec<T>, order: &[u32]) {
         if !v.is_empty() {
             *v = order.iter().map(|&p| v[p as usize]).collect();
@@ -298,8 +299,12 @@ fn permute<const D: usize, const V: usize>(parts: &mut Particles<D, V>, order: &
     apply(&mut parts.def_grad, order);
     apply(&mut parts.affine, order);
     apply(&mut parts.half_size, order);
+    apply(&mut parts.phase, order);
+    apply(&mut parts.history, order);
     apply(&mut parts.damage, order);
     apply(&mut parts.strength, order);
+    apply(&mut parts.grad_u, order);
+    apply(&mut parts.softening, order);
     apply(&mut parts.accel, order);
 }
 
@@ -322,6 +327,24 @@ struct TractionSide<const D: usize> {
 }
 
 impl<const D: usize> Tractions<D> {
+    /// After the particle arrays were permuted by `order` (new index k
+    /// holds old particle `order[k]`): the sides' particles by their new
+    /// indices.
+    pub(super) fn renumber(&mut self, order: &[u32]) {
+        if self.sides.is_empty() {
+            return;
+        }
+        let mut new_of = vec![0u32; order.len()];
+        for (k, &p) in order.iter().enumerate() {
+            new_of[p as usize] = k as u32;
+        }
+        for side in &mut self.sides {
+            for (p, _) in &mut side.particles {
+                *p = new_of[*p as usize];
+            }
+        }
+    }
+
     fn new<const V: usize>(scene: &Scene, parts: &Particles<D, V>) -> Tractions<D> {
         let file = &scene.file;
         let b = &file.grid.boundary;

@@ -110,6 +110,10 @@ pub enum Stage {
     /// The particles that changed tile are re-binned (a no-op when none
     /// did).
     Rebin,
+    /// Every `grid.resort_every` steps, the particle arrays are permuted
+    /// into the bins' order (by tile, then by support), which keeps each
+    /// tile's order of summation: the particles' states do not change.
+    Resort,
     /// The staggered scheme's residual; more phase-field solves and
     /// history updates while it is above the tolerance.
     PhaseFieldStagger,
@@ -158,7 +162,7 @@ pub enum Stage {
 impl Stage {
     /// Every stage, in execution order: the order [`Plan::build`] takes
     /// (a new stage goes here, at its place, and gets its arm there).
-    pub const ALL: [Stage; 34] = [
+    pub const ALL: [Stage; 35] = [
         Stage::Supports,
         Stage::DamageField,
         Stage::FieldPartition,
@@ -183,6 +187,7 @@ impl Stage {
         Stage::NewmarkContact,
         Stage::NewmarkG2p,
         Stage::Rebin,
+        Stage::Resort,
         Stage::PhaseFieldStagger,
         Stage::CrackSurfaces,
         Stage::CrackGrowth,
@@ -226,6 +231,7 @@ impl Stage {
             Stage::NewmarkContact => "newmark_contact",
             Stage::NewmarkG2p => "newmark_g2p",
             Stage::Rebin => "rebin",
+            Stage::Resort => "resort",
             Stage::PhaseFieldStagger => "phase_field_stagger",
             Stage::CrackSurfaces => "crack_surfaces",
             Stage::CrackGrowth => "crack_growth",
@@ -348,6 +354,7 @@ impl Plan {
                 Stage::DamageField => dfg,
                 Stage::FieldPartition | Stage::Contact => contact,
                 Stage::P2g | Stage::Rebin => true,
+                Stage::Resort => file.grid.resort_every > 0,
                 Stage::GridUpdate => !newmark,
                 Stage::G2p => !musl && !newmark,
                 Stage::Traction => traction,

@@ -196,6 +196,13 @@ pub struct GridSpec {
     /// left out: [`crate::grid::shape::LME_GAMMA_DEFAULT`]. Only with LME.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lme_gamma: Option<f64>,
+    /// Steps between re-sorts of the particle arrays into the tiles' order
+    /// (the order setup stores them in), so that a long run whose particles
+    /// have moved across tiles reads memory in order again; 0 or left
+    /// out: never (the `resort` stage is then not in the plan). Scenes
+    /// without fracture models only, for now.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub resort_every: u32,
     #[serde(default)]
     pub boundary: BoundarySpec,
 }
@@ -812,6 +819,10 @@ pub struct OutputSpec {
     /// kg·m/s (its rate is the force on the body: an impactor's force).
     #[serde(default, skip_serializing_if = "is_false")]
     pub body_momenta: bool,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 fn is_false(b: &bool) -> bool {

@@ -231,6 +231,7 @@ impl Scene {
         c.in_range("transfer.flip_blend", file.transfer.flip_blend, 0.0, 1.0);
         c.vector("body_force", file.body_force, dim);
         check_output_and_guards(&mut c, &file);
+        check_resort(&mut c, &file);
 
         // Materials: named ones first, then inline ones per body.
         let mut materials = Vec::new();
@@ -986,6 +987,46 @@ fn check_newmark(c: &mut Checker, file: &SceneFile) {
         c.err(
             &format!("bodies[{b}].material"),
             format!("{why} does not run the phase field (its staggered solves are written for usl and musl): use usl or musl"),
+        );
+    }
+}
+
+/// `grid.resort_every` permutes the particle arrays, which the fracture
+/// models' per-particle state and particle lists would have to follow
+/// (not built yet), and needs the grid's tiles.
+fn check_resort(c: &mut Checker, file: &SceneFile) {
+    if file.grid.resort_every == 0 {
+        return;
+    }
+    if file.method == MethodKind::DamageParticle {
+        c.err(
+            "grid.resort_every",
+            "the damage particle method has no grid tiles to sort its particles by: remove it",
+        );
+        return;
+    }
+    let model = file.bodies.iter().find_map(|b| {
+        if !b.explicit_cracks.is_empty() {
+            return Some("explicit cracks");
+        }
+        let m = file.material_of(&b.material)?;
+        if m.phase_field.is_some() {
+            Some("a phase field")
+        } else if m.damage.is_some() {
+            Some("a damage model")
+        } else if m.eigen.is_some() {
+            Some("an eigen model")
+        } else {
+            None
+        }
+    });
+    if let Some(model) = model.or(file.dfg.as_ref().map(|_| "[dfg]")) {
+        c.err(
+            "grid.resort_every",
+            format!(
+                "the scene has {model}, whose per-particle state does not follow a re-sort \
+                 yet; the re-sort runs in scenes without fracture models: remove it"
+            ),
         );
     }
 }

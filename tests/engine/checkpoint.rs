@@ -137,6 +137,22 @@ fn assert_same(a: &Outcome, b: &Outcome) {
     assert!(a.parts == b.parts, "the final particles differ");
 }
 
+/// With `grid.resort_every` the checkpoint holds the particles in the
+/// order of their last re-sort, not setup's: the resume takes them by id,
+/// and the sliding block (two contact groups) repeats bit for bit.
+#[test]
+fn a_resumed_run_with_resorts_repeats_the_straight_one_bit_for_bit() {
+    let text = scene_text(
+        "sliding_block.toml",
+        &[
+            ("end = 0.12", "end = 0.05"),
+            ("[grid]\n", "[grid]\nresort_every = 5\n"),
+        ],
+    );
+    let (a, b) = straight_and_resumed(&text, 403, 31);
+    assert_same(&a, &b);
+}
+
 #[test]
 fn a_resumed_phase_field_run_repeats_the_straight_one_bit_for_bit() {
     // P1 coarse (one phase field, direct solver, crack tip): 10 us
