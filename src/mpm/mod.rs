@@ -1113,10 +1113,6 @@ where
         w
     }
 
-    /// After the gather that moves the particles: the clock advances, then
-    /// the particle guards (non-finite values, leaving the grid, vanished
-    /// volume) turn a bad particle into the run's error. Returns whether a
-    /// particle changed tile (the re-binning's cue).
     /// Stage `resort`: the particle arrays permuted into the bins' order
     /// (tile by tile, and by support in a tile: the order setup stores
     /// them in), with what refers to particles by index (the sides'
@@ -1142,6 +1138,10 @@ where
         self.bins = Bins::new(&self.geom, &self.parts.x, support);
     }
 
+    /// After the gather that moves the particles: the clock advances, then
+    /// the particle guards (non-finite values, leaving the grid, vanished
+    /// volume) turn a bad particle into the run's error. Returns whether a
+    /// particle changed tile (the re-binning's cue).
     fn finish_gather(&mut self, dt: f64, stats: g2p::G2pStats<D>) -> Result<bool, SimError> {
         self.step += 1;
         self.time += dt;

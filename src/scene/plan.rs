@@ -111,8 +111,9 @@ pub enum Stage {
     /// did).
     Rebin,
     /// Every `grid.resort_every` steps, the particle arrays are permuted
-    /// into the bins' order (by tile, then by support), which keeps each
-    /// tile's order of summation: the particles' states do not change.
+    /// into the bins' order (by tile, then by support), so that the
+    /// scatter reads each tile's particles from one range again; later
+    /// scatters may add in another order (results to round-off).
     Resort,
     /// The staggered scheme's residual; more phase-field solves and
     /// history updates while it is above the tolerance.
