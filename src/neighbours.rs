@@ -8,10 +8,9 @@
 //! below the particles' spacing would make more than about four bins per
 //! particle); a particle's list is the particles of its own key in the
 //! 3^D bins around its own, in bin order.
-//! Lists are built in parallel (counts, then each particle its own range),
-//! and the same for any thread count.
+//! Lists are built in parallel (each chunk of particles its lists, joined
+//! in particle order), the same for any thread count.
 
-use crate::grid::SyncPtr;
 use crate::tensor::{dot, sub};
 use rayon::prelude::*;
 
@@ -77,43 +76,50 @@ impl<const D: usize> Neighbours<D> {
             order[cursor[b as usize] as usize] = p as u32;
             cursor[b as usize] += 1;
         }
+        // positions and keys in bin order: a visit reads consecutive memory
+        let xs: Vec<[f64; D]> = order.iter().map(|&p| x[p as usize]).collect();
+        let ks: Vec<u16> = order.iter().map(|&p| key[p as usize]).collect();
         let grid = BinGrid {
             x,
             key,
             order: &order,
+            xs: &xs,
+            ks: &ks,
             bin_start: &bin_start,
             nb,
             min,
             size,
             reach,
         };
-        let counts: Vec<u32> = (0..n)
+        // One pass: each chunk of particles collects its lists, and the
+        // chunks are joined in particle order.
+        let chunks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(BUILD_CHUNK))
             .into_par_iter()
-            .map(|p| {
-                let mut k = 0u32;
-                grid.visit(p, |_| k += 1);
-                k
+            .map(|c| {
+                let range = c * BUILD_CHUNK..((c + 1) * BUILD_CHUNK).min(n);
+                let mut counts = Vec::with_capacity(range.len());
+                let mut list = Vec::new();
+                for p in range {
+                    let before = list.len();
+                    grid.visit(p, |q| list.push(q));
+                    counts.push((list.len() - before) as u32);
+                }
+                (counts, list)
             })
             .collect();
         self.start.clear();
         self.start.reserve(n + 1);
         let mut total = 0u32;
         self.start.push(0);
-        for &k in &counts {
+        for &k in chunks.iter().flat_map(|c| &c.0) {
             total += k;
             self.start.push(total);
         }
-        self.list.resize(total as usize, 0);
-        let list = SyncPtr::new(&mut self.list);
-        let start = &self.start;
-        (0..n).into_par_iter().for_each(|p| {
-            let mut at = start[p] as usize;
-            grid.visit(p, |q| {
-                // SAFETY: p writes only its own range start[p]..start[p+1].
-                unsafe { *list.at(at) = q };
-                at += 1;
-            });
-        });
+        self.list.clear();
+        self.list.reserve(total as usize);
+        for (_, l) in &chunks {
+            self.list.extend_from_slice(l);
+        }
         self.x_built.clear();
         self.x_built.extend_from_slice(x);
         self.builds += 1;
@@ -166,11 +172,17 @@ pub(crate) fn bin_index<const D: usize>(c: [usize; D], nb: [usize; D]) -> usize 
     b
 }
 
+/// Particles per rayon task of [`Neighbours::build`].
+const BUILD_CHUNK: usize = 1024;
+
 /// Particles sorted into square (cubic) bins of the search reach.
 struct BinGrid<'a, const D: usize> {
     x: &'a [[f64; D]],
     key: &'a [u16],
     order: &'a [u32],
+    /// `x` and `key` in `order`.
+    xs: &'a [[f64; D]],
+    ks: &'a [u16],
     bin_start: &'a [u32],
     nb: [usize; D],
     min: [f64; D],
@@ -187,8 +199,8 @@ impl<const D: usize> BinGrid<'_, D> {
         if self.key[p] == Neighbours::<D>::NONE {
             return;
         }
-        let (x, r2) = (self.x, self.reach * self.reach);
-        let c = bin_cell(x[p], self.min, self.size, self.nb);
+        let (xp, kp, r2) = (self.x[p], self.key[p], self.reach * self.reach);
+        let c = bin_cell(xp, self.min, self.size, self.nb);
         let lo: [usize; D] = std::array::from_fn(|a| c[a].saturating_sub(1));
         let hi: [usize; D] = std::array::from_fn(|a| (c[a] + 2).min(self.nb[a]));
         let mut at = lo;
@@ -196,9 +208,13 @@ impl<const D: usize> BinGrid<'_, D> {
             // the bins lo[0]..hi[0] of this row are consecutive
             let b = bin_index(at, self.nb);
             let row = self.bin_start[b] as usize..self.bin_start[b + hi[0] - lo[0]] as usize;
-            for &q in &self.order[row] {
-                let d = sub(x[q as usize], x[p]);
-                if self.key[q as usize] == self.key[p] && dot(d, d) < r2 {
+            for ((&q, &xq), &kq) in self.order[row.clone()]
+                .iter()
+                .zip(&self.xs[row.clone()])
+                .zip(&self.ks[row])
+            {
+                let d = sub(xq, xp);
+                if kq == kp && dot(d, d) < r2 {
                     f(q);
                 }
             }

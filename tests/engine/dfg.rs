@@ -169,6 +169,16 @@ fn the_same_seed_gives_the_same_weibull_run_on_any_thread_count_and_no_dfg_runs_
             .collect::<Vec<_>>()
     };
     assert_eq!(strip(&ra), strip(&rb));
+    // and in the baseline copy: the wide one (`cleave::cpu::wide`) runs
+    // the kernel sums of eqs. 17-19 on vector lanes, the same IEEE
+    // operations added in the same order (a cap for the whole process:
+    // other tests running now only get slower)
+    cleave::cpu::force(Some(cleave::cpu::Level::Baseline));
+    let (sc, rc) = run(&a);
+    cleave::cpu::force(None);
+    assert_eq!(sa.particles().damage, sc.particles().damage);
+    assert_eq!(sa.particles().x, sc.particles().x);
+    assert_eq!(strip(&ra), strip(&rc));
     // another seed, other strengths
     let c = parse(&text.replace("seed = 3", "seed = 4"));
     assert_ne!(

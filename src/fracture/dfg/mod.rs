@@ -443,6 +443,86 @@ fn kernel(rbar: f64, radius: f64) -> (f64, f64) {
     )
 }
 
+/// Particles per rayon task of the kernel sums in [`Dfg::field`].
+const GRAD_CHUNK: usize = 256;
+
+/// Neighbours per block of [`damage_gradient`]'s first pass.
+const GRAD_BLOCK: usize = 16;
+
+/// ∇D̄ at particle p (eqs. 17–19): D̄ = Σ ω_q d_q / Σ ω_q over the
+/// neighbours within the kernel radius `r`, and its gradient
+/// (Σ ∇ω_q d_q − D̄ Σ ∇ω_q) / Σ ω_q. A flat field (every neighbour's d equal
+/// to p's) has none and returns zero without the sums.
+///
+/// The sums run in two passes over each block of [`GRAD_BLOCK`]
+/// neighbours: the first computes every neighbour's terms independently
+/// (the square root and the divisions, which vectorise), the second adds
+/// them in list order, a neighbour outside the radius adding zeros. The
+/// sums start at +0 and every term is added in the order of the single
+/// loop this replaced, and a zero added to a sum that is not −0 leaves its
+/// bits as they are (a round-to-nearest sum that starts at +0 never gives
+/// −0): the same bits as skipping the neighbour.
+#[inline(always)]
+fn damage_gradient<const D: usize>(
+    p: usize,
+    x: &[[f64; D]],
+    d: &[f64],
+    list: &[u32],
+    r: f64,
+) -> [f64; D] {
+    let dp = d[p];
+    if list.iter().all(|&q| d[q as usize] == dp) {
+        return [0.0; D];
+    }
+    let xp = x[p];
+    let (mut s, mut ds, mut gs, mut gds) = (0.0, 0.0, [0.0; D], [0.0; D]);
+    let mut tw = [0.0; GRAD_BLOCK];
+    let mut tdw = [0.0; GRAD_BLOCK];
+    let mut tg = [[0.0; GRAD_BLOCK]; D];
+    let mut tgd = [[0.0; GRAD_BLOCK]; D];
+    let mut xq = [[0.0; GRAD_BLOCK]; D];
+    let mut dq = [0.0; GRAD_BLOCK];
+    for block in list.chunks(GRAD_BLOCK) {
+        // gathered first, so that the arithmetic below is one loop of
+        // fixed length over plain arrays (entries past the block's end are
+        // left from the last block and masked)
+        for (k, &q) in block.iter().enumerate() {
+            let q = q as usize;
+            for a in 0..D {
+                xq[a][k] = x[q][a];
+            }
+            dq[k] = d[q];
+        }
+        let len = block.len();
+        for k in 0..GRAD_BLOCK {
+            let dx: [f64; D] = std::array::from_fn(|a| xp[a] - xq[a][k]);
+            let r2 = dot(dx, dx);
+            let (w, f) = kernel(r2.sqrt() / r, r);
+            let inside = r2 < r * r && k < len;
+            tw[k] = if inside { w } else { 0.0 };
+            tdw[k] = if inside { dq[k] * w } else { 0.0 };
+            for a in 0..D {
+                tg[a][k] = if inside { f * dx[a] } else { 0.0 };
+                tgd[a][k] = if inside { dq[k] * f * dx[a] } else { 0.0 };
+            }
+        }
+        for k in 0..block.len() {
+            s += tw[k];
+            ds += tdw[k];
+            for a in 0..D {
+                gs[a] += tg[a][k];
+                gds[a] += tgd[a][k];
+            }
+        }
+    }
+    if s > 0.0 {
+        let dbar = ds / s;
+        std::array::from_fn(|a| (gds[a] - dbar * gs[a]) / s)
+    } else {
+        [0.0; D]
+    }
+}
+
 /// cof(F) N = det F · F⁻ᵀ N, the direction of a material normal N after
 /// the deformation F (row-major): in 2D [F₁₁N₀ − F₁₀N₁, −F₀₁N₀ + F₀₀N₁];
 /// in 3D N₀ a₁×a₂ + N₁ a₂×a₀ + N₂ a₀×a₁ with a_j the columns of F.
@@ -791,40 +871,25 @@ impl<const D: usize> Dfg<D> {
             &bins.tile_of,
             &self.key,
         );
+        // Chunks of particles, each in `cpu::wide`'s copy (the same bits):
+        // the kernel's square root and divisions then run on vector lanes.
         self.grad[..n]
-            .par_iter_mut()
+            .par_chunks_mut(GRAD_CHUNK)
             .enumerate()
-            .for_each(|(p, g)| {
-                *g = [0.0; D];
-                if !hot[tile_of[p] as usize] || key[p] == Neighbours::<D>::NONE {
-                    return;
-                }
-                let list = nb.of(p);
-                // A flat field has no gradient (the sums below give exactly
-                // zero): most particles of a hot tile stop here.
-                if list.iter().all(|&q| d[q as usize] == d[p]) {
-                    return;
-                }
-                let (mut s, mut ds, mut gs, mut gds) = (0.0, 0.0, [0.0; D], [0.0; D]);
-                for &q in list {
-                    let q = q as usize;
-                    let dx = sub(x[p], x[q]);
-                    let r2 = dot(dx, dx);
-                    if r2 >= r * r {
-                        continue;
-                    }
-                    let (w, f) = kernel(r2.sqrt() / r, r);
-                    s += w;
-                    ds += d[q] * w;
-                    for a in 0..D {
-                        gs[a] += f * dx[a];
-                        gds[a] += d[q] * f * dx[a];
-                    }
-                }
-                if s > 0.0 {
-                    let dbar = ds / s;
-                    *g = std::array::from_fn(|a| (gds[a] - dbar * gs[a]) / s);
-                }
+            .for_each(|(c, chunk)| {
+                crate::cpu::wide(
+                    #[inline(always)]
+                    || {
+                        for (i, g) in chunk.iter_mut().enumerate() {
+                            let p = c * GRAD_CHUNK + i;
+                            *g = [0.0; D];
+                            if !hot[tile_of[p] as usize] || key[p] == Neighbours::<D>::NONE {
+                                continue;
+                            }
+                            *g = damage_gradient(p, x, d, nb.of(p), r);
+                        }
+                    },
+                )
             });
         // Algorithm 1, coloured like P2G (deterministic: within a colour the
         // tiles' node sets are disjoint; ties keep the first particle).
@@ -1132,6 +1197,29 @@ impl<const D: usize> Dfg<D> {
                 let op = normal.get(p).copied().unwrap_or([0.0; D]);
                 let base = 2 * parts.group[p] as u32;
                 let m = parts.mass[p];
+                if paper && gp == [0.0; D] {
+                    // Algorithm 2's sign test puts a particle without a
+                    // gradient on side 0 at every node (most particles)
+                    let dp = d[p];
+                    sup.for_each(
+                        #[inline(always)]
+                        |n| {
+                            let node = n.node;
+                            // SAFETY: coloured scatter; every write is to `node`.
+                            unsafe {
+                                *mask.at(node) |= 1 << base;
+                                if ngrad[node] != [0.0; D] {
+                                    let s = sums.at(node);
+                                    let w = n.w * m;
+                                    s.w[0] += w;
+                                    s.wd[0] += w * dp;
+                                    s.dmax[0] = s.dmax[0].max(dp);
+                                }
+                            }
+                        },
+                    );
+                    return;
+                }
                 sup.for_each(
                     #[inline(always)]
                     |n| {
