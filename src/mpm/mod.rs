@@ -199,8 +199,8 @@ pub struct Simulation<const D: usize = 2, const V: usize = 3> {
     /// Dense contact group of each particle (a copy of `parts.group` the
     /// field slots borrow while the step mutates the particles).
     group_of: Vec<u8>,
-    /// A re-sort happened while `group_of` was lent to the step's slots:
-    /// copied anew when it comes back.
+    /// A re-sort happened this step: `group_of` is copied anew once the
+    /// step has given it back (it may be lent to the slots meanwhile).
     resorted: bool,
     apic: bool,
     /// MUSL scratch: where the particles move this step.
@@ -484,6 +484,10 @@ where
         let (head, post) = times.split_at_mut(after);
         let (pre, rest) = head.split_at_mut(split);
         let r = self.execute::<K>(dt, pre, rest, post);
+        // (after `execute`, which may have lent `group_of` to the slots)
+        if std::mem::take(&mut self.resorted) {
+            self.group_of.clone_from(&self.parts.group);
+        }
         self.times.stages = times;
         r
     }
@@ -615,9 +619,6 @@ where
         }
         self.multi = Some(multi);
         self.group_of = group;
-        if std::mem::take(&mut self.resorted) {
-            self.group_of.clone_from(&self.parts.group);
-        }
         r
     }
 }
@@ -1131,9 +1132,7 @@ where
         let order = std::mem::take(&mut self.bins.order);
         setup::permute(&mut self.parts, &order);
         self.tractions.renumber(&order);
-        // (with contact `group_of` is lent to the slots now: `resorted`
-        // copies it when it comes back)
-        self.group_of.clone_from(&self.parts.group);
+        // (`group_of` may be lent to the slots now: copied after the step)
         self.resorted = true;
         self.bins = Bins::new(&self.geom, &self.parts.x, support);
     }
