@@ -8,9 +8,17 @@ impact line y = Y0, sorted by x; the left crack is the run of them from
 the impact face x = X0 inward (no gap wider than three particle
 spacings), the right crack the run from the far face x = X0 + DEPTH. Printed:
 each crack's depth from its face, whether they meet, and the beam's
-fracture energy (the series' `fracture_energy_b0`) at the snapshot. Usage:
+fracture energy (the series' `fracture_energy_b0`) at the snapshot.
+
+With --inclined (case (iii), whose cracks leave the impact line), each
+face's crack is instead the connected set of broken particles (linked
+within 1.5 particle spacings, in the reference configuration) that starts
+within three spacings of that face and within WINDOW of the impact line;
+printed are its depth (the largest distance from the face in x, m → mm)
+and the y offset of its deepest particle from the impact line. Usage:
 
     python3 docs/scripts/p3_two_cracks.py OUT [--half 1e-3]
+    python3 docs/scripts/p3_two_cracks.py OUT --inclined [--window 5e-3]
 """
 import argparse
 import csv
@@ -33,6 +41,23 @@ def beam(path, names):
     return {k: d[k][m][o] for k in names}
 
 
+def face_crack(pts, face, window, gap, link):
+    """The broken points linked to face x = `face` near the impact line
+    (see --inclined): (mask, depth from the face, y offset of the deepest)."""
+    seen = (np.abs(pts[:, 0] - face) < gap) & (np.abs(pts[:, 1] - Y0) < window)
+    front = list(np.where(seen)[0])
+    while front:
+        i = front.pop()
+        near = np.where((~seen) & (np.hypot(*(pts - pts[i]).T) < link))[0]
+        seen[near] = True
+        front.extend(near.tolist())
+    if not seen.any():
+        return seen, 0.0, 0.0
+    dist = np.abs(pts[seen, 0] - face)
+    k = int(np.argmax(dist))
+    return seen, float(dist[k]), float(pts[seen][k, 1] - Y0)
+
+
 def runs_from_faces(x, gap):
     """Depth of the run of sorted x from each face (0 if none starts there)."""
     x = np.sort(x)
@@ -50,6 +75,8 @@ if __name__ == "__main__":
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("out")
     p.add_argument("--half", type=float, default=1e-3)
+    p.add_argument("--inclined", action="store_true")
+    p.add_argument("--window", type=float, default=5e-3)
     a = p.parse_args()
     snaps = snapshots(a.out)
     ref = beam(snaps[0][1], ["position", "volume"])["position"]
@@ -57,6 +84,18 @@ if __name__ == "__main__":
     spacing = float(np.median(np.diff(xs)))
     rows = list(csv.DictReader(open(Path(a.out) / "series.csv")))
     times = np.array([float(r["time"]) for r in rows])
+    if a.inclined:
+        print(" t (us)  left depth (mm)  its dy (mm)  right depth (mm)  its dy (mm)  joined  beam Psi_f (J)")
+        for t, f in snaps[1:]:
+            c = beam(f, ["phase_field"])["phase_field"]
+            pts = ref[c < 0.1]
+            lm, left, ly = face_crack(pts, X0, a.window, 3 * spacing, 1.5 * spacing)
+            rm, right, ry = face_crack(pts, X0 + DEPTH, a.window, 3 * spacing, 1.5 * spacing)
+            joined = bool((lm & rm).any())
+            psi = float(rows[int(np.argmin(np.abs(times - t)))]["fracture_energy_b0"])
+            print(f"{1e6 * t:7.1f}  {1e3 * left:10.2f}  {1e3 * ly:12.2f}  {1e3 * right:14.2f}  {1e3 * ry:12.2f}     "
+                  f"{'yes' if joined else 'no ':3s}   {psi:.4f}")
+        sys.exit(0)
     print(" t (us)  left crack (mm)  right crack (mm)  joined  beam Psi_f (J)")
     for t, f in snaps[1:]:
         c = beam(f, ["phase_field"])["phase_field"]
