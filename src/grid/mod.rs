@@ -638,8 +638,20 @@ pub fn scatter_coloured<K: Kernel, const D: usize, const V: usize>(
     bins: &Bins,
     scatter: impl Fn(usize, &Support<K, D>) + Sync,
 ) {
+    scatter_tiles::<K, D, V>(geom, parts, bins, |_| true, scatter);
+}
+
+/// [`scatter_coloured`] over the particles of the tiles `t` for which
+/// `take(t)`, the others left out (in the same order).
+pub fn scatter_tiles<K: Kernel, const D: usize, const V: usize>(
+    geom: &GridGeom<D>,
+    parts: &Particles<D, V>,
+    bins: &Bins,
+    take: impl Fn(u32) -> bool + Sync,
+    scatter: impl Fn(usize, &Support<K, D>) + Sync,
+) {
     for colour in &bins.colours {
-        colour.par_iter().for_each(|&tile| {
+        colour.par_iter().filter(|&&t| take(t)).for_each(|&tile| {
             // a tile's loop, compiled wide where the CPU allows (same bits)
             crate::cpu::wide(
                 #[inline(always)]

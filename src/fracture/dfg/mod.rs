@@ -37,6 +37,15 @@
 //! f·r since the last build (section 2.5; f = `dfg.rebuild_fraction`), so
 //! every pair closer than r is always in the list.
 //!
+//! Only a node that a fully damaged particle maps to can separate (section
+//! 2.3), so the work goes where such nodes are: the gradients ∇D̄ are
+//! summed for the particles of tiles with a failed particle in or next to
+//! them; with the paper's rules (no self-contact) Algorithm 1 writes its
+//! directions at such nodes alone, and the partition's side tests and
+//! sums run for the particles of those tiles, the rest going to side 0.
+//! The fields and slots are the same as with directions everywhere
+//! ([`Dfg::field`] says why).
+//!
 //! Departures from the paper, both for self-contact (section 2.4) and only
 //! in scenes with it (without self-contact Algorithms 1 and 2 run as
 //! written: the paper's rules give the better crack dissipation, +7.4 %
@@ -74,7 +83,7 @@ use crate::fracture::damage::FAILED;
 use crate::fracture::phase_field::dfg_damage;
 use crate::grid::shape::Kernel;
 use crate::grid::{
-    particle_support, scatter_coloured, Bins, FieldSlots, GridGeom, MultiField, SyncPtr, TILE,
+    particle_support, scatter_tiles, Bins, FieldSlots, GridGeom, MultiField, SyncPtr, TILE,
 };
 use crate::neighbours::{bin_index, Neighbours};
 use crate::particles::Particles;
@@ -639,6 +648,9 @@ pub struct Dfg<const D: usize = 2> {
     written: Vec<Range<usize>>,
     /// Tiles with damage nearby (their particles get a gradient).
     hot: Vec<bool>,
+    /// Nodes that a failed particle maps to, this step (the paper's rules
+    /// only: see [`Dfg::field`]).
+    failed_node: Vec<bool>,
     separated: u64,
     surface_count: u64,
 }
@@ -743,6 +755,7 @@ impl<const D: usize> Dfg<D> {
             sums: vec![SideSums::default(); geom.node_count()],
             written: Vec::new(),
             hot: Vec::new(),
+            failed_node: vec![false; geom.node_count()],
             separated: 0,
             surface_count,
         }
@@ -863,6 +876,17 @@ impl<const D: usize> Dfg<D> {
             }
         }
         debug_assert!(r < TILE as f64 * geom.h);
+        // With the paper's rules a nodal direction counts only at the nodes
+        // that a failed particle maps to (the only separable ones).
+        // Elsewhere it only picks which side label a node's one field has
+        // (both sides merge), and a node's one field takes the node's own
+        // slot whatever its label. So Algorithm 1 writes those nodes alone,
+        // and the partition tests no side elsewhere: the same fields, the
+        // same slots. (Self-contact's balance also reads the directions
+        // near surfaces, so it keeps them all.) Computing the gradients only
+        // for the particles that map to such a node saves nothing: those
+        // whose neighbourhood is not flat nearly all do (98 % on the disk).
+        let paper = self.normal0.is_empty();
         let (x, d, nb, hot, tile_of, key) = (
             &parts.x,
             &self.d,
@@ -898,25 +922,47 @@ impl<const D: usize> Dfg<D> {
             self.cut[r.clone()].fill(0.0);
             self.balanced[r.clone()].fill(false);
             self.sums[r.clone()].fill(SideSums::default());
+            self.failed_node[r.clone()].fill(false);
         }
         self.written.clone_from(&bins.active);
         let ng = SyncPtr::new(&mut self.node_grad);
-        let grad = &self.grad;
+        let failed = SyncPtr::new(&mut self.failed_node);
+        let (grad, d) = (&self.grad, &self.d);
+        // (the failed particles all lie in hot tiles)
         scatter_hot::<K, D, V>(
             geom,
             parts,
             bins,
             &self.hot,
-            |p| grad[p] != [0.0; D],
+            |p| grad[p] != [0.0; D] || (paper && d[p] >= FAILED),
             |p, node, _| {
-                let g = grad[p];
                 // SAFETY: coloured scatter (see `scatter_coloured`).
-                let gi = unsafe { ng.at(node) };
-                if dot(g, g) > dot(*gi, *gi) {
-                    *gi = g;
+                unsafe {
+                    if paper && d[p] >= FAILED {
+                        *failed.at(node) = true;
+                    }
+                    let g = grad[p];
+                    let gi = ng.at(node);
+                    if g != [0.0; D] && dot(g, g) > dot(*gi, *gi) {
+                        *gi = g;
+                    }
                 }
             },
         );
+        if paper {
+            // (only the failed nodes keep a direction: the partition puts
+            // every particle on side 0 elsewhere, without a test)
+            for r in &self.written {
+                for (g, &f) in self.node_grad[r.clone()]
+                    .iter_mut()
+                    .zip(&self.failed_node[r.clone()])
+                {
+                    if !f {
+                        *g = [0.0; D];
+                    }
+                }
+            }
+        }
         if !self.normal0.is_empty() && !parts.def_grad.is_empty() {
             // n ∝ F⁻ᵀ N = cof(F) N / det F
             self.normal.clear();
@@ -1186,11 +1232,36 @@ impl<const D: usize> Dfg<D> {
         let (cut, normal) = (&self.cut, Self::normals_of(&self.normal, &self.normal0));
         let balanced = &self.balanced;
         let paper = normal.is_empty();
+        let (hot, failed_node) = (&self.hot, &self.failed_node);
+        if paper {
+            // With the paper's rules the particles of tiles away from
+            // damage map to no failed node ([`Dfg::field`]), where there is
+            // no direction: side 0 at every node and nothing to sum.
+            scatter_tiles::<K, D, V>(
+                geom,
+                parts,
+                bins,
+                |t| !hot[t as usize],
+                #[inline(always)]
+                |p, sup| {
+                    let bit = 1 << (2 * parts.group[p] as u32);
+                    sup.for_each(
+                        #[inline(always)]
+                        |n| {
+                            debug_assert!(!failed_node[n.node]);
+                            // SAFETY: coloured scatter; every write is to `n.node`.
+                            unsafe { *mask.at(n.node) |= bit };
+                        },
+                    );
+                },
+            );
+        }
         // inline(always) down to the node: the loop runs in `cpu::wide`'s copy
-        scatter_coloured::<K, D, V>(
+        scatter_tiles::<K, D, V>(
             geom,
             parts,
             bins,
+            |t| !paper || hot[t as usize],
             #[inline(always)]
             |p, sup| {
                 let (gp, xp) = (grad[p], parts.x[p]);
