@@ -980,6 +980,32 @@ fn the_history_never_decreases() {
     );
 }
 
+/// The particles of a disk of radius 3.7, off the grid's centre (cells of
+/// 0.0625, 2 per direction), for the solver tests below.
+fn off_centre_disk() -> (GridGeom, Vec<[f64; 2]>, Vec<f64>) {
+    let (geom, x0, vol0) = block(0.0625, 4.0, 2);
+    let keep: Vec<usize> = (0..x0.len())
+        .filter(|&p| (x0[p][0] - 0.1).hypot(x0[p][1] + 0.05) < 3.7)
+        .collect();
+    let x = keep.iter().map(|&p| x0[p]).collect();
+    let vol = keep.iter().map(|&p| vol0[p]).collect();
+    (geom, x, vol)
+}
+
+/// A crack band's history: 1e3 within 0.05 of y = 0 left of `tip`, 0.5
+/// elsewhere.
+fn band_history(x: &[[f64; 2]], tip: f64) -> Vec<f64> {
+    x.iter()
+        .map(|p| {
+            if p[1].abs() < 0.05 && p[0] < tip {
+                1e3
+            } else {
+                0.5
+            }
+        })
+        .collect()
+}
+
 /// A disk of particles with a crack band of high history across part of
 /// it: the multigrid-preconditioned CG reaches the direct solution, with
 /// several levels, no symbolic analysis, and a bounded number of
@@ -988,30 +1014,13 @@ fn the_history_never_decreases() {
 #[test]
 fn multigrid_pcg_agrees_with_the_direct_solve() {
     fn check<K: Kernel>(gamma: Gamma, name: &str, max_iterations: u64) {
-        let (geom, x0, vol0) = block(0.0625, 4.0, 2);
-        // a disk of radius 3.7, off the grid's centre
-        let keep: Vec<usize> = (0..x0.len())
-            .filter(|&p| (x0[p][0] - 0.1).hypot(x0[p][1] + 0.05) < 3.7)
-            .collect();
-        let x: Vec<[f64; 2]> = keep.iter().map(|&p| x0[p]).collect();
-        let vol: Vec<f64> = keep.iter().map(|&p| vol0[p]).collect();
+        let (geom, x, vol) = off_centre_disk();
         let params = PhaseFieldParams {
             gc_bar: 1.0,
             l0: 0.25,
             k_f: 0.0,
             gamma: gamma.rotated(0.3),
             gamma3: Default::default(),
-        };
-        let band = |tip: f64| -> Vec<f64> {
-            x.iter()
-                .map(|p| {
-                    if p[1].abs() < 0.05 && p[0] < tip {
-                        1e3
-                    } else {
-                        0.5
-                    }
-                })
-                .collect()
         };
         let method = SolveMethod::Multigrid {
             tolerance: 1e-10,
@@ -1022,7 +1031,7 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
         let mut direct = PhaseFieldSystem::new();
         let mut before = SolveStats::default();
         for (solve, tip) in [-1.0, 0.5].into_iter().enumerate() {
-            let h = band(tip);
+            let h = band_history(&x, tip);
             let parts = FieldParticles::all(&x, &vol, &h);
             sys.assemble::<K>(&geom, &parts, &params);
             let c = sys.solve_with(geom.node_count(), method).unwrap();
@@ -1088,12 +1097,7 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
 /// it makes no factorization more and stays on the direct solution.
 #[test]
 fn method_auto_is_pcg_until_it_hands_over_and_the_multigrid_after() {
-    let (geom, x0, vol0) = block(0.0625, 4.0, 2);
-    let keep: Vec<usize> = (0..x0.len())
-        .filter(|&p| (x0[p][0] - 0.1).hypot(x0[p][1] + 0.05) < 3.7)
-        .collect();
-    let x: Vec<[f64; 2]> = keep.iter().map(|&p| x0[p]).collect();
-    let vol: Vec<f64> = keep.iter().map(|&p| vol0[p]).collect();
+    let (geom, x, vol) = off_centre_disk();
     let params = PhaseFieldParams {
         gc_bar: 1.0,
         l0: 0.25,
@@ -1101,18 +1105,7 @@ fn method_auto_is_pcg_until_it_hands_over_and_the_multigrid_after() {
         gamma: Gamma::default(),
         gamma3: Default::default(),
     };
-    let history = |k: usize| -> Vec<f64> {
-        let tip = -1.0 + 0.05 * k as f64;
-        x.iter()
-            .map(|p| {
-                if p[1].abs() < 0.05 && p[0] < tip {
-                    1e3
-                } else {
-                    0.5
-                }
-            })
-            .collect()
-    };
+    let history = |k: usize| band_history(&x, -1.0 + 0.05 * k as f64);
     let (tolerance, max_iterations, refactor_after) = (1e-10, 500, 10);
     let pcg = SolveMethod::Pcg {
         tolerance,
