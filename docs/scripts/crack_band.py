@@ -78,7 +78,13 @@ def linked_to(pts, tip, start, link):
     """Which of the points `pts` (n x 2) are linked to `tip`: those closer
     to it than `start`, and every point closer than `link` to a linked
     one (the crack of broken particles that grows from a notch tip)."""
-    seen = np.hypot(*(pts - tip).T) < start
+    return grown(pts, np.hypot(*(pts - tip).T) < start, link)
+
+
+def grown(pts, seen, link):
+    """The mask `seen` of points `pts` grown by every point closer than
+    `link` to a point in it, until none is."""
+    seen = seen.copy()
     front = list(np.where(seen)[0])
     while front:
         i = front.pop()

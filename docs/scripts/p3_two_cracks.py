@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-from crack_band import read_vtp, snapshots  # noqa: E402
+from crack_band import grown, read_vtp, snapshots  # noqa: E402
 
 X0, Y0, DEPTH = 0.035, 0.0375, 0.010
 BEAM = 0
@@ -44,13 +44,7 @@ def beam(path, names):
 def face_crack(pts, face, window, gap, link):
     """The broken points linked to face x = `face` near the impact line
     (see --inclined): (mask, depth from the face, y offset of the deepest)."""
-    seen = (np.abs(pts[:, 0] - face) < gap) & (np.abs(pts[:, 1] - Y0) < window)
-    front = list(np.where(seen)[0])
-    while front:
-        i = front.pop()
-        near = np.where((~seen) & (np.hypot(*(pts - pts[i]).T) < link))[0]
-        seen[near] = True
-        front.extend(near.tolist())
+    seen = grown(pts, (np.abs(pts[:, 0] - face) < gap) & (np.abs(pts[:, 1] - Y0) < window), link)
     if not seen.any():
         return seen, 0.0, 0.0
     dist = np.abs(pts[seen, 0] - face)

@@ -521,28 +521,17 @@ fn two_pcg_solves(refactor_after: usize) -> (Vec<f64>, SolveStats, SolveStats) {
         gamma: Gamma::default(),
         gamma3: Default::default(),
     };
-    let band = |tip: f64| -> Vec<f64> {
-        x.iter()
-            .map(|p| {
-                if p[1].abs() < 0.1 && p[0] < tip {
-                    1e3
-                } else {
-                    1.0
-                }
-            })
-            .collect()
-    };
     let method = SolveMethod::Pcg {
         tolerance: 1e-10,
         max_iterations: 500,
         refactor_after,
     };
     let mut sys = PhaseFieldSystem::new();
-    let h1 = band(-1.0);
+    let h1 = band_history(&x, -1.0, 0.1, 1.0);
     sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h1), &params);
     sys.solve_with(geom.node_count(), method).unwrap();
     let first = sys.stats;
-    let h2 = band(-0.25);
+    let h2 = band_history(&x, -0.25, 0.1, 1.0);
     sys.assemble::<QuadraticBspline>(&geom, &FieldParticles::all(&x, &vol, &h2), &params);
     let c = sys.solve_with(geom.node_count(), method).unwrap();
     // the same system solved directly
@@ -992,15 +981,15 @@ fn off_centre_disk() -> (GridGeom, Vec<[f64; 2]>, Vec<f64>) {
     (geom, x, vol)
 }
 
-/// A crack band's history: 1e3 within 0.05 of y = 0 left of `tip`, 0.5
-/// elsewhere.
-fn band_history(x: &[[f64; 2]], tip: f64) -> Vec<f64> {
+/// A crack band's history: 1e3 within `half` of y = 0 left of `tip`,
+/// `rest` elsewhere.
+fn band_history(x: &[[f64; 2]], tip: f64, half: f64, rest: f64) -> Vec<f64> {
     x.iter()
         .map(|p| {
-            if p[1].abs() < 0.05 && p[0] < tip {
+            if p[1].abs() < half && p[0] < tip {
                 1e3
             } else {
-                0.5
+                rest
             }
         })
         .collect()
@@ -1031,7 +1020,7 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
         let mut direct = PhaseFieldSystem::new();
         let mut before = SolveStats::default();
         for (solve, tip) in [-1.0, 0.5].into_iter().enumerate() {
-            let h = band_history(&x, tip);
+            let h = band_history(&x, tip, 0.05, 0.5);
             let parts = FieldParticles::all(&x, &vol, &h);
             sys.assemble::<K>(&geom, &parts, &params);
             let c = sys.solve_with(geom.node_count(), method).unwrap();
@@ -1105,7 +1094,7 @@ fn method_auto_is_pcg_until_it_hands_over_and_the_multigrid_after() {
         gamma: Gamma::default(),
         gamma3: Default::default(),
     };
-    let history = |k: usize| band_history(&x, -1.0 + 0.05 * k as f64);
+    let history = |k: usize| band_history(&x, -1.0 + 0.05 * k as f64, 0.05, 0.5);
     let (tolerance, max_iterations, refactor_after) = (1e-10, 500, 10);
     let pcg = SolveMethod::Pcg {
         tolerance,

@@ -963,7 +963,7 @@ impl<const D: usize> Dfg<D> {
                 }
             }
         }
-        if !self.normal0.is_empty() && !parts.def_grad.is_empty() {
+        if !paper && !parts.def_grad.is_empty() {
             // n ∝ F⁻ᵀ N = cof(F) N / det F
             self.normal.clear();
             self.normal.extend(
@@ -975,7 +975,7 @@ impl<const D: usize> Dfg<D> {
         }
         // Without self-contact the paper's Algorithm 1 stands as it is: the
         // balance is for surfaces that touch (see the module docs).
-        if !self.normal0.is_empty() {
+        if !paper {
             self.balance::<K, V>(geom, parts, bins);
         }
     }
