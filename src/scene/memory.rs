@@ -13,7 +13,9 @@
 //! phase-field matrix (`DEPENDENCIES.md`: 10.4 M at n = 65 536, 50.4 M at
 //! n = 265 225). `docs/stability.md` compares it with measured peaks.
 
-use super::schema::{PhaseFieldMethod, SceneFile, ShapeFunctionKind, StressUpdate, TransferKind};
+use super::schema::{
+    FactorOrdering, PhaseFieldMethod, SceneFile, ShapeFunctionKind, StressUpdate, TransferKind,
+};
 use super::validate::ResolvedMaterial;
 use serde::Serialize;
 use std::fmt;
@@ -328,6 +330,11 @@ pub(super) fn estimate(
                 // "auto" holds the factor and the hierarchy during its trial
                 PhaseFieldMethod::Pcg | PhaseFieldMethod::Auto => 8.0 + 4.0,
                 _ => 8.0,
+            } + match file.phase_field_solver.ordering {
+                // the two halves' own factors beside the whole one's f64
+                // values (a direct solve's, or a fall-back's)
+                FactorOrdering::Dissection => 8.0,
+                FactorOrdering::Amd => 0.0,
             };
             factor += (l * value + dofs * 64.0) as u64;
         }

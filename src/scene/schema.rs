@@ -135,6 +135,27 @@ pub struct PhaseFieldSolverSpec {
     /// Relative residual ‖K(H)c − F‖/‖F‖ below which the stagger loop stops.
     #[serde(default = "default_stagger_tolerance")]
     pub stagger_tolerance: f64,
+    /// The fill-reducing ordering of the Cholesky factorizations (methods
+    /// direct and pcg, and the factor of auto and of multigrid's fall-back).
+    #[serde(default)]
+    pub ordering: FactorOrdering,
+}
+
+/// Options of [`PhaseFieldSolverSpec::ordering`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FactorOrdering {
+    /// faer's approximate minimum degree ordering of the matrix's graph;
+    /// one factorization on one thread.
+    #[default]
+    Amd,
+    /// Geometric nested dissection of the grid's nodes: the two sides of
+    /// its first cut are factorized at once (two threads) and the slab
+    /// between them after, as a dense matrix. Falls back to `amd` where the
+    /// unknowns have no cut or the slab is over 1024 unknowns (a 3D
+    /// grid's). Other round-off than `amd`'s; the same for any thread
+    /// count.
+    Dissection,
 }
 
 impl Default for PhaseFieldSolverSpec {
@@ -146,6 +167,7 @@ impl Default for PhaseFieldSolverSpec {
             refactor_after: default_pcg_refactor(),
             max_staggers: default_max_staggers(),
             stagger_tolerance: default_stagger_tolerance(),
+            ordering: FactorOrdering::Amd,
         }
     }
 }

@@ -4,8 +4,8 @@
 
 use cleave::fracture::phase_field::anisotropy::{surface_energy, Gamma};
 use cleave::fracture::phase_field::system::{
-    fracture_energy, AutoChoice, FieldParticles, PhaseFieldParams, PhaseFieldSystem, SolveMethod,
-    SolveStats, AUTO_TRIAL_SOLVES,
+    fracture_energy, AutoChoice, FactorOrdering, FieldParticles, PhaseFieldParams,
+    PhaseFieldSystem, SolveMethod, SolveStats, AUTO_TRIAL_SOLVES,
 };
 use cleave::grid::shape::{CubicBspline, Gimp, Kernel, Linear, QuadraticBspline};
 use cleave::grid::{Bins, GridGeom};
@@ -981,6 +981,16 @@ fn off_centre_disk() -> (GridGeom, Vec<[f64; 2]>, Vec<f64>) {
     (geom, x, vol)
 }
 
+/// The 4th-order tensor of the solver tests (P1 (iii)'s γ, unrotated).
+fn orthotropic_gamma() -> Gamma {
+    Gamma {
+        g1111: 1.0,
+        g2222: 80.0,
+        g1212: 74.0,
+        ..Default::default()
+    }
+}
+
 /// A crack band's history: 1e3 within `half` of y = 0 left of `tip`,
 /// `rest` elsewhere.
 fn band_history(x: &[[f64; 2]], tip: f64, half: f64, rest: f64) -> Vec<f64> {
@@ -993,6 +1003,103 @@ fn band_history(x: &[[f64; 2]], tip: f64, half: f64, rest: f64) -> Vec<f64> {
             }
         })
         .collect()
+}
+
+/// The factor made in two halves at once (`ordering = "dissection"`) on
+/// the off-centre disk with a crack band: its direct solve agrees with
+/// AMD's, PCG preconditioned by it reaches the direct solution as the
+/// band grows (a fresh factor, then a stale one), for the 2nd and 4th
+/// order; and its bits are the same on one thread and on two.
+#[test]
+fn the_factor_in_two_halves_solves_as_amds_on_any_thread_count() {
+    fn check<K: Kernel>(gamma: Gamma, name: &str) {
+        let (geom, x, vol) = off_centre_disk();
+        let params = PhaseFieldParams {
+            gc_bar: 1.0,
+            l0: 0.25,
+            k_f: 0.0,
+            gamma: gamma.rotated(0.3),
+            gamma3: Default::default(),
+        };
+        let pcg = SolveMethod::Pcg {
+            tolerance: 1e-10,
+            max_iterations: 200,
+            refactor_after: 1000,
+        };
+        let at = |c: &[f64]| {
+            x.iter()
+                .map(|&p| cleave::fracture::phase_field::system::value_at::<K, 2>(&geom, c, p))
+                .collect::<Vec<_>>()
+        };
+        let worst = |a: &[f64], b: &[f64]| {
+            at(a)
+                .iter()
+                .zip(at(b))
+                .map(|(u, v)| (u - v).abs())
+                .fold(0.0, f64::max)
+        };
+        let solve = |threads: usize, tip: f64, method: Option<SolveMethod>| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut sys = PhaseFieldSystem::new();
+                sys.set_ordering(FactorOrdering::Dissection);
+                let mut c = Vec::new();
+                // PCG: the first band with a fresh factor, then the grown one
+                for t in [-1.0, tip] {
+                    let h = band_history(&x, t, 0.05, 0.5);
+                    sys.assemble::<K>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
+                    c = match method {
+                        Some(m) => sys.solve_with(geom.node_count(), m).unwrap(),
+                        None => sys.solve(geom.node_count()).unwrap(),
+                    };
+                }
+                let sides = sys.dissection().expect("a factor in two halves");
+                (c, sides, sys.stats)
+            })
+        };
+        let h = band_history(&x, 0.5, 0.05, 0.5);
+        let mut amd = PhaseFieldSystem::new();
+        amd.assemble::<K>(&geom, &FieldParticles::all(&x, &vol, &h), &params);
+        let want = amd.solve(geom.node_count()).unwrap();
+        let (direct, sides, _) = solve(1, 0.5, None);
+        let (direct2, _, _) = solve(2, 0.5, None);
+        let (iterated, _, stats) = solve(2, 0.5, Some(pcg));
+        let (iterated1, _, _) = solve(1, 0.5, Some(pcg));
+        println!(
+            "{name}: sides {sides:?} of {} unknowns; direct against AMD {:.1e}, PCG {:.1e} \
+             ({} iterations in {} solves, {} factorizations)",
+            amd.len(),
+            worst(&direct, &want),
+            worst(&iterated, &want),
+            stats.pcg_iterations,
+            stats.pcg_solves,
+            stats.factorizations
+        );
+        assert!(sides.iter().all(|&s| s > 0) && sides.iter().sum::<usize>() == amd.len());
+        assert!(worst(&direct, &want) < 1e-10, "{name}: direct");
+        assert!(worst(&iterated, &want) < 1e-8, "{name}: PCG");
+        assert_eq!(
+            stats.factorizations, 1,
+            "{name}: the second solve on the old factor"
+        );
+        let bits = |c: &[f64]| c.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(&direct),
+            bits(&direct2),
+            "{name}: direct, 1 and 2 threads"
+        );
+        assert_eq!(
+            bits(&iterated),
+            bits(&iterated1),
+            "{name}: PCG, 1 and 2 threads"
+        );
+    }
+    check::<QuadraticBspline>(Gamma::default(), "quadratic");
+    check::<CubicBspline>(Gamma::default(), "cubic");
+    check::<QuadraticBspline>(orthotropic_gamma(), "quadratic, 4th order");
 }
 
 /// A disk of particles with a crack band of high history across part of
@@ -1065,16 +1172,7 @@ fn multigrid_pcg_agrees_with_the_direct_solve() {
     check::<CubicBspline>(Gamma::default(), "cubic", 45);
     check::<Linear>(Gamma::default(), "linear", 15);
     check::<Gimp>(Gamma::default(), "GIMP", 15);
-    check::<QuadraticBspline>(
-        Gamma {
-            g1111: 1.0,
-            g2222: 80.0,
-            g1212: 74.0,
-            ..Default::default()
-        },
-        "quadratic, 4th order",
-        100,
-    );
+    check::<QuadraticBspline>(orthotropic_gamma(), "quadratic, 4th order", 100);
 }
 
 /// Method "auto" on a disk whose crack band grows a little every solve:

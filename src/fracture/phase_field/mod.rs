@@ -10,7 +10,9 @@
 pub mod anisotropy;
 pub mod model;
 pub mod multigrid;
+pub mod ordering;
 pub mod section;
+pub mod split;
 pub mod system;
 pub mod trisolve;
 

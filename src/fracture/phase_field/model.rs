@@ -27,8 +27,8 @@ use crate::fracture::model::{
 };
 use crate::fracture::phase_field::anisotropy::{Gamma, Gamma3};
 use crate::fracture::phase_field::system::{
-    self, FactorKind, FieldParticles, PhaseFieldError, PhaseFieldParams, PhaseFieldSystem,
-    SolveMethod, SolveStats,
+    self, FactorKind, FactorOrdering, FieldParticles, PhaseFieldError, PhaseFieldParams,
+    PhaseFieldSystem, SolveMethod, SolveStats,
 };
 use crate::geometry::CrackGeometry;
 use crate::grid::shape::{by_kernel, Kernel};
@@ -36,8 +36,8 @@ use crate::grid::{Bins, GridGeom, SyncPtr};
 use crate::material::{miehe_split, miehe_split_3d, Elastic};
 use crate::particles::Particles;
 use crate::scene::{
-    phase_field_gamma, CrackProfile, PhaseFieldMethod, PhaseFieldVolumes, PlaneKind,
-    PlaneStressSplit, Scene, Stage,
+    phase_field_gamma, CrackProfile, FactorOrdering as FactorOrderingSpec, PhaseFieldMethod,
+    PhaseFieldVolumes, PlaneKind, PlaneStressSplit, Scene, Stage,
 };
 use crate::tensor::resize;
 use rayon::prelude::*;
@@ -264,6 +264,10 @@ impl<const D: usize> PhaseFields<D> {
         }
         parts.phase = vec![1.0; parts.len()];
         parts.history = vec![0.0; parts.len()];
+        let ordering = match scene.file.phase_field_solver.ordering {
+            FactorOrderingSpec::Amd => FactorOrdering::Amd,
+            FactorOrderingSpec::Dissection => FactorOrdering::Dissection,
+        };
         let out = bodies
             .into_iter()
             .map(
@@ -277,7 +281,11 @@ impl<const D: usize> PhaseFields<D> {
                         body: b as u16,
                         particles,
                         params,
-                        system: PhaseFieldSystem::new(),
+                        system: {
+                            let mut system = PhaseFieldSystem::new();
+                            system.set_ordering(ordering);
+                            system
+                        },
                         c: Vec::new(),
                         tip: origin.map(|o| TipTracker::new(o.get::<D>())),
                         in_plane,

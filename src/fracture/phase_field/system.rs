@@ -17,6 +17,7 @@
 
 use super::anisotropy::{Gamma, Gamma3};
 use super::multigrid::Multigrid;
+use super::split::SplitCholesky;
 use super::trisolve::{SolveScratch, SupernodalSolve};
 use crate::grid::shape::{Kernel, MAX_SUPPORT};
 use crate::grid::{Bins, GridGeom, Support, SyncPtr};
@@ -138,6 +139,17 @@ pub enum FactorKind {
     Preconditioner,
     /// The f64 factor of a direct solve.
     Direct,
+}
+
+/// The fill-reducing ordering of the Cholesky factorizations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FactorOrdering {
+    /// faer's approximate minimum degree: one factorization, on one thread.
+    #[default]
+    Amd,
+    /// Geometric nested dissection on the grid, the two sides of its first
+    /// cut factorized at once ([`SplitCholesky`]).
+    Dissection,
 }
 
 /// How `K c = F` is solved each step.
@@ -601,6 +613,16 @@ pub struct PhaseFieldSystem<const D: usize = 2> {
     /// The triangular solves with either factor (two threads), and their
     /// work vectors.
     trisolve: Option<SupernodalSolve>,
+    /// The fill-reducing ordering asked for; with nested dissection, the
+    /// factorization in two halves (its own analysis and solves' structure
+    /// in place of `symbolic` and `trisolve`), or the finding that these
+    /// unknowns have no cut. `l_values` holds its factor in f64 only when
+    /// `double_current` (a preconditioner's factorization writes f32 alone,
+    /// and a fall-back direct solve writes the f64 values then).
+    ordering: FactorOrdering,
+    split: Option<SplitCholesky>,
+    split_declined: bool,
+    double_current: bool,
     scratch_single: SolveScratch<f32>,
     scratch_double: SolveScratch<f64>,
     single: bool,
@@ -634,6 +656,9 @@ pub struct PhaseFieldSystem<const D: usize = 2> {
     /// multigrid's levels.
     refine: &'static [f64],
     grid_nodes: [usize; D],
+    /// How many nodes along each axis a coupling of K reaches (the
+    /// kernel's support less one).
+    reach: usize,
     /// Nodal scratch of [`PhaseFieldSystem::history_residual`] (all grid
     /// nodes, zero between calls).
     scratch: Vec<f64>,
@@ -663,6 +688,10 @@ impl<const D: usize> PhaseFieldSystem<D> {
             l_values: Vec::new(),
             l_single: Vec::new(),
             trisolve: None,
+            ordering: FactorOrdering::Amd,
+            split: None,
+            split_declined: false,
+            double_current: false,
             scratch_single: SolveScratch::default(),
             scratch_double: SolveScratch::default(),
             single: false,
@@ -681,9 +710,37 @@ impl<const D: usize> PhaseFieldSystem<D> {
             auto: AutoTrial::default(),
             refine: &[],
             grid_nodes: [0; D],
+            reach: 0,
             scratch: Vec::new(),
             stats: SolveStats::default(),
         }
+    }
+
+    /// The ordering of the factorizations from the next analysis on.
+    pub fn set_ordering(&mut self, ordering: FactorOrdering) {
+        if ordering != self.ordering {
+            self.ordering = ordering;
+            self.forget_analysis();
+        }
+    }
+
+    /// Drops the analysis and the factor (a new node set, or a new
+    /// ordering): the next factorization analyses again.
+    fn forget_analysis(&mut self) {
+        self.symbolic = None;
+        self.trisolve = None;
+        self.split = None;
+        self.split_declined = false;
+        self.factored = false;
+    }
+
+    /// With `ordering = "dissection"` and a factor made in two halves: the
+    /// unknowns of its two sides and of the slab between them.
+    pub fn dissection(&self) -> Option<[usize; 3]> {
+        self.split
+            .as_ref()
+            .filter(|_| !self.split_declined)
+            .map(|s| s.sizes())
     }
 
     /// Number of unknowns of the last assembly.
@@ -800,6 +857,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
         // offsets run x fastest, so the rows of a column come in ascending
         // node (and dof) order.
         let (w, side, cube) = stencil::<K, D>();
+        self.reach = w as usize;
         self.col_ptr.clear();
         self.row_idx.clear();
         self.diag.clear();
@@ -832,9 +890,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
             }
             self.col_ptr.push(self.row_idx.len());
         }
-        self.symbolic = None;
-        self.trisolve = None;
-        self.factored = false;
+        self.forget_analysis();
         self.multigrid = None;
         self.last.clear();
         true
@@ -1277,6 +1333,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
                 self.factored = false;
                 self.l_values = Vec::new();
                 self.l_single = Vec::new();
+                self.split = None;
                 self.stats.auto_multigrid += 1;
             }
             AutoChoice::Factor => {
@@ -1337,6 +1394,10 @@ impl<const D: usize> PhaseFieldSystem<D> {
         if !converged {
             self.stats.fallbacks += 1;
             self.single = false;
+            if let Some(split) = self.split.as_ref().filter(|_| !self.double_current) {
+                split.write(&mut self.l_values, |v| v);
+                self.double_current = true;
+            }
             self.solve_with_factor();
         }
         Ok(())
@@ -1491,13 +1552,46 @@ impl<const D: usize> PhaseFieldSystem<D> {
     }
 
     /// Analysis (if the pattern is new) and numeric factorization, in f32
-    /// if `single`.
+    /// if `single`: in two halves at once with `ordering = "dissection"`
+    /// where the unknowns have a cut ([`SplitCholesky`]), else one
+    /// factorization with faer's AMD ordering.
     fn factorize(&mut self, single: bool) -> Result<(), PhaseFieldError> {
         let n = self.dofs.len();
-        let pattern =
-            SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let t0 = Instant::now();
-        if self.symbolic.as_ref().is_none_or(|s| s.nrows() != n) {
+        let want_split = self.ordering == FactorOrdering::Dissection && !self.split_declined;
+        if want_split && self.split.as_ref().is_none_or(|s| s.solve().len() != n) {
+            self.split = SplitCholesky::analyse(
+                &self.col_ptr,
+                &self.row_idx,
+                &self.dofs,
+                self.grid_nodes,
+                self.reach,
+            )?;
+            match &self.split {
+                Some(split) => {
+                    let [top, g0, g1] = split.solve().share_work();
+                    tracing::debug!(
+                        unknowns = n,
+                        sides = ?split.sizes(),
+                        factor_values = split.len_val(),
+                        multiply_adds = split.solve().multiply_adds(),
+                        top,
+                        group0 = g0,
+                        group1 = g1,
+                        "phase-field analysis: nested dissection, two halves"
+                    );
+                    self.stats.analyses += 1;
+                }
+                None => {
+                    tracing::debug!(unknowns = n, "phase-field analysis: no cut, one factor");
+                    self.split_declined = true;
+                }
+            }
+        }
+        let split = self.split.is_some() && !self.split_declined;
+        if !split && self.symbolic.as_ref().is_none_or(|s| s.nrows() != n) {
+            let pattern =
+                SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
             // supernodal always, for the solves of `trisolve`
             let params = CholeskySymbolicParams {
                 supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
@@ -1515,6 +1609,7 @@ impl<const D: usize> PhaseFieldSystem<D> {
             tracing::debug!(
                 unknowns = n,
                 factor_values = tri.len_val(),
+                multiply_adds = tri.multiply_adds(),
                 top,
                 group0 = g0,
                 group1 = g1,
@@ -1526,21 +1621,38 @@ impl<const D: usize> PhaseFieldSystem<D> {
         }
         let t1 = Instant::now();
         self.stats.analysis += (t1 - t0).as_secs_f64();
-        let sym = self
-            .symbolic
-            .as_ref()
-            .ok_or_else(|| PhaseFieldError::Solver("no analysis".into()))?;
         self.factored = false;
-        let made = numeric_llt(
-            sym,
-            pattern,
-            &self.values,
-            &mut self.l_values,
-            &mut self.mem,
-        );
-        if made.is_ok() && single {
-            round_to_single(&self.l_values, &mut self.l_single);
-        }
+        let made = if let Some(split) = self.split.as_mut().filter(|_| split) {
+            let made = split.factorize(&self.values);
+            if made.is_ok() {
+                if single {
+                    split.write(&mut self.l_single, to_single);
+                } else {
+                    split.write(&mut self.l_values, |v| v);
+                }
+            }
+            self.double_current = !single;
+            made
+        } else {
+            let sym = self
+                .symbolic
+                .as_ref()
+                .ok_or_else(|| PhaseFieldError::Solver("no analysis".into()))?;
+            let pattern =
+                SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+            let made = numeric_llt(
+                sym,
+                pattern,
+                &self.values,
+                &mut self.l_values,
+                &mut self.mem,
+            );
+            if made.is_ok() && single {
+                round_to_single(&self.l_values, &mut self.l_single);
+            }
+            self.double_current = true;
+            made
+        };
         let seconds = t1.elapsed().as_secs_f64();
         // a failed attempt's time is spent too
         self.stats.factorization += seconds;
@@ -1584,8 +1696,12 @@ impl<const D: usize> PhaseFieldSystem<D> {
                 return;
             }
         }
-        let Some(tri) = self.trisolve.as_ref() else {
-            return;
+        let tri = match &self.split {
+            Some(split) if !self.split_declined => split.solve(),
+            _ => match &self.trisolve {
+                Some(tri) => tri,
+                None => return,
+            },
         };
         if self.single {
             tri.solve(&self.l_single, x, &mut self.scratch_single);
@@ -1724,13 +1840,19 @@ pub fn round_to_single(l: &[f64], single: &mut Vec<f32>) {
         .zip(l.par_chunks(CHUNK))
         .for_each(|(s, l)| {
             for (s, &v) in s.iter_mut().zip(l) {
-                *s = if v.abs() < f32::MIN_POSITIVE as f64 {
-                    0.0
-                } else {
-                    v as f32
-                };
+                *s = to_single(v);
             }
         });
+}
+
+/// One value of [`round_to_single`].
+#[inline]
+pub fn to_single(v: f64) -> f32 {
+    if v.abs() < f32::MIN_POSITIVE as f64 {
+        0.0
+    } else {
+        v as f32
+    }
 }
 
 /// The numeric factorization of `values` (on `pattern`, lower triangle)

@@ -124,6 +124,26 @@ impl SupernodalSolve {
         let val = s.col_ptr_for_val().to_vec();
         let row_ptr = s.col_ptr_for_row_idx()[..ns].to_vec();
         let rows = s.row_idx().to_vec();
+        Some(Self::from_parts(perm, inv, begin, val, row_ptr, rows))
+    }
+
+    /// The structure of a factor assembled elsewhere (`super::split`), laid
+    /// out as faer's supernodal one: `perm[i]` the original index of
+    /// permuted unknown i and `inv` its inverse; supernode s holds columns
+    /// `begin[s]..begin[s + 1]` (`begin` ends with n), its values are
+    /// `val[s]..val[s + 1]` (column-major, the diagonal block then the
+    /// pattern's rows), its pattern ascending from `rows[row_ptr[s]]`;
+    /// children before parents.
+    pub fn from_parts(
+        perm: Vec<usize>,
+        inv: Vec<usize>,
+        begin: Vec<usize>,
+        val: Vec<usize>,
+        row_ptr: Vec<usize>,
+        rows: Vec<usize>,
+    ) -> Self {
+        let n = perm.len();
+        let ns = begin.len() - 1;
         let mut this = SupernodalSolve {
             n,
             perm,
@@ -141,7 +161,7 @@ impl SupernodalSolve {
         this.max_pattern = (0..ns).map(|k| this.pattern(k).len()).max().unwrap_or(0);
         this.max_width = (0..ns).map(|k| this.width(k)).max().unwrap_or(0);
         this.share_out();
-        Some(this)
+        this
     }
 
     pub fn len(&self) -> usize {
@@ -155,6 +175,19 @@ impl SupernodalSolve {
     /// Length of the values of a factor with this structure.
     pub fn len_val(&self) -> usize {
         self.val.last().copied().unwrap_or(0)
+    }
+
+    /// Multiply-adds of one numeric factorization with this structure:
+    /// Σ over the columns of (entries below the diagonal)².
+    pub fn multiply_adds(&self) -> f64 {
+        (0..self.begin.len() - 1)
+            .map(|s| {
+                let (k, m) = (self.width(s), self.pattern(s).len());
+                (0..k)
+                    .map(|i| ((k - i - 1 + m) as f64).powi(2))
+                    .sum::<f64>()
+            })
+            .sum()
     }
 
     fn width(&self, s: usize) -> usize {
