@@ -981,6 +981,18 @@ fn off_centre_disk() -> (GridGeom, Vec<[f64; 2]>, Vec<f64>) {
     (geom, x, vol)
 }
 
+/// The phase field of the solver tests on the off-centre disk: Ḡc = 1,
+/// l₀ = 0.25 (four cells), `gamma` turned by 0.3 rad.
+fn disk_params(gamma: Gamma) -> PhaseFieldParams {
+    PhaseFieldParams {
+        gc_bar: 1.0,
+        l0: 0.25,
+        k_f: 0.0,
+        gamma: gamma.rotated(0.3),
+        gamma3: Default::default(),
+    }
+}
+
 /// The 4th-order tensor of the solver tests (P1 (iii)'s γ, unrotated).
 fn orthotropic_gamma() -> Gamma {
     Gamma {
@@ -1014,13 +1026,7 @@ fn band_history(x: &[[f64; 2]], tip: f64, half: f64, rest: f64) -> Vec<f64> {
 fn the_factor_in_two_halves_solves_as_amds_on_any_thread_count() {
     fn check<K: Kernel>(gamma: Gamma, name: &str) {
         let (geom, x, vol) = off_centre_disk();
-        let params = PhaseFieldParams {
-            gc_bar: 1.0,
-            l0: 0.25,
-            k_f: 0.0,
-            gamma: gamma.rotated(0.3),
-            gamma3: Default::default(),
-        };
+        let params = disk_params(gamma);
         let pcg = SolveMethod::Pcg {
             tolerance: 1e-10,
             max_iterations: 200,
@@ -1111,13 +1117,7 @@ fn the_factor_in_two_halves_solves_as_amds_on_any_thread_count() {
 fn multigrid_pcg_agrees_with_the_direct_solve() {
     fn check<K: Kernel>(gamma: Gamma, name: &str, max_iterations: u64) {
         let (geom, x, vol) = off_centre_disk();
-        let params = PhaseFieldParams {
-            gc_bar: 1.0,
-            l0: 0.25,
-            k_f: 0.0,
-            gamma: gamma.rotated(0.3),
-            gamma3: Default::default(),
-        };
+        let params = disk_params(gamma);
         let method = SolveMethod::Multigrid {
             tolerance: 1e-10,
             max_iterations: 500,
